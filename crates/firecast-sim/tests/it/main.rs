@@ -1,0 +1,10 @@
+//! Integration tests of firecast-sim: the behave oracles (copied into `tests/fixtures/`),
+//! consistency identities, the Concord reference values, the CSV front end and properties.
+#![allow(clippy::unwrap_used)]
+
+mod behave_oracles;
+mod common;
+mod concord_kernel;
+mod identities;
+mod properties;
+mod spread_csv;

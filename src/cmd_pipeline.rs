@@ -1,0 +1,345 @@
+//! `firecast pipeline run|status|dag|export-dvc|kinds`.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use anyhow::Context as _;
+use clap::{Args, Subcommand};
+use firecast_pipeline::{
+    Engine, NoObserver, Outcome, Override, Plan, RunObserver, RunOptions, RunReport, StageKinds,
+};
+
+use crate::output;
+use crate::settings::Settings;
+
+#[derive(Debug, Subcommand)]
+pub enum PipelineCommand {
+    /// Run a pipeline: stages whose inputs, params and outputs are unchanged are skipped.
+    Run(RunArgs),
+    /// Which stages are stale and why (runs nothing).
+    Status(PlanArgs),
+    /// Print the stage graph (text, or Graphviz with --dot).
+    Dag {
+        #[command(flatten)]
+        plan: PlanArgs,
+        /// Graphviz DOT output.
+        #[arg(long)]
+        dot: bool,
+    },
+    /// Write dvc.yaml from the pipelines so DVC users can `dvc repro` them.
+    ExportDvc {
+        /// Pipeline files [default: every pipelines/*.yaml].
+        files: Vec<PathBuf>,
+        /// Where to write.
+        #[arg(long, default_value = "dvc.yaml")]
+        output: PathBuf,
+        /// Do not write: fail if the file is not what export would write.
+        #[arg(long)]
+        check: bool,
+    },
+    /// List the stage kinds `uses:` can name.
+    Kinds,
+}
+
+#[derive(Debug, Args)]
+pub struct PlanArgs {
+    /// The pipeline file, e.g. pipelines/demo.yaml.
+    pub file: PathBuf,
+    /// Override a var or a stage param: `-S seed=3`, `-S extract.lead_days=2` (value read as YAML).
+    #[arg(short = 'S', long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    #[command(flatten)]
+    pub plan: PlanArgs,
+    /// Run stages even when they are up to date.
+    #[arg(short, long)]
+    pub force: bool,
+    /// Print what would run and why; run nothing.
+    #[arg(short = 'n', long)]
+    pub dry_run: bool,
+    /// Stages running at once [default: number of CPUs, or `jobs` in firecast.yaml].
+    #[arg(short, long, value_name = "N")]
+    pub jobs: Option<usize>,
+    /// Run only this stage (or all expansions of a foreach stage); repeatable. Its inputs
+    /// must already exist.
+    #[arg(long, value_name = "STAGE")]
+    pub only: Vec<String>,
+}
+
+/// Every stage kind this binary knows.
+pub fn stage_kinds() -> StageKinds {
+    let mut kinds = firecast_pipeline::builtin_kinds();
+    kinds.register(firecast_registry::SqlStage);
+    kinds
+}
+
+fn load(settings: &Settings, args: &PlanArgs) -> anyhow::Result<Plan> {
+    let overrides = args
+        .set
+        .iter()
+        .map(|s| Override::parse(s).map_err(anyhow::Error::msg))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    Ok(firecast_pipeline::load_plan(
+        &settings.root,
+        &args.file,
+        &overrides,
+        &stage_kinds(),
+    )?)
+}
+
+fn engine(settings: &Settings, observer: Arc<dyn RunObserver>) -> anyhow::Result<Engine> {
+    let store = firecast_store::ArtifactStore::open(&settings.store, &settings.root)?;
+    Ok(Engine {
+        root: settings.root.clone(),
+        kinds: stage_kinds(),
+        observer,
+        store: Some(Arc::new(store)),
+        git_commit: git_commit(&settings.root),
+    })
+}
+
+pub fn run(settings: &Settings, command: PipelineCommand) -> anyhow::Result<ExitCode> {
+    match command {
+        PipelineCommand::Run(args) => {
+            let plan = load(settings, &args.plan)?;
+            let observer: Arc<dyn RunObserver> = if args.dry_run {
+                Arc::new(NoObserver)
+            } else {
+                Arc::new(firecast_registry::Registry::open(&settings.registry)?)
+            };
+            let engine = engine(settings, observer)?;
+            let opts = RunOptions {
+                force: args.force,
+                dry_run: args.dry_run,
+                jobs: settings.jobs,
+                only: args.only,
+                progress: settings.progress,
+            };
+            let started = std::time::Instant::now();
+            let report = engine.run(&plan, &opts)?;
+            print_report(settings, &report, started.elapsed().as_secs_f64())?;
+            Ok(if report.succeeded() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            })
+        }
+        PipelineCommand::Status(args) => {
+            let plan = load(settings, &args)?;
+            let engine = engine(settings, Arc::new(NoObserver))?;
+            let report = engine.status(&plan)?;
+            print_report(settings, &report, 0.0)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        PipelineCommand::Dag { plan, dot } => {
+            let plan = load(settings, &plan)?;
+            if settings.json {
+                output::print_json(&plan)?;
+            } else if dot {
+                print!("{}", dag_dot(&plan));
+            } else {
+                print!("{}", dag_text(&plan));
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        PipelineCommand::ExportDvc { files, output, check } => export_dvc(settings, files, &output, check),
+        PipelineCommand::Kinds => {
+            let kinds = stage_kinds();
+            if settings.json {
+                let list: Vec<_> = kinds
+                    .iter()
+                    .map(|k| serde_json::json!({"name": k.name(), "version": k.version(), "summary": k.summary()}))
+                    .collect();
+                output::print_json(&list)?;
+            } else {
+                let mut table = output::table(&["kind", "version", "inputs", "outputs", "summary"]);
+                for kind in kinds.iter() {
+                    let ports = kind.ports();
+                    let names = |ports: &[firecast_pipeline::Port]| -> String {
+                        if ports.is_empty() {
+                            "any".into()
+                        } else {
+                            ports.iter().map(|p| p.name).collect::<Vec<_>>().join(", ")
+                        }
+                    };
+                    table.add_row(vec![
+                        kind.name().to_string(),
+                        kind.version().to_string(),
+                        names(ports.inputs),
+                        names(ports.outputs),
+                        kind.summary().to_string(),
+                    ]);
+                }
+                output::print_table(&table)?;
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
+fn print_report(settings: &Settings, report: &RunReport, elapsed_secs: f64) -> anyhow::Result<()> {
+    for warning in &report.warnings {
+        eprintln!("warning: {warning}");
+    }
+    if settings.json {
+        return output::print_json(report);
+    }
+    let mut table = output::table(&["stage", "kind", "status", "time", "why"]);
+    for stage in &report.stages {
+        let mut why = stage.reasons.join("; ");
+        if let Some(error) = &stage.error {
+            why = if why.is_empty() {
+                error.clone()
+            } else {
+                format!("{why}; {error}")
+            };
+        }
+        table.add_row(vec![
+            stage.stage.clone(),
+            stage.kind.clone(),
+            stage.outcome.label().to_string(),
+            if stage.duration_secs > 0.0 {
+                format!("{:.2}s", stage.duration_secs)
+            } else {
+                String::new()
+            },
+            output::ellipsize(&why, 110),
+        ]);
+    }
+    output::print_table(&table)?;
+    if report.dry_run {
+        println!(
+            "{}: {} stale, {} restorable from cache, {} up to date",
+            report.pipeline,
+            report.count(Outcome::WouldRun),
+            report.count(Outcome::WouldRestore),
+            report.count(Outcome::UpToDate)
+        );
+    } else {
+        println!(
+            "{}: {} ran, {} restored, {} up to date, {} failed, {} skipped in {elapsed_secs:.2}s (run {})",
+            report.pipeline,
+            report.count(Outcome::Ran),
+            report.count(Outcome::Restored),
+            report.count(Outcome::UpToDate),
+            report.count(Outcome::Failed),
+            report.count(Outcome::Skipped),
+            report.pipeline_run_id.as_deref().unwrap_or("-"),
+        );
+        for stage in report.stages.iter().filter(|s| s.outcome == Outcome::Failed) {
+            eprintln!(
+                "error: stage `{}` failed: {}",
+                stage.stage,
+                stage.error.as_deref().unwrap_or("unknown error")
+            );
+        }
+    }
+    Ok(())
+}
+
+fn dag_text(plan: &Plan) -> String {
+    let mut out = String::new();
+    for stage in &plan.stages {
+        out.push_str(&format!("{} ({})\n", stage.name, stage.kind));
+        for &u in &stage.upstream {
+            out.push_str(&format!("  <- {}\n", plan.stages[u].name));
+        }
+    }
+    out
+}
+
+fn dag_dot(plan: &Plan) -> String {
+    let mut out = format!("digraph \"{}\" {{\n  rankdir=LR;\n", plan.name);
+    for stage in &plan.stages {
+        out.push_str(&format!(
+            "  \"{}\" [label=\"{}\\n({})\"];\n",
+            stage.name, stage.name, stage.kind
+        ));
+    }
+    for stage in &plan.stages {
+        for &u in &stage.upstream {
+            out.push_str(&format!("  \"{}\" -> \"{}\";\n", plan.stages[u].name, stage.name));
+        }
+    }
+    out.push_str("}\n");
+    out
+}
+
+/// Every pipeline file in `pipelines/` (params files `*.params.yaml` excluded), sorted.
+fn pipeline_files(root: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let dir = root.join("pipelines");
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(&dir).with_context(|| format!("cannot list {}", dir.display()))? {
+        let name = entry?.file_name().to_string_lossy().to_string();
+        if name.ends_with(".yaml") && !name.ends_with(".params.yaml") {
+            files.push(PathBuf::from("pipelines").join(name));
+        }
+    }
+    files.sort();
+    Ok(files)
+}
+
+fn export_dvc(
+    settings: &Settings,
+    files: Vec<PathBuf>,
+    output: &Path,
+    check: bool,
+) -> anyhow::Result<ExitCode> {
+    let files = if files.is_empty() {
+        pipeline_files(&settings.root)?
+    } else {
+        files
+    };
+    let kinds = stage_kinds();
+    let plans = files
+        .iter()
+        .map(|f| firecast_pipeline::load_plan(&settings.root, f, &[], &kinds))
+        .collect::<Result<Vec<_>, _>>()?;
+    let text = firecast_pipeline::dvc::export(&plans, "firecast");
+    let path = settings.root.join(output);
+    if check {
+        let current = std::fs::read_to_string(&path).unwrap_or_default();
+        if current == text {
+            println!("{} is up to date", output.display());
+            return Ok(ExitCode::SUCCESS);
+        }
+        eprintln!(
+            "error: {} is out of date with pipelines/; run `firecast pipeline export-dvc`",
+            output.display()
+        );
+        return Ok(ExitCode::FAILURE);
+    }
+    firecast_pipeline::fsutil::write_atomically(&path, text.as_bytes())?;
+    let stages: usize = plans.iter().map(|p| p.stages.len()).sum();
+    println!(
+        "wrote {} ({stages} stages from {} pipelines)",
+        output.display(),
+        plans.len()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `git rev-parse HEAD` (+ `-dirty` when the tree has changes), if this is a git checkout.
+fn git_commit(root: &Path) -> Option<String> {
+    let head = std::process::Command::new("git")
+        .args(["rev-parse", "HEAD"])
+        .current_dir(root)
+        .output()
+        .ok()
+        .filter(|o| o.status.success())?;
+    let mut commit = String::from_utf8_lossy(&head.stdout).trim().to_string();
+    let dirty = std::process::Command::new("git")
+        .args(["status", "--porcelain", "--untracked-files=no"])
+        .current_dir(root)
+        .output()
+        .ok()
+        .is_some_and(|o| !o.stdout.is_empty());
+    if dirty {
+        commit.push_str("-dirty");
+    }
+    Some(commit)
+}

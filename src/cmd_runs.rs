@@ -1,0 +1,281 @@
+//! `firecast runs list|show|compare` and `firecast query`.
+
+use std::process::ExitCode;
+
+use clap::Subcommand;
+use firecast_registry::{Registry, RunFilter};
+
+use crate::output;
+use crate::settings::Settings;
+
+#[derive(Debug, Subcommand)]
+pub enum RunsCommand {
+    /// Runs, newest first.
+    List {
+        /// Only runs of this pipeline.
+        #[arg(long)]
+        pipeline: Option<String>,
+        /// Only runs of this stage (or foreach base).
+        #[arg(long)]
+        stage: Option<String>,
+        /// Only runs with this status (running, succeeded, failed, restored).
+        #[arg(long)]
+        status: Option<String>,
+        /// At most this many runs.
+        #[arg(long, default_value_t = 50)]
+        limit: usize,
+    },
+    /// One run: params, metrics (last/min/max), artifacts, lineage, and its stage runs.
+    Show {
+        /// Run id or a unique prefix of one.
+        run: String,
+    },
+    /// Several runs side by side: params that differ, and metrics (last, min, max).
+    Compare {
+        /// Run ids (or unique prefixes), two or more.
+        #[arg(required = true, num_args = 2..)]
+        runs: Vec<String>,
+        /// Show every param, not only those that differ.
+        #[arg(long)]
+        all: bool,
+    },
+}
+
+pub fn run(settings: &Settings, command: RunsCommand) -> anyhow::Result<ExitCode> {
+    let registry = Registry::open(&settings.registry)?;
+    match command {
+        RunsCommand::List {
+            pipeline,
+            stage,
+            status,
+            limit,
+        } => {
+            let runs = registry.list_runs(&RunFilter {
+                pipeline,
+                stage,
+                status,
+                limit: Some(limit),
+            })?;
+            if settings.json {
+                output::print_json(&runs)?;
+            } else {
+                let mut table = output::table(&[
+                    "run", "pipeline", "stage", "kind", "status", "started", "time", "parent",
+                ]);
+                for r in &runs {
+                    table.add_row(vec![
+                        r.run_id.clone(),
+                        r.pipeline.clone(),
+                        r.stage.clone().unwrap_or_else(|| "(pipeline)".into()),
+                        r.kind.clone(),
+                        r.status.clone(),
+                        r.started_at.clone(),
+                        output::seconds(r.duration_secs),
+                        r.parent_run_id.clone().unwrap_or_default(),
+                    ]);
+                }
+                output::print_table(&table)?;
+                println!("{} runs (registry {})", runs.len(), settings.registry.display());
+            }
+        }
+        RunsCommand::Show { run } => {
+            let details = registry.run_details(&run)?;
+            if settings.json {
+                output::print_json(&details)?;
+            } else {
+                let r = &details.run;
+                println!("run        {}", r.run_id);
+                println!("pipeline   {}", r.pipeline);
+                if let Some(stage) = &r.stage {
+                    println!(
+                        "stage      {stage} ({} v{})",
+                        r.kind,
+                        r.kind_version.unwrap_or_default()
+                    );
+                }
+                println!("status     {}", r.status);
+                println!(
+                    "started    {}  ({})",
+                    r.started_at,
+                    output::seconds(r.duration_secs)
+                );
+                if let Some(p) = &r.parent_run_id {
+                    println!("parent     {p}");
+                }
+                if let Some(c) = &r.git_commit {
+                    println!("commit     {c}");
+                }
+                if let Some(k) = &r.cache_key {
+                    println!("cache key  {k}");
+                }
+                if let Some(e) = &r.error {
+                    println!("error      {e}");
+                }
+                println!("params     {}", serde_json::to_string_pretty(&r.params)?);
+                if !details.metrics.is_empty() {
+                    let mut table = output::table(&["metric", "n", "last", "min (step)", "max (step)"]);
+                    for m in &details.metrics {
+                        table.add_row(vec![
+                            m.key.clone(),
+                            m.count.to_string(),
+                            format!("{} @{}", m.last, m.last_step),
+                            format!("{} @{}", m.min, m.min_step),
+                            format!("{} @{}", m.max, m.max_step),
+                        ]);
+                    }
+                    output::print_table(&table)?;
+                }
+                if !details.lineage.is_empty() {
+                    let mut table = output::table(&["direction", "name", "path", "hash", "bytes"]);
+                    for l in &details.lineage {
+                        table.add_row(vec![
+                            l.direction.clone(),
+                            l.name.clone(),
+                            l.uri.clone(),
+                            l.hash.chars().take(12).collect(),
+                            l.size.to_string(),
+                        ]);
+                    }
+                    output::print_table(&table)?;
+                }
+                if !details.artifacts.is_empty() {
+                    let mut table = output::table(&["artifact", "uri", "bytes"]);
+                    for a in &details.artifacts {
+                        table.add_row(vec![a.name.clone(), a.uri.clone(), a.size.to_string()]);
+                    }
+                    output::print_table(&table)?;
+                }
+                if !details.children.is_empty() {
+                    let mut table = output::table(&["stage run", "stage", "status", "time"]);
+                    for c in &details.children {
+                        table.add_row(vec![
+                            c.run_id.clone(),
+                            c.stage.clone().unwrap_or_default(),
+                            c.status.clone(),
+                            output::seconds(c.duration_secs),
+                        ]);
+                    }
+                    output::print_table(&table)?;
+                }
+            }
+        }
+        RunsCommand::Compare { runs, all } => {
+            let details = runs
+                .iter()
+                .map(|r| registry.run_details(r))
+                .collect::<Result<Vec<_>, _>>()?;
+            let rows: Vec<_> = details.iter().map(|d| d.run.clone()).collect();
+            let params = firecast_registry::params_side_by_side(&rows);
+            let mut metric_keys: Vec<String> = details
+                .iter()
+                .flat_map(|d| d.metrics.iter().map(|m| m.key.clone()))
+                .collect();
+            metric_keys.sort();
+            metric_keys.dedup();
+            if settings.json {
+                let metrics: serde_json::Map<String, serde_json::Value> = metric_keys
+                    .iter()
+                    .map(|k| {
+                        let per_run: Vec<_> = details
+                            .iter()
+                            .map(|d| {
+                                d.metrics
+                                    .iter()
+                                    .find(|m| &m.key == k)
+                                    .map(|m| serde_json::json!(m))
+                            })
+                            .collect();
+                        (k.clone(), serde_json::json!(per_run))
+                    })
+                    .collect();
+                output::print_json(&serde_json::json!({
+                    "runs": rows,
+                    "params": params,
+                    "metrics": metrics,
+                }))?;
+                return Ok(ExitCode::SUCCESS);
+            }
+            let mut header = vec!["".to_string()];
+            header.extend(rows.iter().map(|r| r.run_id.clone()));
+            let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
+            let mut table = output::table(&header_refs);
+            let mut add = |label: String, cells: Vec<String>| {
+                let mut row = vec![label];
+                row.extend(cells);
+                table.add_row(row);
+            };
+            add(
+                "pipeline".into(),
+                rows.iter().map(|r| r.pipeline.clone()).collect(),
+            );
+            add(
+                "stage".into(),
+                rows.iter().map(|r| r.stage.clone().unwrap_or_default()).collect(),
+            );
+            add("status".into(), rows.iter().map(|r| r.status.clone()).collect());
+            add(
+                "time".into(),
+                rows.iter().map(|r| output::seconds(r.duration_secs)).collect(),
+            );
+            for (key, values) in &params {
+                let differs = values.iter().any(|v| v != &values[0]);
+                if all || differs {
+                    let marker = if differs { "≠ " } else { "" };
+                    add(
+                        format!("{marker}param {key}"),
+                        values
+                            .iter()
+                            .map(|v| output::ellipsize(v.as_deref().unwrap_or("—"), 40))
+                            .collect(),
+                    );
+                }
+            }
+            for key in &metric_keys {
+                add(
+                    format!("metric {key} (last / min / max)"),
+                    details
+                        .iter()
+                        .map(|d| {
+                            d.metrics.iter().find(|m| &m.key == key).map_or_else(
+                                || "—".to_string(),
+                                |m| format!("{:.4} / {:.4} / {:.4}", m.last, m.min, m.max),
+                            )
+                        })
+                        .collect(),
+                );
+            }
+            output::print_table(&table)?;
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn query(settings: &Settings, sql: &str) -> anyhow::Result<ExitCode> {
+    let registry = Registry::open(&settings.registry)?;
+    let result = registry.query(sql)?;
+    if settings.json {
+        let rows: Vec<serde_json::Map<String, serde_json::Value>> = result
+            .rows
+            .iter()
+            .map(|row| result.columns.iter().cloned().zip(row.iter().cloned()).collect())
+            .collect();
+        output::print_json(&rows)?;
+    } else {
+        let header: Vec<&str> = result.columns.iter().map(String::as_str).collect();
+        let mut table = output::table(&header);
+        for row in &result.rows {
+            table.add_row(
+                row.iter()
+                    .map(|v| match v {
+                        serde_json::Value::String(s) => s.clone(),
+                        serde_json::Value::Null => "NULL".into(),
+                        other => other.to_string(),
+                    })
+                    .collect::<Vec<_>>(),
+            );
+        }
+        output::print_table(&table)?;
+        println!("{} rows", result.rows.len());
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,94 @@
+//! Settings resolved once: command-line flags over environment variables over the
+//! project file `firecast.yaml` over defaults.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use serde::Deserialize;
+
+/// `firecast.yaml` at the project root (optional). Unknown keys are errors.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProjectFile {
+    /// Registry file, relative to the root.
+    pub registry: Option<PathBuf>,
+    /// Artifact store: a folder or a URL (`s3://…`, `gs://…`, `az://…`).
+    pub store: Option<String>,
+    /// Stages running at once.
+    pub jobs: Option<usize>,
+}
+
+/// The resolved settings every command uses.
+#[derive(Debug, Clone)]
+pub struct Settings {
+    pub root: PathBuf,
+    pub registry: PathBuf,
+    pub store: String,
+    pub jobs: usize,
+    pub json: bool,
+    pub progress: bool,
+}
+
+/// Raw global flags (clap fills these; env vars are applied by clap's `env`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct GlobalArgs {
+    /// Project root: pipelines, outputs and `.firecast/` state resolve against it.
+    #[arg(short = 'C', long, global = true, value_name = "DIR")]
+    pub root: Option<PathBuf>,
+    /// Run registry (DuckDB file) [default: .firecast/registry.duckdb].
+    #[arg(long, global = true, env = "FIRECAST_REGISTRY", value_name = "FILE")]
+    pub registry: Option<PathBuf>,
+    /// Artifact store: a folder, or s3://, gs://, az://, memory:// URL [default: artifacts].
+    #[arg(long, global = true, env = "FIRECAST_STORE", value_name = "URL")]
+    pub store: Option<String>,
+    /// Print machine-readable JSON instead of tables.
+    #[arg(long, global = true)]
+    pub json: bool,
+    /// Do not draw progress bars.
+    #[arg(long, global = true)]
+    pub no_progress: bool,
+}
+
+impl Settings {
+    pub fn resolve(args: &GlobalArgs, jobs_flag: Option<usize>) -> anyhow::Result<Self> {
+        let root = match &args.root {
+            Some(r) => std::path::absolute(r).with_context(|| format!("bad --root {}", r.display()))?,
+            None => std::env::current_dir().context("cannot read the current directory")?,
+        };
+        let project = load_project_file(&root)?;
+        let registry = args
+            .registry
+            .clone()
+            .or(project.registry)
+            .unwrap_or_else(|| PathBuf::from(".firecast/registry.duckdb"));
+        let store = args
+            .store
+            .clone()
+            .or(project.store)
+            .unwrap_or_else(|| "artifacts".to_string());
+        let jobs = jobs_flag
+            .or(project.jobs)
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from))
+            .max(1);
+        Ok(Self {
+            registry: root.join(registry),
+            root,
+            store,
+            jobs,
+            json: args.json,
+            progress: !args.no_progress && !args.json,
+        })
+    }
+}
+
+fn load_project_file(root: &Path) -> anyhow::Result<ProjectFile> {
+    let path = root.join("firecast.yaml");
+    match std::fs::read_to_string(&path) {
+        Ok(text) => Ok(firecast_pipeline::spec::deserialize_located(
+            Path::new("firecast.yaml"),
+            &text,
+        )?),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(ProjectFile::default()),
+        Err(e) => Err(e).with_context(|| format!("cannot read {}", path.display())),
+    }
+}

@@ -1,0 +1,160 @@
+//! The DuckDB run registry through the CLI: runs, parents, lineage, metrics, datasets, SQL.
+
+use crate::Project;
+
+const TRAIN: &str = r#"
+vars:
+  lr: 0.1
+stages:
+  data:
+    uses: cmd
+    params: {command: "printf 'station,temp_k\nA,290.5\nB,301.25\nC,288\n' > ${outputs.csv}"}
+    outputs: {csv: data/stations.csv}
+  hot:
+    uses: sql
+    params:
+      query: SELECT station, temp_k - 273.15 AS temp_c FROM stations WHERE temp_k > 289 ORDER BY station
+      dataset: hot_stations
+    inputs: {stations: {from: data.csv}}
+    outputs: {table: datasets/hot.parquet}
+  train:
+    uses: cmd
+    params:
+      command: |
+        for s in 1 2 3; do
+          awk -v lr=${lr} -v s=$s 'BEGIN { printf "loss %d %.17g\n", s, lr / s }' >> "$FIRECAST_METRICS"
+        done
+        echo done > ${outputs.model}
+    inputs: {rows: {from: hot.table}}
+    outputs: {model: {path: models/model.txt, artifact: true}}
+"#;
+
+#[test]
+fn runs_lineage_metrics_datasets_round_trip() {
+    let p = Project::new();
+    p.write("pipelines/train.yaml", TRAIN);
+    p.run_pipeline("pipelines/train.yaml", &[]);
+
+    let runs = p.json(&["runs", "list"]);
+    let runs = runs.as_array().unwrap();
+    assert_eq!(runs.len(), 4, "3 stage runs + 1 pipeline run: {runs:#?}");
+    assert!(runs.iter().all(|r| r["status"] == "succeeded"), "{runs:#?}");
+    let pipeline_run = runs.iter().find(|r| r["kind"] == "pipeline").unwrap();
+    let train = runs.iter().find(|r| r["stage"] == "train").unwrap();
+    assert_eq!(train["pipeline_run_id"], pipeline_run["run_id"]);
+    assert!(train["params"]["command"].as_str().unwrap().contains("lr=0.1 "));
+    assert_eq!(train["cache_key"].as_str().unwrap().len(), 64);
+
+    // Show: metrics summarised, lineage with hashes, artifact uploaded.
+    let train_id = train["run_id"].as_str().unwrap();
+    let show = p.json(&["runs", "show", train_id]);
+    let loss = &show["metrics"][0];
+    assert_eq!(loss["key"], "loss");
+    assert_eq!(loss["count"], 3);
+    assert_eq!(loss["min_step"], 3);
+    assert!((loss["last"].as_f64().unwrap() - 0.1 / 3.0).abs() < 1e-9);
+    let lineage = show["lineage"].as_array().unwrap();
+    assert!(
+        lineage
+            .iter()
+            .any(|l| l["direction"] == "input" && l["uri"] == "datasets/hot.parquet")
+    );
+    assert!(
+        lineage
+            .iter()
+            .any(|l| l["direction"] == "output" && l["uri"] == "models/model.txt")
+    );
+    let artifact_uri = show["artifacts"][0]["uri"].as_str().unwrap();
+    assert!(
+        artifact_uri.ends_with(&format!("runs/{train_id}/model/model.txt")),
+        "{artifact_uri}"
+    );
+
+    // The sql stage registered a dataset; query reaches it as a view.
+    let rows = p.json(&[
+        "query",
+        "SELECT station, round(temp_c, 2) AS c FROM hot_stations ORDER BY station",
+    ]);
+    assert_eq!(
+        rows,
+        serde_json::json!([{"station": "A", "c": 17.35}, {"station": "B", "c": 28.1}])
+    );
+    let datasets = p.json(&["query", "SELECT name, rows, length(version) AS v FROM datasets"]);
+    assert_eq!(
+        datasets,
+        serde_json::json!([{"name": "hot_stations", "rows": 2, "v": 16}])
+    );
+
+    // A changed param is a new run whose parent is the earlier run; params never change.
+    p.run_pipeline("pipelines/train.yaml", &["-S", "lr=0.5"]);
+    let trains = p.json(&["runs", "list", "--stage", "train"]);
+    let trains = trains.as_array().unwrap();
+    assert_eq!(trains.len(), 2);
+    assert_eq!(trains[0]["parent_run_id"], trains[1]["run_id"]);
+    assert!(
+        trains[1]["params"]["command"]
+            .as_str()
+            .unwrap()
+            .contains("lr=0.1 "),
+        "old params changed"
+    );
+
+    let compare = p.json(&[
+        "runs",
+        "compare",
+        trains[1]["run_id"].as_str().unwrap(),
+        trains[0]["run_id"].as_str().unwrap(),
+    ]);
+    let command = compare["params"]["command"].as_array().unwrap();
+    assert_ne!(command[0], command[1]);
+    let last_losses: Vec<f64> = compare["metrics"]["loss"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["last"].as_f64().unwrap())
+        .collect();
+    assert!(
+        (last_losses[1] / last_losses[0] - 5.0).abs() < 1e-9,
+        "{last_losses:?}"
+    );
+
+    // Tables for people.
+    let text = p.ok(&[
+        "runs",
+        "compare",
+        trains[1]["run_id"].as_str().unwrap(),
+        trains[0]["run_id"].as_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(text.contains("≠ param command"), "{text}");
+    assert!(text.contains("metric loss (last / min / max)"), "{text}");
+}
+
+#[test]
+fn registry_path_is_configurable_and_query_errors_are_clear() {
+    let p = Project::new();
+    p.write("pipelines/one.yaml", "stages:\n  a:\n    uses: cmd\n    params: {command: \"echo 1 > ${outputs.o}\"}\n    outputs: {o: o.txt}\n");
+    p.write("firecast.yaml", "registry: tracking/runs.duckdb\n");
+    p.run_pipeline("pipelines/one.yaml", &[]);
+    assert!(p.path("tracking/runs.duckdb").exists());
+    assert!(!p.path(".firecast/registry.duckdb").exists());
+    let n = p.json(&["query", "SELECT count(*) AS n FROM runs"]);
+    assert_eq!(n, serde_json::json!([{"n": 2}]));
+
+    let out = p
+        .firecast()
+        .args(["query", "SELECT nope FROM runs"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.starts_with("error: registry query failed:"), "{stderr}");
+
+    p.write("firecast.yaml", "registyr: x\n");
+    let out = p.firecast().args(["runs", "list"]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.starts_with("error: firecast.yaml:1:1: registyr: unknown field `registyr`, expected one of `registry`, `store`, `jobs`"),
+        "{stderr}"
+    );
+}

@@ -1,0 +1,272 @@
+//! FireCast's bootstrap, so a fresh machine with only Rust and python3 needs two commands:
+//!
+//! - `cargo xtask demo`: set up, build, run `pipelines/demo.yaml`, list the runs;
+//! - `cargo xtask test`: set up, build, run the whole test suite.
+//!
+//! Setup is idempotent: it installs the pinned Python packages (torch 2.13.0 brings
+//! libtorch for tch) into `.venv`, downloads the official `libduckdb.so` 1.5.1 into
+//! `.firecast/deps/duckdb`, and links `.firecast/deps/{libtorch,nvidia}` to the wheel's
+//! folders; `.cargo/config.toml` points the build at them. A second run reuses all of it.
+//! No third-party crates: this must build before anything else exists.
+
+use std::env;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+/// The official DuckDB 1.5.1 shared library, as npm's Node bindings ship it.
+const DUCKDB_TARBALL_URL: &str =
+    "https://registry.npmjs.org/@duckdb/node-bindings-linux-x64/-/node-bindings-linux-x64-1.5.1-r.2.tgz";
+const DUCKDB_TARBALL_SHA256: &str = "69d9dd8fb539b9fcac3eeaa4b63a5b3b8cf73ba0c95d751195192bf078fabe55";
+
+fn main() -> ExitCode {
+    let args: Vec<String> = env::args().skip(1).collect();
+    let command = args.first().map_or("help", String::as_str);
+    let rest = args.get(1..).unwrap_or_default();
+    let result = match command {
+        "setup" => setup().map(|_| ()),
+        "build" => setup().and_then(|ctx| build(&ctx)),
+        "demo" => setup().and_then(|ctx| demo(&ctx, rest)),
+        "test" => setup().and_then(|ctx| test(&ctx, rest)),
+        "ci" => setup().and_then(|ctx| ci(&ctx)),
+        "env" => setup().map(|ctx| print_env(&ctx)),
+        _ => {
+            eprintln!(
+                "usage: cargo xtask <command>\n\n\
+                 commands:\n  \
+                 setup   install .venv (torch 2.13.0, rerun-sdk 0.36.3, test tools) and libduckdb 1.5.1\n  \
+                 build   setup, then build the firecast binary (release)\n  \
+                 demo    setup, build, run pipelines/demo.yaml and list the runs\n  \
+                 test    setup, build, run every test (extra args go to `cargo test`)\n  \
+                 ci      test, then cargo fmt --check and cargo clippy -D warnings\n  \
+                 env     setup, then print the environment the build uses"
+            );
+            return if command == "help" {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(2)
+            };
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("xtask: error: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+struct Context {
+    root: PathBuf,
+    target_dir: PathBuf,
+    venv_python: PathBuf,
+}
+
+fn workspace_root() -> PathBuf {
+    // xtask/Cargo.toml lives one level below the workspace root.
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
+fn setup() -> Result<Context, String> {
+    let root = workspace_root();
+    let target_dir = match env::var_os("CARGO_TARGET_DIR") {
+        Some(dir) => PathBuf::from(dir),
+        None => home()?.join(".cache/firecast/target"),
+    };
+    let deps = root.join(".firecast/deps");
+    std::fs::create_dir_all(&deps).map_err(|e| format!("cannot create {}: {e}", deps.display()))?;
+
+    let venv_python = ensure_venv(&root)?;
+    ensure_duckdb(&deps, &venv_python)?;
+    link_libtorch(&deps, &venv_python)?;
+    Ok(Context {
+        root,
+        target_dir,
+        venv_python,
+    })
+}
+
+fn home() -> Result<PathBuf, String> {
+    env::var_os("HOME")
+        .map(PathBuf::from)
+        .ok_or_else(|| "HOME is not set; set CARGO_TARGET_DIR instead".to_string())
+}
+
+fn ensure_venv(root: &Path) -> Result<PathBuf, String> {
+    let venv = root.join(".venv");
+    let python = venv.join("bin/python");
+    let requirements = root.join("xtask/requirements.txt");
+    let wanted = std::fs::read_to_string(&requirements)
+        .map_err(|e| format!("cannot read {}: {e}", requirements.display()))?;
+    let stamp = venv.join("firecast-requirements.txt");
+    if std::fs::read_to_string(&stamp).ok().as_deref() == Some(wanted.as_str()) && python.exists() {
+        return Ok(python);
+    }
+    if !python.exists() {
+        eprintln!("xtask: creating {}", venv.display());
+        run(
+            Command::new("python3").args(["-m", "venv"]).arg(&venv),
+            "python3 -m venv",
+        )?;
+    }
+    eprintln!("xtask: installing Python packages (torch 2.13.0 is large; this happens once)");
+    run(
+        Command::new(&python)
+            .args(["-m", "pip", "install", "--disable-pip-version-check", "-q", "-r"])
+            .arg(&requirements),
+        "pip install -r xtask/requirements.txt",
+    )?;
+    std::fs::write(&stamp, wanted).map_err(|e| format!("cannot write {}: {e}", stamp.display()))?;
+    Ok(python)
+}
+
+/// Download and check the official libduckdb.so (python3 does the HTTP, so no curl is needed).
+fn ensure_duckdb(deps: &Path, python: &Path) -> Result<(), String> {
+    let dir = deps.join("duckdb");
+    if dir.join("libduckdb.so").exists() {
+        return Ok(());
+    }
+    eprintln!("xtask: downloading libduckdb.so 1.5.1");
+    let script = r#"
+import hashlib, io, os, sys, tarfile, urllib.request
+url, sha, dest = sys.argv[1], sys.argv[2], sys.argv[3]
+data = urllib.request.urlopen(url, timeout=120).read()
+got = hashlib.sha256(data).hexdigest()
+if got != sha:
+    sys.exit(f"checksum mismatch for {url}: {got}")
+os.makedirs(dest, exist_ok=True)
+with tarfile.open(fileobj=io.BytesIO(data)) as tar:
+    member = tar.extractfile("package/libduckdb.so")
+    tmp = os.path.join(dest, ".libduckdb.so.part")
+    with open(tmp, "wb") as out:
+        out.write(member.read())
+    os.replace(tmp, os.path.join(dest, "libduckdb.so"))
+"#;
+    run(
+        Command::new(python)
+            .arg("-c")
+            .arg(script)
+            .arg(DUCKDB_TARBALL_URL)
+            .arg(DUCKDB_TARBALL_SHA256)
+            .arg(&dir),
+        "download libduckdb",
+    )
+}
+
+/// `.firecast/deps/libtorch` and `.firecast/deps/nvidia` point into the torch wheel. Both
+/// are needed: libtorch's own RPATH finds CUDA at `$ORIGIN/../../nvidia/...`.
+fn link_libtorch(deps: &Path, python: &Path) -> Result<(), String> {
+    let output = Command::new(python)
+        .args(["-c", "import os, torch; print(os.path.dirname(torch.__file__))"])
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", python.display()))?;
+    if !output.status.success() {
+        return Err(format!(
+            "torch is not importable from {}: {}",
+            python.display(),
+            String::from_utf8_lossy(&output.stderr)
+        ));
+    }
+    let torch_dir = PathBuf::from(String::from_utf8_lossy(&output.stdout).trim());
+    let site_packages = torch_dir.parent().ok_or("torch has no parent folder")?;
+    replace_symlink(&torch_dir, &deps.join("libtorch"))?;
+    replace_symlink(&site_packages.join("nvidia"), &deps.join("nvidia"))
+}
+
+fn replace_symlink(target: &Path, link: &Path) -> Result<(), String> {
+    if std::fs::read_link(link).ok().as_deref() == Some(target) {
+        return Ok(());
+    }
+    let _ignored = std::fs::remove_file(link);
+    std::os::unix::fs::symlink(target, link)
+        .map_err(|e| format!("cannot link {} -> {}: {e}", link.display(), target.display()))
+}
+
+fn cargo(ctx: &Context) -> Command {
+    let mut command = Command::new(env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
+    command
+        .current_dir(&ctx.root)
+        .env("CARGO_TARGET_DIR", &ctx.target_dir);
+    command
+}
+
+fn build(ctx: &Context) -> Result<(), String> {
+    run(
+        cargo(ctx).args(["build", "--release", "--locked", "-p", "firecast"]),
+        "cargo build",
+    )
+}
+
+fn demo(ctx: &Context, args: &[String]) -> Result<(), String> {
+    build(ctx)?;
+    let firecast = ctx.target_dir.join("release/firecast");
+    let mut pipeline = Command::new(&firecast);
+    pipeline
+        .current_dir(&ctx.root)
+        .args(["pipeline", "run", "pipelines/demo.yaml"])
+        .args(args);
+    run(&mut pipeline, "firecast pipeline run pipelines/demo.yaml")?;
+    run(
+        Command::new(&firecast)
+            .current_dir(&ctx.root)
+            .args(["runs", "list", "--limit", "15"]),
+        "firecast runs list",
+    )
+}
+
+fn test(ctx: &Context, args: &[String]) -> Result<(), String> {
+    run(
+        cargo(ctx)
+            .args([
+                "test",
+                "--release",
+                "--locked",
+                "--workspace",
+                "--exclude",
+                "xtask",
+            ])
+            .args(args),
+        "cargo test",
+    )
+}
+
+fn ci(ctx: &Context) -> Result<(), String> {
+    test(ctx, &[])?;
+    run(cargo(ctx).args(["fmt", "--all", "--check"]), "cargo fmt --check")?;
+    run(
+        cargo(ctx).args([
+            "clippy",
+            "--release",
+            "--locked",
+            "--workspace",
+            "--all-targets",
+            "--",
+            "-D",
+            "warnings",
+        ]),
+        "cargo clippy",
+    )
+}
+
+fn print_env(ctx: &Context) {
+    println!("CARGO_TARGET_DIR={}", ctx.target_dir.display());
+    println!("FIRECAST_PYTHON={}", ctx.venv_python.display());
+    println!("LIBTORCH={}", ctx.root.join(".firecast/deps/libtorch").display());
+    println!(
+        "DUCKDB_LIB_DIR={}",
+        ctx.root.join(".firecast/deps/duckdb").display()
+    );
+}
+
+fn run(command: &mut Command, what: &str) -> Result<(), String> {
+    let status = command
+        .status()
+        .map_err(|e| format!("{what}: cannot start: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{what} failed ({status})"))
+    }
+}
