@@ -202,7 +202,7 @@ fn print_report(settings: &Settings, report: &RunReport, elapsed_secs: f64) -> a
             stage.stage.clone(),
             stage.kind.clone(),
             stage.outcome.label().to_string(),
-            if stage.duration_secs > 0.0 {
+            if matches!(stage.outcome, Outcome::Ran | Outcome::Restored | Outcome::Failed) {
                 format!("{:.2}s", stage.duration_secs)
             } else {
                 String::new()

@@ -7,6 +7,26 @@
 //!
 //! Readers (GeoTIFF, SRTM `.hgt`, FireCastRL PNG maps) and the procedural generator build
 //! landscapes; the simulator consumes them.
+//!
+//! Modules:
+//! - [`georef`]: CRS parsing (EPSG:4326, WGS84 UTM 326xx/327xx), a WGS84 transverse Mercator
+//!   written from Karney's (2011) Krüger series, [`georef::GridSpec`] (the simulation grid a
+//!   reader resamples onto) and the cell ⇄ lat/lon helpers on [`Landscape`];
+//! - [`geotiff`]: single-band GeoTIFF land cover / elevation with georeferencing;
+//! - [`srtm`]: SRTM `.hgt` tiles;
+//! - [`firecastrl`]: FireCastRL palette PNG + 16-bit heightmap PNG (spec A2);
+//! - [`procedural`]: seeded synthetic landscapes.
+
+use std::path::PathBuf;
+
+pub mod firecastrl;
+pub mod georef;
+pub mod geotiff;
+pub mod procedural;
+mod resample;
+pub mod srtm;
+
+pub use georef::{Crs, GridSpec};
 
 /// What the per-cell codes mean.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,6 +85,49 @@ pub enum LandscapeError {
     },
     #[error("cell size must be positive and finite, got {0} ft")]
     CellSize(f64),
+    /// The file could not be opened or read.
+    #[error("cannot read file: {source}: {path}")]
+    Io { source: std::io::Error, path: PathBuf },
+    /// The container (TIFF, PNG, HGT) is malformed or uses an unsupported layout.
+    #[error("{format}: {message}: {path}")]
+    Format {
+        format: &'static str,
+        message: String,
+        path: PathBuf,
+    },
+    /// A GeoTIFF tag or GeoKey is missing or holds a value we cannot use.
+    /// `tag` names it, e.g. `ModelPixelScaleTag (33550)` or `GeoKey GTRasterTypeGeoKey (1025)`.
+    #[error("GeoTIFF {tag}: {problem}: {path}")]
+    GeoTag {
+        tag: String,
+        problem: String,
+        path: PathBuf,
+    },
+    /// The simulation grid and the raster use different coordinate systems and at least one
+    /// of them is not one we can transform (EPSG:4326, EPSG:326xx, EPSG:327xx).
+    #[error("cannot transform grid CRS {grid} to raster CRS {raster}: {path}")]
+    CrsMismatch {
+        grid: String,
+        raster: String,
+        path: PathBuf,
+    },
+    /// A CRS string we cannot interpret where one is required.
+    #[error("unsupported CRS {0:?} (expected EPSG:4326, EPSG:326xx or EPSG:327xx)")]
+    UnsupportedCrs(String),
+    /// No grid cell centre falls on valid raster data.
+    #[error("grid does not overlap any valid {layer} data: {path}")]
+    NoOverlap { layer: &'static str, path: PathBuf },
+    /// Elevation nodata remained and the policy is [`geotiff::ElevationNoData::Error`].
+    #[error("{count} grid cells have no valid elevation (first at cell x={x}, y={y}): {path}")]
+    ElevationNoData {
+        count: usize,
+        x: usize,
+        y: usize,
+        path: PathBuf,
+    },
+    /// A generator or reader option is out of range.
+    #[error("invalid option {name}: {message}")]
+    InvalidOption { name: &'static str, message: String },
 }
 
 impl Landscape {
@@ -85,7 +148,10 @@ impl Landscape {
             return Err(LandscapeError::CellSize(cell_size_ft));
         }
         let expected = width * height;
-        for (layer, got) in [("land_cover", land_cover.len()), ("elevation_ft", elevation_ft.len())] {
+        for (layer, got) in [
+            ("land_cover", land_cover.len()),
+            ("elevation_ft", elevation_ft.len()),
+        ] {
             if got != expected {
                 return Err(LandscapeError::LayerSize {
                     layer,

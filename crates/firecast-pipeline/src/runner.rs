@@ -1037,7 +1037,9 @@ fn stale_reasons(
     let keys: BTreeSet<&String> = old.keys().chain(new.keys()).collect();
     for k in keys {
         match (old.get(k), new.get(k)) {
-            (Some(a), Some(b)) if a != b => reasons.push(format!("param `{k}` changed: {a} -> {b}")),
+            (Some(a), Some(b)) if a != b => {
+                reasons.push(format!("param `{k}` changed: {}", describe_change(a, b)))
+            }
             (None, Some(b)) => reasons.push(format!("param `{k}` added: {b}")),
             (Some(a), None) => reasons.push(format!("param `{k}` removed (was {a})")),
             _ => {}
@@ -1075,6 +1077,34 @@ fn stale_reasons(
     reasons
 }
 
+/// `old -> new`, or for long values only the part that differs, with a little context.
+fn describe_change(old: &str, new: &str) -> String {
+    const CONTEXT: usize = 12;
+    if old.chars().count() <= 48 && new.chars().count() <= 48 {
+        return format!("{old} -> {new}");
+    }
+    let a: Vec<char> = old.chars().collect();
+    let b: Vec<char> = new.chars().collect();
+    let prefix = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let suffix = a[prefix..]
+        .iter()
+        .rev()
+        .zip(b[prefix..].iter().rev())
+        .take_while(|(x, y)| x == y)
+        .count();
+    let start = prefix.saturating_sub(CONTEXT);
+    let excerpt = |v: &[char]| {
+        let end = (v.len() - suffix + CONTEXT).min(v.len());
+        let body: String = v[start..end].iter().collect();
+        format!(
+            "{}{body}{}",
+            if start > 0 { "…" } else { "" },
+            if end < v.len() { "…" } else { "" }
+        )
+    };
+    format!("{} -> {}", excerpt(&a), excerpt(&b))
+}
+
 fn flatten_json(prefix: &str, value: &serde_json::Value, out: &mut BTreeMap<String, String>) {
     match value {
         serde_json::Value::Object(map) if !map.is_empty() => {
@@ -1095,7 +1125,18 @@ fn flatten_json(prefix: &str, value: &serde_json::Value, out: &mut BTreeMap<Stri
 
 #[cfg(test)]
 mod tests {
-    use super::split_store_url;
+    use super::{describe_change, split_store_url};
+
+    #[test]
+    fn long_changes_show_only_the_difference() {
+        assert_eq!(describe_change("3", "5"), "3 -> 5");
+        let old = "echo a,b,c,d,e,f,g,h,i,j,k,l,m,n,o,p,q,r,s,t,u,v,w,x,y,z,20,0 > out.csv";
+        let new = "echo a,b,c,d,e,f,g,h,i,j,k,l,m,n,o,p,q,r,s,t,u,v,w,x,y,z,40,0 > out.csv";
+        assert_eq!(
+            describe_change(old, new),
+            "…u,v,w,x,y,z,20,0 > out.cs… -> …u,v,w,x,y,z,40,0 > out.cs…"
+        );
+    }
 
     #[test]
     fn store_urls_split_into_root_and_key() {

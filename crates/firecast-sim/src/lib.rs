@@ -5,16 +5,32 @@
 //! - [`concord`]: the Concord / FireCastRL single-particle compatibility kernel, quirks
 //!   included, with a corrected variant.
 //! - [`spread_csv`]: the CSV front end of `firecast sim spread-rate`.
+//! - [`automaton`]: the Concord/FireCastRL cellular automaton on a `firecast_landscape`
+//!   grid, driven by either kernel.
+//! - [`env`]: the helitack environment (Gymnasium semantics) and [`env::VecEnv`].
+//! - [`agents`]: rule-based and no-suppression baselines, the episode runner, frames.
 
+pub mod agents;
+pub mod automaton;
 pub mod concord;
+pub mod env;
 pub mod fuel;
 pub mod rothermel;
 pub mod spread_csv;
 
+pub use agents::{
+    Decision, EpisodeContext, EpisodeFrames, EpisodeStats, EvalReport, MeanStd, NoSuppression, Policy,
+    RuleBasedAgent, RuleNavigation, record_frames, run_episode, run_episodes,
+};
+pub use automaton::{
+    Automaton, BurnIndex, DEFAULT_DT_MIN, FireState, HelitackFootprint, KernelConfig, SimConfig, SimError,
+    Wind,
+};
 pub use concord::{
     ConcordCell, ConcordFuel, ConcordFuelConstants, ConcordSpread, ConcordWind, DroughtLevel, EdgeCasePolicy,
     LandCover, MoistureTable, SpreadVariant,
 };
+pub use env::{Action, EnvConfig, Observation, RewardWeights, StepInfo, Termination, VecEnv, WildfireEnv};
 pub use fuel::{FuelModel, UnknownFuelModel};
 pub use rothermel::{
     FuelBedIntermediates, FuelMoisture, RothermelError, SpreadInputs, SurfaceFireBehavior, SurfaceFuelBed,

@@ -2,9 +2,13 @@
 //! consistency identities, the Concord reference values, the CSV front end and properties.
 #![allow(clippy::unwrap_used)]
 
+mod agents;
+mod automaton;
 mod behave_oracles;
 mod common;
 mod concord_kernel;
+mod env;
 mod identities;
 mod properties;
+mod scenes;
 mod spread_csv;
