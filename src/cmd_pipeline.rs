@@ -74,6 +74,7 @@ pub struct RunArgs {
 pub fn stage_kinds() -> StageKinds {
     let mut kinds = firecast_pipeline::builtin_kinds();
     kinds.register(firecast_registry::SqlStage);
+    kinds.register(firecast_episodes::EpisodesStage);
     kinds
 }
 

@@ -4,10 +4,10 @@
 mod cmd_artifacts;
 mod cmd_pipeline;
 mod cmd_runs;
+mod cmd_sim;
 mod output;
 mod settings;
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -43,31 +43,21 @@ enum Command {
         /// The SQL statement.
         sql: String,
     },
-    /// Fire simulation tools.
+    /// Fire simulation: spread rates, suppression episodes with helitack agents.
     #[command(subcommand)]
-    Sim(SimCommand),
+    Sim(cmd_sim::SimCommand),
+    /// Benchmarks.
+    #[command(subcommand)]
+    Bench(BenchCommand),
     /// Show what this firecast links and sees: versions, libtorch device, DuckDB, Rerun.
     Doctor,
 }
 
 #[derive(Debug, Subcommand)]
-enum SimCommand {
-    /// Rothermel/Albini surface spread (as behave computes it) for every row of a CSV.
-    ///
-    /// Input columns, by header name (the inputs of behave's random oracle): `fm` or `code`
-    /// or `fuel_model` (number or code, e.g. 102 or GR2); `m1_pct`, `m10_pct`, `m100_pct`,
-    /// `mherb_pct`, `mwoody_pct` (percent); `midflame_mph`; `slope_pct`;
-    /// `wind_dir_rel_upslope_deg` (where the wind blows toward, clockwise from upslope).
-    /// Output adds R0_ftmin, ros_ftmin, ros_chph, dir_max_spread_rel_upslope_deg,
-    /// IR_btuft2min, flame_ft, fli_btufts, hpua_btuft2, lw_ratio, back_ftmin, flank_ftmin.
-    SpreadRate {
-        /// Cases to evaluate.
-        #[arg(long, value_name = "CSV")]
-        input: PathBuf,
-        /// Where to write the results (written atomically).
-        #[arg(long, value_name = "CSV")]
-        output: PathBuf,
-    },
+enum BenchCommand {
+    /// Simulator speed: env steps per second (one env on one thread, and vectorised on all
+    /// cores) with an active fire, and Rothermel point evaluations per second.
+    Sim(cmd_sim::BenchSimArgs),
 }
 
 fn main() -> ExitCode {
@@ -99,16 +89,8 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Runs(command) => cmd_runs::run(&settings, command),
         Command::Artifacts(command) => cmd_artifacts::run(&settings, command),
         Command::Query { sql } => cmd_runs::query(&settings, &sql),
-        Command::Sim(SimCommand::SpreadRate { input, output }) => {
-            let rows =
-                firecast_sim::spread_rate_csv(&settings.root.join(&input), &settings.root.join(&output))?;
-            if settings.json {
-                output::print_json(&serde_json::json!({ "rows": rows, "output": output }))?;
-            } else {
-                println!("{rows} cases written to {}", output.display());
-            }
-            Ok(ExitCode::SUCCESS)
-        }
+        Command::Sim(command) => cmd_sim::run(&settings, command),
+        Command::Bench(BenchCommand::Sim(args)) => cmd_sim::bench(&settings, &args),
         Command::Doctor => doctor(&settings),
     }
 }

@@ -4,6 +4,7 @@
 
 mod pipeline;
 mod registry;
+mod sim;
 mod store;
 
 use std::path::{Path, PathBuf};

@@ -192,11 +192,21 @@ fn cargo(ctx: &Context) -> Command {
     command
 }
 
+/// Cargo arguments shared by the build and the tests. Building through `cargo test
+/// --no-run` gives the `firecast` binary exactly the features the test build resolves
+/// (dev-dependencies unify features of shared crates), so `demo` and `test` share one build
+/// instead of compiling the heavy stack twice.
+const TEST_ARGS: [&str; 6] = [
+    "test",
+    "--release",
+    "--locked",
+    "--workspace",
+    "--exclude",
+    "xtask",
+];
+
 fn build(ctx: &Context) -> Result<(), String> {
-    run(
-        cargo(ctx).args(["build", "--release", "--locked", "-p", "firecast"]),
-        "cargo build",
-    )
+    run(cargo(ctx).args(TEST_ARGS).arg("--no-run"), "cargo build")
 }
 
 fn demo(ctx: &Context, args: &[String]) -> Result<(), String> {
@@ -217,19 +227,7 @@ fn demo(ctx: &Context, args: &[String]) -> Result<(), String> {
 }
 
 fn test(ctx: &Context, args: &[String]) -> Result<(), String> {
-    run(
-        cargo(ctx)
-            .args([
-                "test",
-                "--release",
-                "--locked",
-                "--workspace",
-                "--exclude",
-                "xtask",
-            ])
-            .args(args),
-        "cargo test",
-    )
+    run(cargo(ctx).args(TEST_ARGS).args(args), "cargo test")
 }
 
 fn ci(ctx: &Context) -> Result<(), String> {

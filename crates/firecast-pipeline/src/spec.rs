@@ -348,6 +348,19 @@ pub fn deserialize_located<T: serde::de::DeserializeOwned>(
     })
 }
 
+/// Deserialize YAML strictly through JSON values, so externally tagged enums are written
+/// as one-key mappings (`{procedural: {seed: 1}}`) rather than YAML tags (`!procedural`).
+/// Errors still name the file, line and key path.
+pub fn deserialize_mapping_enums<T: serde::de::DeserializeOwned>(
+    file: &Path,
+    source: &str,
+) -> Result<T, SpecError> {
+    let value: Value = deserialize_located(file, source)?;
+    let json = crate::plan::yaml_to_json(&value).map_err(|m| SpecError::new(file, "", m))?;
+    crate::stage::deserialize_params(&json)
+        .map_err(|e| SpecError::new(file, e.path.replace(".?", ""), e.message).located_in(source))
+}
+
 /// serde_path_to_error prints `.` for the root and `?` for unknown positions.
 fn clean_serde_path(path: &str) -> String {
     if path == "." || path == "?" {

@@ -42,18 +42,23 @@ pub struct ParamsError {
 pub fn typed_params<T: DeserializeOwned + Serialize>(
     raw: &serde_json::Value,
 ) -> Result<(T, serde_json::Value), ParamsError> {
-    let typed: T = serde_path_to_error::deserialize(raw).map_err(|e| {
-        let path = e.path().to_string();
-        ParamsError {
-            path: if path == "." { String::new() } else { path },
-            message: e.into_inner().to_string(),
-        }
-    })?;
+    let typed: T = deserialize_params(raw)?;
     let resolved = serde_json::to_value(&typed).map_err(|e| ParamsError {
         path: String::new(),
         message: e.to_string(),
     })?;
     Ok((typed, resolved))
+}
+
+/// Deserialize a params value strictly into `T`, reporting the key path of a problem.
+pub fn deserialize_params<T: DeserializeOwned>(raw: &serde_json::Value) -> Result<T, ParamsError> {
+    serde_path_to_error::deserialize(raw).map_err(|e| {
+        let path = e.path().to_string();
+        ParamsError {
+            path: if path == "." { String::new() } else { path },
+            message: e.into_inner().to_string(),
+        }
+    })
 }
 
 /// A kind of stage. Implementations live in the crates that own the concept

@@ -21,6 +21,8 @@ pub enum RecorderError {
     Start(#[from] rerun::RecordingStreamError),
     #[error("invalid Rerun timeline name `{0}`: {1}")]
     Timeline(String, String),
+    #[error("cannot log to the Rerun recording: {0}")]
+    Log(String),
     #[error("cannot flush the Rerun recording: {0}")]
     Flush(String),
     #[error("invalid Rerun application id `{0}`: use letters, digits, `_`, `-`, space or `:`")]

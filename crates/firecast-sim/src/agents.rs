@@ -4,7 +4,7 @@
 use firecast_landscape::Landscape;
 
 use crate::automaton::SimError;
-use crate::env::{Action, EnvConfig, Observation, WildfireEnv};
+use crate::env::{Action, EnvConfig, Observation, StepInfo, WildfireEnv};
 
 /// What a policy returns: an action, optionally after teleporting the helicopter (only the
 /// paper's rule-based agent does that, §4).
@@ -164,7 +164,7 @@ impl Policy for RuleBasedAgent {
 }
 
 /// One episode's Table IV numbers.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct EpisodeStats {
     pub seed: u64,
     /// Cells that burned (Burnt + still Burning at the end).
@@ -177,7 +177,7 @@ pub struct EpisodeStats {
 }
 
 /// Mean and sample standard deviation.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct MeanStd {
     pub mean: f64,
     pub std: f64,
@@ -204,7 +204,7 @@ impl MeanStd {
 }
 
 /// Per-episode numbers plus mean ± std of each Table IV column.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct EvalReport {
     pub episodes: Vec<EpisodeStats>,
     pub cells_burned: MeanStd,
@@ -222,20 +222,20 @@ fn context(env: &WildfireEnv) -> EpisodeContext {
     }
 }
 
-/// Runs one episode; `on_step` sees the env after reset and after every step.
+/// Runs one episode; `on_step` sees the env and its info after reset and after every step.
 pub fn run_episode(
     env: &mut WildfireEnv,
     policy: &mut dyn Policy,
     seed: u64,
-    mut on_step: impl FnMut(&WildfireEnv),
+    mut on_step: impl FnMut(&WildfireEnv, &StepInfo),
 ) -> EpisodeStats {
-    env.reset(seed);
+    let (_, info) = env.reset(seed);
     policy.reset(&context(env));
-    on_step(env);
+    on_step(env, &info);
     loop {
         let decision = policy.act(&env.observation());
         let (_, _, terminated, truncated, info) = env.step_with_teleport(decision.action, decision.teleport);
-        on_step(env);
+        on_step(env, &info);
         if terminated || truncated {
             return EpisodeStats {
                 seed,
@@ -259,7 +259,7 @@ pub fn run_episodes(
 ) -> Result<EvalReport, SimError> {
     let mut env = WildfireEnv::new(landscape, cfg)?;
     let stats: Vec<EpisodeStats> = (0..episodes as u64)
-        .map(|k| run_episode(&mut env, policy, seed.wrapping_add(k), |_| {}))
+        .map(|k| run_episode(&mut env, policy, seed.wrapping_add(k), |_, _| {}))
         .collect();
     Ok(EvalReport {
         cells_burned: MeanStd::of(stats.iter().map(|s| f64::from(s.cells_burned))),
@@ -293,7 +293,7 @@ pub fn record_frames(
     let mut env = WildfireEnv::new(landscape, cfg)?;
     let mut fire_states = Vec::new();
     let mut helicopter = Vec::new();
-    let stats = run_episode(&mut env, policy, seed, |e| {
+    let stats = run_episode(&mut env, policy, seed, |e, _| {
         fire_states.push(e.automaton().fire_states().to_vec());
         helicopter.push(e.core().helicopter());
     });

@@ -1,0 +1,574 @@
+//! Suppression episodes: a helitack agent against a simulated fire on a landscape.
+//!
+//! One [`Scenario`] (landscape + environment config, strict YAML) and an [`AgentKind`] give
+//! the paper's Table IV numbers per episode and as mean ± std ([`run`]); optionally the
+//! first episode is drawn as PNG frames / an animated GIF (fire over hill-shaded terrain,
+//! drop footprints) and logged to a Rerun recording (terrain, fire state per step,
+//! helicopter, drops, burning/burnt counts). [`EpisodesStage`] runs the same as the
+//! `sim.episodes` pipeline stage.
+
+mod stage;
+
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use firecast_landscape::{LandCoverScheme, Landscape, procedural};
+use firecast_sim::{
+    EnvConfig, EvalReport, MeanStd, NoSuppression, Policy, RuleBasedAgent, StepInfo, WildfireEnv, run_episode,
+};
+use serde::{Deserialize, Serialize};
+
+pub use stage::EpisodesStage;
+
+/// Errors of scenario loading and episode runs. Paths come last.
+#[derive(Debug, thiserror::Error)]
+pub enum EpisodeError {
+    #[error("invalid landscape `{spec}`: {reason}")]
+    LandscapeSpec { spec: String, reason: String },
+    #[error("unknown agent `{0}` (use none, rule or rule-concentric)")]
+    Agent(String),
+    #[error(transparent)]
+    Landscape(#[from] firecast_landscape::LandscapeError),
+    #[error(transparent)]
+    Sim(#[from] firecast_sim::SimError),
+    #[error(transparent)]
+    Render(#[from] firecast_render::RenderError),
+    #[error(transparent)]
+    Recorder(#[from] firecast_recorder::RecorderError),
+    #[error("cannot read scenario: {path}: {source}")]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Scenario(#[from] firecast_pipeline::SpecError),
+    #[error("{context}: {path}: {source}")]
+    Io {
+        context: &'static str,
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Where the terrain comes from.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
+pub enum LandscapeSpec {
+    /// A seeded procedural landscape (fractal relief, land cover following elevation).
+    Procedural {
+        seed: u64,
+        #[serde(default = "default_width")]
+        width: usize,
+        #[serde(default = "default_height")]
+        height: usize,
+    },
+    /// FireCastRL's map format: land-cover palette PNG and 16-bit height-map PNG.
+    Firecastrl { land_cover: PathBuf, heightmap: PathBuf },
+    /// GeoTIFF land cover (MODIS IGBP, or LANDFIRE FBFM13/FBFM40) and elevation (metres),
+    /// resampled onto a grid centred at (`center_lat`, `center_lon`).
+    Geotiff {
+        land_cover: PathBuf,
+        elevation: PathBuf,
+        scheme: SchemeName,
+        center_lat: f64,
+        center_lon: f64,
+        #[serde(default = "default_width")]
+        width: usize,
+        #[serde(default = "default_height")]
+        height: usize,
+        #[serde(default = "default_cell_ft")]
+        cell_size_ft: f64,
+    },
+}
+
+fn default_width() -> usize {
+    240
+}
+fn default_height() -> usize {
+    160
+}
+fn default_cell_ft() -> f64 {
+    500.0
+}
+
+/// Land-cover scheme names as written in YAML.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SchemeName {
+    Modis,
+    Fbfm13,
+    Fbfm40,
+}
+
+impl FromStr for LandscapeSpec {
+    type Err = EpisodeError;
+
+    /// `procedural:SEED` or `firecastrl:LAND_COVER.png,HEIGHTMAP.png` (GeoTIFF needs a
+    /// scenario file for its grid).
+    fn from_str(spec: &str) -> Result<Self, Self::Err> {
+        let bad = |reason: &str| EpisodeError::LandscapeSpec {
+            spec: spec.to_string(),
+            reason: reason.to_string(),
+        };
+        match spec.split_once(':') {
+            Some(("procedural", seed)) => Ok(Self::Procedural {
+                seed: seed.parse().map_err(|_| bad("the seed must be a whole number"))?,
+                width: default_width(),
+                height: default_height(),
+            }),
+            Some(("firecastrl", files)) => {
+                let (land_cover, heightmap) = files
+                    .split_once(',')
+                    .ok_or_else(|| bad("expected firecastrl:LAND_COVER.png,HEIGHTMAP.png"))?;
+                Ok(Self::Firecastrl {
+                    land_cover: land_cover.into(),
+                    heightmap: heightmap.into(),
+                })
+            }
+            Some(("geotiff", _)) => Err(bad(
+                "GeoTIFF landscapes need a grid: use a scenario file (--scenario)",
+            )),
+            _ => Err(bad(
+                "expected procedural:SEED or firecastrl:LAND_COVER.png,HEIGHTMAP.png",
+            )),
+        }
+    }
+}
+
+impl LandscapeSpec {
+    /// Build the landscape; relative paths resolve against `root`.
+    pub fn load(&self, root: &Path) -> Result<Landscape, EpisodeError> {
+        Ok(match self {
+            Self::Procedural { seed, width, height } => {
+                let opts = procedural::ProceduralOptions {
+                    width: *width,
+                    height: *height,
+                    ..procedural::ProceduralOptions::with_seed(*seed)
+                };
+                procedural::generate(&opts)?
+            }
+            Self::Firecastrl {
+                land_cover,
+                heightmap,
+            } => firecast_landscape::firecastrl::load(
+                root.join(land_cover),
+                root.join(heightmap),
+                &firecast_landscape::firecastrl::FireCastRlOptions::default(),
+            )?,
+            Self::Geotiff {
+                land_cover,
+                elevation,
+                scheme,
+                center_lat,
+                center_lon,
+                width,
+                height,
+                cell_size_ft,
+            } => {
+                let scheme = match scheme {
+                    SchemeName::Modis => LandCoverScheme::ModisIgbp,
+                    SchemeName::Fbfm13 => LandCoverScheme::Fbfm13,
+                    SchemeName::Fbfm40 => LandCoverScheme::Fbfm40,
+                };
+                let grid = firecast_landscape::GridSpec::utm_centered(
+                    *width,
+                    *height,
+                    *cell_size_ft,
+                    *center_lat,
+                    *center_lon,
+                )?;
+                firecast_landscape::geotiff::load_landscape(
+                    root.join(land_cover),
+                    root.join(elevation),
+                    &grid,
+                    &firecast_landscape::geotiff::LandCoverOptions::new(scheme),
+                    &firecast_landscape::geotiff::ElevationOptions::default(),
+                )?
+            }
+        })
+    }
+}
+
+/// A scenario file: where the fire burns and how the environment behaves.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub landscape: LandscapeSpec,
+    #[serde(default)]
+    pub env: EnvConfig,
+}
+
+impl Scenario {
+    /// Read a scenario YAML file strictly (unknown keys are errors with file:line and key path).
+    pub fn from_file(path: &Path) -> Result<Self, EpisodeError> {
+        let text = std::fs::read_to_string(path).map_err(|source| EpisodeError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Ok(firecast_pipeline::spec::deserialize_mapping_enums(path, &text)?)
+    }
+}
+
+/// The suppression agents.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AgentKind {
+    /// No suppression: the fire burns freely.
+    None,
+    /// The paper's rule-based agent: a circle of radius 30 cells around the ignition, a drop
+    /// every 10°.
+    Rule,
+    /// Concentric circles of radius 45, 40 and 35 cells.
+    RuleConcentric,
+}
+
+impl FromStr for AgentKind {
+    type Err = EpisodeError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "none" => Ok(Self::None),
+            "rule" => Ok(Self::Rule),
+            "rule-concentric" => Ok(Self::RuleConcentric),
+            other => Err(EpisodeError::Agent(other.to_string())),
+        }
+    }
+}
+
+impl AgentKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Rule => "rule",
+            Self::RuleConcentric => "rule-concentric",
+        }
+    }
+
+    pub fn policy(self) -> Box<dyn Policy> {
+        match self {
+            Self::None => Box::new(NoSuppression),
+            Self::Rule => Box::new(RuleBasedAgent::single_circle()),
+            Self::RuleConcentric => Box::new(RuleBasedAgent::concentric_circles()),
+        }
+    }
+}
+
+/// What to produce besides the numbers (all for the first episode).
+#[derive(Debug, Clone, Default)]
+pub struct Outputs {
+    /// Write `frame_00000.png`, … into this folder.
+    pub frames_dir: Option<PathBuf>,
+    /// Write an animated GIF.
+    pub gif: Option<PathBuf>,
+    /// Write a Rerun recording (`.rrd`).
+    pub recording: Option<PathBuf>,
+    /// Keep every k-th step in PNG/GIF output (the recording keeps every step).
+    pub frame_every: usize,
+}
+
+/// The result of a run: the Table IV columns per episode and as mean ± std.
+#[derive(Debug, Clone, Serialize)]
+pub struct EpisodesSummary {
+    pub agent: &'static str,
+    pub landscape: LandscapeSpec,
+    pub seed: u64,
+    pub wind_speed_mph: f64,
+    pub wind_from_deg: f64,
+    pub report: EvalReport,
+}
+
+/// Run `episodes` episodes (seeds `seed`, `seed + 1`, …) and produce the requested outputs
+/// for the first one. `on_episode` is called after each episode (progress bars).
+pub fn run(
+    scenario: &Scenario,
+    landscape: &Landscape,
+    agent: AgentKind,
+    episodes: usize,
+    seed: u64,
+    outputs: &Outputs,
+    mut on_episode: impl FnMut(usize),
+) -> Result<EpisodesSummary, EpisodeError> {
+    let mut env = WildfireEnv::new(landscape, &scenario.env)?;
+    let mut policy = agent.policy();
+    let mut stats = Vec::with_capacity(episodes);
+    for k in 0..episodes {
+        let episode_seed = seed.wrapping_add(k as u64);
+        let stat = if k == 0
+            && (outputs.frames_dir.is_some() || outputs.gif.is_some() || outputs.recording.is_some())
+        {
+            let mut sink = FrameSink::new(landscape, agent, episode_seed, outputs)?;
+            let mut failure = None;
+            let stat = run_episode(&mut env, policy.as_mut(), episode_seed, |e, info| {
+                if failure.is_none()
+                    && let Err(err) = sink.push(e, info)
+                {
+                    failure = Some(err);
+                }
+            });
+            if let Some(err) = failure {
+                return Err(err);
+            }
+            sink.finish()?;
+            stat
+        } else {
+            run_episode(&mut env, policy.as_mut(), episode_seed, |_, _| {})
+        };
+        stats.push(stat);
+        on_episode(k);
+    }
+    let report = EvalReport {
+        cells_burned: MeanStd::of(stats.iter().map(|s| f64::from(s.cells_burned))),
+        timesteps: MeanStd::of(stats.iter().map(|s| f64::from(s.timesteps))),
+        helitacks: MeanStd::of(stats.iter().map(|s| f64::from(s.helitacks))),
+        water_used_gal: MeanStd::of(stats.iter().map(|s| s.water_used_gal)),
+        episodes: stats,
+    };
+    Ok(EpisodesSummary {
+        agent: agent.name(),
+        landscape: scenario.landscape.clone(),
+        seed,
+        wind_speed_mph: scenario.env.sim.wind.speed_mph,
+        wind_from_deg: scenario.env.sim.wind.from_direction_deg,
+        report,
+    })
+}
+
+/// Collects the first episode into PNG frames, a GIF and a Rerun recording.
+struct FrameSink<'a> {
+    outputs: &'a Outputs,
+    basemap: firecast_render::Basemap,
+    options: firecast_render::RenderOptions,
+    gif: Option<firecast_render::GifWriter>,
+    recording: Option<firecast_recorder::Recording>,
+    step: usize,
+    last_drops: u32,
+    width: usize,
+    height: usize,
+}
+
+impl<'a> FrameSink<'a> {
+    fn new(
+        landscape: &Landscape,
+        agent: AgentKind,
+        seed: u64,
+        outputs: &'a Outputs,
+    ) -> Result<Self, EpisodeError> {
+        let options = firecast_render::RenderOptions::default();
+        let basemap = firecast_render::Basemap::new(landscape, &options);
+        let parents = [outputs.gif.as_deref(), outputs.recording.as_deref()]
+            .into_iter()
+            .flatten()
+            .filter_map(Path::parent);
+        for dir in outputs.frames_dir.as_deref().into_iter().chain(parents) {
+            std::fs::create_dir_all(dir).map_err(|source| EpisodeError::Io {
+                context: "cannot create output folder",
+                path: dir.to_path_buf(),
+                source,
+            })?;
+        }
+        let gif = match &outputs.gif {
+            Some(path) => Some(firecast_render::GifWriter::create(
+                path,
+                basemap.width_px(),
+                basemap.height_px(),
+                8,
+            )?),
+            None => None,
+        };
+        let recording = match &outputs.recording {
+            Some(path) => {
+                let staging = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+                let rec = firecast_recorder::Recording::create(
+                    "firecast_helitack",
+                    &format!("{} agent, seed {seed}", agent.name()),
+                    &staging,
+                )?;
+                log_terrain(&rec, landscape)?;
+                Some(rec)
+            }
+            None => None,
+        };
+        Ok(Self {
+            outputs,
+            basemap,
+            options,
+            gif,
+            recording,
+            step: 0,
+            last_drops: 0,
+            width: landscape.width,
+            height: landscape.height,
+        })
+    }
+
+    fn push(&mut self, env: &WildfireEnv, info: &StepInfo) -> Result<(), EpisodeError> {
+        let helicopter = env.core().helicopter();
+        let dropped = info.drops > self.last_drops;
+        self.last_drops = info.drops;
+        let drops: Vec<[i32; 2]> = if dropped { vec![helicopter] } else { Vec::new() };
+        let fire_state = env.automaton().fire_states();
+        let every = self.outputs.frame_every.max(1);
+        let is_last = env.automaton().cells_burning() == 0;
+        if self.step.is_multiple_of(every) || dropped || is_last {
+            let frame = firecast_render::FireFrame::new(fire_state, helicopter).with_drops(&drops);
+            let image = firecast_render::render_frame(&self.basemap, &frame, &self.options);
+            if let Some(dir) = &self.outputs.frames_dir {
+                firecast_render::write_png(&image, dir.join(format!("frame_{:05}.png", self.step)))?;
+            }
+            if let Some(gif) = &mut self.gif {
+                gif.add_frame(&image)?;
+            }
+        }
+        if let Some(rec) = &self.recording {
+            log_step(
+                rec,
+                self.step,
+                info,
+                fire_state,
+                self.width,
+                self.height,
+                helicopter,
+                dropped,
+            )?;
+        }
+        self.step += 1;
+        Ok(())
+    }
+
+    fn finish(self) -> Result<(), EpisodeError> {
+        if let Some(gif) = self.gif {
+            gif.finish()?;
+        }
+        if let (Some(rec), Some(path)) = (self.recording, &self.outputs.recording) {
+            rec.finish_to_file(path)?;
+        }
+        Ok(())
+    }
+}
+
+/// Grid rows run south to north; images run top to bottom.
+fn flip_rows(cells: &[u8], width: usize, height: usize) -> Vec<u8> {
+    let mut out = Vec::with_capacity(cells.len());
+    for y in (0..height).rev() {
+        out.extend_from_slice(&cells[y * width..(y + 1) * width]);
+    }
+    out
+}
+
+fn log_terrain(rec: &firecast_recorder::Recording, landscape: &Landscape) -> Result<(), EpisodeError> {
+    use firecast_recorder::rerun;
+    let stream = rec.stream();
+    // One pixel per cell, no legend: image coordinates are cell coordinates.
+    let options = firecast_render::RenderOptions {
+        scale: 1,
+        legend: false,
+        ..firecast_render::RenderOptions::default()
+    };
+    let terrain = firecast_render::Basemap::new(landscape, &options).image;
+    let err = firecast_recorder::RecorderError::from;
+    stream
+        .log_static(
+            "env/terrain",
+            &rerun::Image::from_rgb24(
+                terrain.data.clone(),
+                [terrain.width as u32, terrain.height as u32],
+            ),
+        )
+        .map_err(err)?;
+    let context = rerun::AnnotationContext::new([
+        (0u16, "unburnt", rerun::Rgba32::from_unmultiplied_rgba(0, 0, 0, 0)),
+        (
+            1u16,
+            "burning",
+            rerun::Rgba32::from_unmultiplied_rgba(255, 80, 0, 230),
+        ),
+        (
+            2u16,
+            "burnt",
+            rerun::Rgba32::from_unmultiplied_rgba(40, 30, 30, 200),
+        ),
+    ]);
+    stream
+        .log_static("env/fire", &context)
+        .map_err(firecast_recorder::RecorderError::from)?;
+    stream
+        .log_static(
+            "stats/cells_burning",
+            &rerun::SeriesLines::new()
+                .with_names(["cells burning"])
+                .with_colors([[255, 80, 0]]),
+        )
+        .map_err(firecast_recorder::RecorderError::from)?;
+    stream
+        .log_static(
+            "stats/cells_burnt",
+            &rerun::SeriesLines::new()
+                .with_names(["cells burnt"])
+                .with_colors([[60, 60, 60]]),
+        )
+        .map_err(firecast_recorder::RecorderError::from)?;
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn log_step(
+    rec: &firecast_recorder::Recording,
+    step: usize,
+    info: &StepInfo,
+    fire_state: &[u8],
+    width: usize,
+    height: usize,
+    helicopter: [i32; 2],
+    dropped: bool,
+) -> Result<(), EpisodeError> {
+    use firecast_recorder::rerun;
+    let stream = rec.stream();
+    stream.set_time_sequence("step", step as i64);
+    stream.set_duration_secs("sim_time", info.sim_time_min * 60.0);
+    let tensor = rerun::datatypes::TensorData::new(
+        vec![height as u64, width as u64],
+        rerun::datatypes::TensorBuffer::U8(flip_rows(fire_state, width, height).into()),
+    );
+    let image = rerun::SegmentationImage::try_from(tensor)
+        .map_err(|e| firecast_recorder::RecorderError::Log(e.to_string()))?;
+    let err = firecast_recorder::RecorderError::from;
+    stream.log("env/fire", &image).map_err(err)?;
+    // Image coordinates: x right, y down from the north edge; cell centres.
+    let position = (
+        helicopter[0] as f32 + 0.5,
+        (height as f32 - 1.0 - helicopter[1] as f32) + 0.5,
+    );
+    stream
+        .log(
+            "env/helicopter",
+            &rerun::Points2D::new([position])
+                .with_radii([1.5])
+                .with_colors([[255, 255, 255]]),
+        )
+        .map_err(err)?;
+    if dropped {
+        stream
+            .log(
+                "env/drops",
+                &rerun::Points2D::new([position])
+                    .with_radii([5.28])
+                    .with_colors([[40, 120, 255]]),
+            )
+            .map_err(err)?;
+    }
+    stream
+        .log(
+            "stats/cells_burning",
+            &rerun::Scalars::single(f64::from(info.cells_burning)),
+        )
+        .map_err(err)?;
+    stream
+        .log(
+            "stats/cells_burnt",
+            &rerun::Scalars::single(f64::from(info.cells_burnt)),
+        )
+        .map_err(err)?;
+    Ok(())
+}

@@ -1,0 +1,119 @@
+//! Episodes end to end: numbers, GIF, Rerun recording, determinism, scenario strictness.
+#![allow(clippy::unwrap_used)]
+
+use std::path::{Path, PathBuf};
+
+use firecast_episodes::{AgentKind, LandscapeSpec, Outputs, Scenario};
+
+fn scenario() -> Scenario {
+    let mut env = firecast_sim::EnvConfig::default();
+    env.sim.wind.speed_mph = 10.0;
+    env.sim.wind.from_direction_deg = 250.0;
+    env.max_steps = 400;
+    Scenario {
+        landscape: LandscapeSpec::Procedural {
+            seed: 3,
+            width: 120,
+            height: 80,
+        },
+        env,
+    }
+}
+
+#[test]
+fn rule_agent_runs_with_gif_and_a_readable_recording() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scenario();
+    let land = s.landscape.load(dir.path()).unwrap();
+    let outputs = Outputs {
+        frames_dir: Some(dir.path().join("frames")),
+        gif: Some(dir.path().join("fire.gif")),
+        recording: Some(dir.path().join("fire.rrd")),
+        frame_every: 10,
+    };
+    let mut seen = 0;
+    let summary = firecast_episodes::run(&s, &land, AgentKind::Rule, 2, 5, &outputs, |_| seen += 1).unwrap();
+    assert_eq!(seen, 2);
+    assert_eq!(summary.report.episodes.len(), 2);
+    assert_eq!(summary.report.episodes[0].seed, 5);
+    let first = summary.report.episodes[0];
+    assert!(first.helitacks > 0, "the rule agent drops water");
+    assert!((first.water_used_gal - 800.0 * f64::from(first.helitacks)).abs() < 1e-9);
+
+    let frames = std::fs::read_dir(dir.path().join("frames")).unwrap().count();
+    assert!(
+        frames >= (first.timesteps as usize) / 10,
+        "{frames} frames for {} steps",
+        first.timesteps
+    );
+    let gif = std::fs::read(dir.path().join("fire.gif")).unwrap();
+    assert_eq!(&gif[..6], b"GIF89a");
+
+    let rerun = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../.venv/bin/rerun");
+    let out = std::process::Command::new(&rerun)
+        .args(["rrd", "print"])
+        .arg(dir.path().join("fire.rrd"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    for entity in ["env/fire", "env/terrain", "env/helicopter", "stats/cells_burning"] {
+        assert!(text.contains(entity), "recording lacks {entity}");
+    }
+    // No temporary files left next to the outputs.
+    let leftovers: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .filter(|n| n.starts_with('.'))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+#[test]
+fn same_seed_same_numbers_and_suppression_helps() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = scenario();
+    let land = s.landscape.load(dir.path()).unwrap();
+    let run = |agent| {
+        firecast_episodes::run(&s, &land, agent, 3, 11, &Outputs::default(), |_| {})
+            .unwrap()
+            .report
+    };
+    let rule = run(AgentKind::Rule);
+    assert_eq!(rule, run(AgentKind::Rule), "same seed, same episodes");
+    let none = run(AgentKind::None);
+    assert!(none.helitacks.mean == 0.0);
+    assert!(
+        rule.cells_burned.mean <= none.cells_burned.mean,
+        "rule {} vs none {}",
+        rule.cells_burned.mean,
+        none.cells_burned.mean
+    );
+}
+
+#[test]
+fn scenario_files_are_strict() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scenario.yaml");
+    std::fs::write(
+        &path,
+        "landscape:\n  procedural: {seed: 1}\nenv:\n  sim:\n    wind: {speed_mph: 5, from_deg: 90}\n",
+    )
+    .unwrap();
+    let err = Scenario::from_file(&path).unwrap_err().to_string();
+    assert!(
+        err.contains(":5:") && err.contains("unknown field `from_deg`"),
+        "{err}"
+    );
+    std::fs::write(
+        &path,
+        "landscape:\n  procedural: {seed: 1}\nenv:\n  sim:\n    wind: {speed_mph: 5, from_direction_deg: 90}\n",
+    )
+    .unwrap();
+    let s = Scenario::from_file(&path).unwrap();
+    assert_eq!(s.env.sim.wind.from_direction_deg, 90.0);
+    assert!("procedural:x".parse::<LandscapeSpec>().is_err());
+    assert!("firecastrl:a.png".parse::<LandscapeSpec>().is_err());
+    let _ = Path::new(".");
+}

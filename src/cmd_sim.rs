@@ -1,0 +1,397 @@
+//! `firecast sim spread-rate|run` and `firecast bench sim`.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::Context as _;
+use clap::{Args, Subcommand};
+use firecast_episodes::{AgentKind, EpisodesSummary, LandscapeSpec, Outputs, Scenario};
+
+use crate::output;
+use crate::settings::Settings;
+
+#[derive(Debug, Subcommand)]
+pub enum SimCommand {
+    /// Rothermel/Albini surface spread (as behave computes it) for every row of a CSV.
+    ///
+    /// Input columns, by header name (the inputs of behave's random oracle): `fm` or `code`
+    /// or `fuel_model` (number or code, e.g. 102 or GR2); `m1_pct`, `m10_pct`, `m100_pct`,
+    /// `mherb_pct`, `mwoody_pct` (percent); `midflame_mph`; `slope_pct`;
+    /// `wind_dir_rel_upslope_deg` (where the wind blows toward, clockwise from upslope).
+    /// Output adds R0_ftmin, ros_ftmin, ros_chph, dir_max_spread_rel_upslope_deg,
+    /// IR_btuft2min, flame_ft, fli_btufts, hpua_btuft2, lw_ratio, back_ftmin, flank_ftmin.
+    SpreadRate {
+        /// Cases to evaluate.
+        #[arg(long, value_name = "CSV")]
+        input: PathBuf,
+        /// Where to write the results (written atomically).
+        #[arg(long, value_name = "CSV")]
+        output: PathBuf,
+    },
+    /// Simulate fires with a helitack agent; print the paper's Table IV columns.
+    Run(RunArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// Terrain: `procedural:SEED` or `firecastrl:LAND_COVER.png,HEIGHTMAP.png`.
+    #[arg(long, value_name = "SPEC", conflicts_with = "scenario")]
+    pub landscape: Option<String>,
+    /// A scenario YAML (`landscape:` and `env:`), for GeoTIFF terrain and full env settings.
+    #[arg(long, value_name = "FILE")]
+    pub scenario: Option<PathBuf>,
+    /// Agent(s): none, rule (circle of radius 30), rule-concentric (45/40/35). Repeat to compare.
+    #[arg(long, default_value = "rule", value_name = "AGENT")]
+    pub agent: Vec<String>,
+    /// Episodes per agent (seeds SEED, SEED+1, …).
+    #[arg(long, default_value_t = 10)]
+    pub episodes: usize,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Midflame wind speed, mi/h (overrides the scenario).
+    #[arg(long, value_name = "MPH")]
+    pub wind_mph: Option<f64>,
+    /// Direction the wind comes from, degrees clockwise from north (as GRIDMET `th`).
+    #[arg(long, value_name = "DEG")]
+    pub wind_from_deg: Option<f64>,
+    /// Write PNG frames of the first episode into DIR (one subfolder per agent).
+    #[arg(long, value_name = "DIR")]
+    pub frames: Option<PathBuf>,
+    /// Write an animated GIF of the first episode (`-AGENT` is added when comparing agents).
+    #[arg(long, value_name = "FILE")]
+    pub gif: Option<PathBuf>,
+    /// Write a Rerun recording (.rrd) of the first episode (open with rerun-sdk 0.36.3).
+    #[arg(long, value_name = "FILE")]
+    pub rerun: Option<PathBuf>,
+    /// Keep every k-th step in PNG frames and the GIF (drops are always kept).
+    #[arg(long, default_value_t = 4, value_name = "K")]
+    pub frame_every: usize,
+    /// Also print every episode.
+    #[arg(long)]
+    pub per_episode: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct BenchSimArgs {
+    /// Environment steps to time on one thread.
+    #[arg(long, default_value_t = 50_000)]
+    pub steps: u64,
+    /// Environments in the vectorised run [default: 4 per core].
+    #[arg(long)]
+    pub envs: Option<usize>,
+    /// Landscape seed (procedural 240 x 160).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+pub fn run(settings: &Settings, command: SimCommand) -> anyhow::Result<ExitCode> {
+    match command {
+        SimCommand::SpreadRate { input, output } => {
+            let rows =
+                firecast_sim::spread_rate_csv(&settings.root.join(&input), &settings.root.join(&output))?;
+            if settings.json {
+                output::print_json(&serde_json::json!({ "rows": rows, "output": output }))?;
+            } else {
+                println!("{rows} cases written to {}", output.display());
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        SimCommand::Run(args) => sim_run(settings, &args),
+    }
+}
+
+fn with_agent_suffix(path: &Path, agent: &str, many: bool) -> PathBuf {
+    if !many {
+        return path.to_path_buf();
+    }
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_default();
+    let name = match path.extension() {
+        Some(ext) => format!("{stem}-{agent}.{}", ext.to_string_lossy()),
+        None => format!("{stem}-{agent}"),
+    };
+    path.with_file_name(name)
+}
+
+fn sim_run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
+    let mut scenario = match (&args.scenario, &args.landscape) {
+        (Some(file), _) => Scenario::from_file(&settings.root.join(file))?,
+        (None, Some(spec)) => Scenario {
+            landscape: spec.parse::<LandscapeSpec>()?,
+            env: firecast_sim::EnvConfig::default(),
+        },
+        (None, None) => Scenario {
+            landscape: LandscapeSpec::Procedural {
+                seed: 1,
+                width: 240,
+                height: 160,
+            },
+            env: firecast_sim::EnvConfig::default(),
+        },
+    };
+    if let Some(speed) = args.wind_mph {
+        scenario.env.sim.wind.speed_mph = speed;
+    }
+    if let Some(from) = args.wind_from_deg {
+        scenario.env.sim.wind.from_direction_deg = from;
+    }
+    let agents = args
+        .agent
+        .iter()
+        .map(|a| a.parse::<AgentKind>())
+        .collect::<Result<Vec<_>, _>>()?;
+    let landscape = scenario
+        .landscape
+        .load(&settings.root)
+        .context("cannot build the landscape")?;
+    let many = agents.len() > 1;
+    let mut summaries: Vec<EpisodesSummary> = Vec::new();
+    for agent in agents {
+        let outputs = Outputs {
+            frames_dir: args
+                .frames
+                .as_ref()
+                .map(|d| settings.root.join(d).join(agent.name())),
+            gif: args
+                .gif
+                .as_ref()
+                .map(|p| settings.root.join(with_agent_suffix(p, agent.name(), many))),
+            recording: args
+                .rerun
+                .as_ref()
+                .map(|p| settings.root.join(with_agent_suffix(p, agent.name(), many))),
+            frame_every: args.frame_every,
+        };
+        let bar = progress_bar(settings, args.episodes as u64, agent.name());
+        let summary = firecast_episodes::run(
+            &scenario,
+            &landscape,
+            agent,
+            args.episodes,
+            args.seed,
+            &outputs,
+            |_| {
+                bar.inc(1);
+            },
+        )?;
+        bar.finish_and_clear();
+        summaries.push(summary);
+    }
+    if settings.json {
+        output::print_json(&summaries)?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    let ms =
+        |m: &firecast_sim::MeanStd, digits: usize| format!("{:.*} ± {:.*}", digits, m.mean, digits, m.std);
+    let mut table = output::table(&[
+        "agent",
+        "episodes",
+        "cells burned",
+        "timesteps",
+        "helitacks",
+        "water used (gal)",
+    ]);
+    for s in &summaries {
+        let r = &s.report;
+        table.add_row(vec![
+            s.agent.to_string(),
+            r.episodes.len().to_string(),
+            ms(&r.cells_burned, 1),
+            ms(&r.timesteps, 1),
+            ms(&r.helitacks, 1),
+            ms(&r.water_used_gal, 0),
+        ]);
+    }
+    println!(
+        "{} x {} cells of {} ft, wind {} mi/h from {}°, seeds {}..{}",
+        landscape.width,
+        landscape.height,
+        landscape.cell_size_ft,
+        scenario.env.sim.wind.speed_mph,
+        scenario.env.sim.wind.from_direction_deg,
+        args.seed,
+        args.seed + args.episodes as u64 - 1
+    );
+    output::print_table(&table)?;
+    if args.per_episode {
+        let mut table = output::table(&[
+            "agent",
+            "seed",
+            "cells burned",
+            "timesteps",
+            "helitacks",
+            "water (gal)",
+            "fire out",
+        ]);
+        for s in &summaries {
+            for e in &s.report.episodes {
+                table.add_row(vec![
+                    s.agent.to_string(),
+                    e.seed.to_string(),
+                    e.cells_burned.to_string(),
+                    e.timesteps.to_string(),
+                    e.helitacks.to_string(),
+                    format!("{:.0}", e.water_used_gal),
+                    e.terminated.to_string(),
+                ]);
+            }
+        }
+        output::print_table(&table)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn progress_bar(settings: &Settings, len: u64, label: &str) -> indicatif::ProgressBar {
+    if !settings.progress {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>16} [{bar:30}] {pos}/{len} episodes ({eta})")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar.set_message(label.to_string());
+    bar
+}
+
+/// `firecast bench sim`: environment steps per second and Rothermel evaluations per second.
+pub fn bench(settings: &Settings, args: &BenchSimArgs) -> anyhow::Result<ExitCode> {
+    use firecast_sim::{Action, EnvConfig, VecEnv, WildfireEnv};
+    let landscape = LandscapeSpec::Procedural {
+        seed: args.seed,
+        width: 240,
+        height: 160,
+    }
+    .load(&settings.root)?;
+    // A steady wind keeps the fire active for the whole measurement.
+    let mut cfg = EnvConfig::default();
+    cfg.sim.wind.speed_mph = 10.0;
+    cfg.sim.wind.from_direction_deg = 225.0;
+    const ACTIONS: [Action; 8] = [
+        Action::Up,
+        Action::Right,
+        Action::Drop,
+        Action::Down,
+        Action::Left,
+        Action::Drop,
+        Action::Up,
+        Action::Right,
+    ];
+
+    let mut env = WildfireEnv::new(&landscape, &cfg)?;
+    env.reset(0);
+    let mut burning_steps = 0u64;
+    let mut resets = 0u64;
+    let started = Instant::now();
+    for i in 0..args.steps {
+        let (obs, _, terminated, truncated, info) = env.step(ACTIONS[(i % 8) as usize]);
+        std::hint::black_box(obs.current_frame());
+        if info.cells_burning > 0 {
+            burning_steps += 1;
+        }
+        if terminated || truncated {
+            resets += 1;
+            env.reset(resets);
+        }
+    }
+    let single = args.steps as f64 / started.elapsed().as_secs_f64();
+
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let n = args.envs.unwrap_or(cores * 4).max(1);
+    let mut vec_env = VecEnv::new(&landscape, &cfg, n, 0)?;
+    let rounds = (args.steps / n as u64).max(1);
+    let mut actions = vec![Action::Up; n];
+    let started = Instant::now();
+    for r in 0..rounds {
+        for (k, a) in actions.iter_mut().enumerate() {
+            *a = ACTIONS[(r as usize + k) % 8];
+        }
+        vec_env.step(&actions)?;
+        std::hint::black_box(vec_env.frames());
+    }
+    let vectorised = (rounds * n as u64) as f64 / started.elapsed().as_secs_f64();
+
+    let (prepared, full) = bench_rothermel(200_000)?;
+    let report = serde_json::json!({
+        "landscape": "procedural 240 x 160 x 500 ft, wind 10 mi/h from 225°",
+        "single_env_steps_per_sec": single,
+        "single_env_fire_active_fraction": burning_steps as f64 / args.steps as f64,
+        "vec_env_envs": n,
+        "vec_env_threads": cores,
+        "vec_env_steps_per_sec": vectorised,
+        "rothermel_spread_per_sec_prepared_bed": prepared,
+        "rothermel_bed_and_spread_per_sec": full,
+    });
+    if settings.json {
+        output::print_json(&report)?;
+    } else {
+        let mut table = output::table(&["measurement", "per second"]);
+        table.add_row(vec![
+            format!(
+                "env steps, 1 env on 1 thread (observation included; fire active {:.0}% of steps)",
+                100.0 * burning_steps as f64 / args.steps as f64
+            ),
+            format!("{single:.0}"),
+        ]);
+        table.add_row(vec![
+            format!("env steps, {n} envs on {cores} threads (VecEnv)"),
+            format!("{vectorised:.0}"),
+        ]);
+        table.add_row(vec![
+            "Rothermel spread, prepared fuel bed".to_string(),
+            format!("{prepared:.0}"),
+        ]);
+        table.add_row(vec![
+            "Rothermel fuel bed + spread".to_string(),
+            format!("{full:.0}"),
+        ]);
+        println!(
+            "procedural 240 x 160 landscape (seed {}), wind 10 mi/h from 225°",
+            args.seed
+        );
+        output::print_table(&table)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Rothermel point evaluations per second over the 53 standard fuel models with varied
+/// inputs: with a prepared fuel bed (the automaton's case) and building the bed each time.
+fn bench_rothermel(n: usize) -> anyhow::Result<(f64, f64)> {
+    use firecast_sim::{FuelModel, FuelMoisture, SpreadInputs, SurfaceFuelBed};
+    let models: Vec<_> = FuelModel::standard().iter().filter(|m| m.burnable).collect();
+    let moisture = FuelMoisture::from_percent(6.0, 7.0, 8.0, 60.0, 90.0);
+    let beds = models
+        .iter()
+        .map(|m| SurfaceFuelBed::new(m, &moisture))
+        .collect::<Result<Vec<_>, _>>()?;
+    let inputs: Vec<SpreadInputs> = (0..1024)
+        .map(|i| {
+            SpreadInputs::new(
+                f64::from(i % 20),
+                f64::from((i * 7) % 80),
+                f64::from((i * 37) % 360),
+            )
+        })
+        .collect::<Result<_, _>>()?;
+    let started = Instant::now();
+    let mut sink = 0.0;
+    for i in 0..n {
+        sink += beds[i % beds.len()]
+            .spread(&inputs[i % inputs.len()])
+            .head_ros_ftmin;
+    }
+    let prepared = n as f64 / started.elapsed().as_secs_f64();
+    let started = Instant::now();
+    let m = n / 4;
+    for i in 0..m {
+        let bed = SurfaceFuelBed::new(models[i % models.len()], &moisture)?;
+        sink += bed.spread(&inputs[i % inputs.len()]).head_ros_ftmin;
+    }
+    let full = m as f64 / started.elapsed().as_secs_f64();
+    std::hint::black_box(sink);
+    Ok((prepared, full))
+}
