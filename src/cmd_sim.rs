@@ -258,19 +258,94 @@ fn progress_bar(settings: &Settings, len: u64, label: &str) -> indicatif::Progre
     bar
 }
 
+/// One benchmark scenario's results.
+#[derive(Debug, serde::Serialize)]
+struct EnvBench {
+    scenario: &'static str,
+    single_env_steps_per_sec: f64,
+    mean_cells_burning: f64,
+    vec_envs: usize,
+    vec_threads: usize,
+    vec_env_steps_per_sec: f64,
+}
+
 /// `firecast bench sim`: environment steps per second and Rothermel evaluations per second.
 pub fn bench(settings: &Settings, args: &BenchSimArgs) -> anyhow::Result<ExitCode> {
-    use firecast_sim::{Action, EnvConfig, VecEnv, WildfireEnv};
+    use firecast_sim::{EnvConfig, KernelConfig, Termination};
     let landscape = LandscapeSpec::Procedural {
         seed: args.seed,
         width: 240,
         height: 160,
     }
     .load(&settings.root)?;
-    // A steady wind keeps the fire active for the whole measurement.
-    let mut cfg = EnvConfig::default();
-    cfg.sim.wind.speed_mph = 10.0;
-    cfg.sim.wind.from_direction_deg = 225.0;
+    // Episodes end as soon as nothing burns, so every timed step has a fire.
+    let mut firecastrl = EnvConfig::default();
+    firecastrl.termination = Termination::NoBurningCells;
+    firecastrl.sim.wind.speed_mph = 10.0;
+    firecastrl.sim.wind.from_direction_deg = 225.0;
+    let mut wind_driven = firecastrl.clone();
+    wind_driven.sim.kernel = KernelConfig::Rothermel {
+        moisture: firecast_sim::FuelMoisture::from_percent(5.0, 6.0, 8.0, 60.0, 90.0),
+        drop_moisture_increment: 0.05,
+    };
+    let results = [
+        bench_env(
+            &landscape,
+            &firecastrl,
+            "FireCastRL defaults (Concord kernel), wind 10 mi/h",
+            args,
+        )?,
+        bench_env(
+            &landscape,
+            &wind_driven,
+            "Rothermel kernel, dry fuels, wind 10 mi/h (large fire)",
+            args,
+        )?,
+    ];
+    let (prepared, full) = bench_rothermel(200_000)?;
+    if settings.json {
+        output::print_json(&serde_json::json!({
+            "landscape": format!("procedural 240 x 160 x 500 ft, seed {}", args.seed),
+            "env": results,
+            "rothermel_spread_per_sec_prepared_bed": prepared,
+            "rothermel_bed_and_spread_per_sec": full,
+        }))?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!(
+        "procedural 240 x 160 landscape (seed {}); observation included in every step",
+        args.seed
+    );
+    let mut table = output::table(&["scenario", "cells burning (mean)", "1 env, 1 thread", "VecEnv"]);
+    for r in &results {
+        table.add_row(vec![
+            r.scenario.to_string(),
+            format!("{:.0}", r.mean_cells_burning),
+            format!("{:.0} steps/s", r.single_env_steps_per_sec),
+            format!(
+                "{:.0} steps/s ({} envs, {} threads)",
+                r.vec_env_steps_per_sec, r.vec_envs, r.vec_threads
+            ),
+        ]);
+    }
+    output::print_table(&table)?;
+    let mut table = output::table(&["Rothermel/Albini point evaluation", "per second"]);
+    table.add_row(vec![
+        "spread, prepared fuel bed".to_string(),
+        format!("{prepared:.0}"),
+    ]);
+    table.add_row(vec!["fuel bed + spread".to_string(), format!("{full:.0}")]);
+    output::print_table(&table)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+fn bench_env(
+    landscape: &firecast_landscape::Landscape,
+    cfg: &firecast_sim::EnvConfig,
+    scenario: &'static str,
+    args: &BenchSimArgs,
+) -> anyhow::Result<EnvBench> {
+    use firecast_sim::{Action, VecEnv, WildfireEnv};
     const ACTIONS: [Action; 8] = [
         Action::Up,
         Action::Right,
@@ -281,18 +356,15 @@ pub fn bench(settings: &Settings, args: &BenchSimArgs) -> anyhow::Result<ExitCod
         Action::Up,
         Action::Right,
     ];
-
-    let mut env = WildfireEnv::new(&landscape, &cfg)?;
+    let mut env = WildfireEnv::new(landscape, cfg)?;
     env.reset(0);
-    let mut burning_steps = 0u64;
+    let mut burning_sum = 0u64;
     let mut resets = 0u64;
     let started = Instant::now();
     for i in 0..args.steps {
         let (obs, _, terminated, truncated, info) = env.step(ACTIONS[(i % 8) as usize]);
         std::hint::black_box(obs.current_frame());
-        if info.cells_burning > 0 {
-            burning_steps += 1;
-        }
+        burning_sum += u64::from(info.cells_burning);
         if terminated || truncated {
             resets += 1;
             env.reset(resets);
@@ -300,9 +372,9 @@ pub fn bench(settings: &Settings, args: &BenchSimArgs) -> anyhow::Result<ExitCod
     }
     let single = args.steps as f64 / started.elapsed().as_secs_f64();
 
-    let cores = std::thread::available_parallelism().map_or(1, usize::from);
-    let n = args.envs.unwrap_or(cores * 4).max(1);
-    let mut vec_env = VecEnv::new(&landscape, &cfg, n, 0)?;
+    let threads = std::thread::available_parallelism().map_or(1, usize::from);
+    let n = args.envs.unwrap_or(threads * 4).max(1);
+    let mut vec_env = VecEnv::new(landscape, cfg, n, 0)?;
     let rounds = (args.steps / n as u64).max(1);
     let mut actions = vec![Action::Up; n];
     let started = Instant::now();
@@ -314,48 +386,14 @@ pub fn bench(settings: &Settings, args: &BenchSimArgs) -> anyhow::Result<ExitCod
         std::hint::black_box(vec_env.frames());
     }
     let vectorised = (rounds * n as u64) as f64 / started.elapsed().as_secs_f64();
-
-    let (prepared, full) = bench_rothermel(200_000)?;
-    let report = serde_json::json!({
-        "landscape": "procedural 240 x 160 x 500 ft, wind 10 mi/h from 225°",
-        "single_env_steps_per_sec": single,
-        "single_env_fire_active_fraction": burning_steps as f64 / args.steps as f64,
-        "vec_env_envs": n,
-        "vec_env_threads": cores,
-        "vec_env_steps_per_sec": vectorised,
-        "rothermel_spread_per_sec_prepared_bed": prepared,
-        "rothermel_bed_and_spread_per_sec": full,
-    });
-    if settings.json {
-        output::print_json(&report)?;
-    } else {
-        let mut table = output::table(&["measurement", "per second"]);
-        table.add_row(vec![
-            format!(
-                "env steps, 1 env on 1 thread (observation included; fire active {:.0}% of steps)",
-                100.0 * burning_steps as f64 / args.steps as f64
-            ),
-            format!("{single:.0}"),
-        ]);
-        table.add_row(vec![
-            format!("env steps, {n} envs on {cores} threads (VecEnv)"),
-            format!("{vectorised:.0}"),
-        ]);
-        table.add_row(vec![
-            "Rothermel spread, prepared fuel bed".to_string(),
-            format!("{prepared:.0}"),
-        ]);
-        table.add_row(vec![
-            "Rothermel fuel bed + spread".to_string(),
-            format!("{full:.0}"),
-        ]);
-        println!(
-            "procedural 240 x 160 landscape (seed {}), wind 10 mi/h from 225°",
-            args.seed
-        );
-        output::print_table(&table)?;
-    }
-    Ok(ExitCode::SUCCESS)
+    Ok(EnvBench {
+        scenario,
+        single_env_steps_per_sec: single,
+        mean_cells_burning: burning_sum as f64 / args.steps as f64,
+        vec_envs: n,
+        vec_threads: threads,
+        vec_env_steps_per_sec: vectorised,
+    })
 }
 
 /// Rothermel point evaluations per second over the 53 standard fuel models with varied
