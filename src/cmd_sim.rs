@@ -279,8 +279,10 @@ pub fn bench(settings: &Settings, args: &BenchSimArgs) -> anyhow::Result<ExitCod
     }
     .load(&settings.root)?;
     // Episodes end as soon as nothing burns, so every timed step has a fire.
-    let mut firecastrl = EnvConfig::default();
-    firecastrl.termination = Termination::NoBurningCells;
+    let mut firecastrl = EnvConfig {
+        termination: Termination::NoBurningCells,
+        ..EnvConfig::default()
+    };
     firecastrl.sim.wind.speed_mph = 10.0;
     firecastrl.sim.wind.from_direction_deg = 225.0;
     let mut wind_driven = firecastrl.clone();
