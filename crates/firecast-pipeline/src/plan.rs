@@ -496,3 +496,32 @@ pub fn yaml_to_json(v: &Value) -> Result<serde_json::Value, String> {
         Value::Tagged(t) => yaml_to_json(&t.value)?,
     })
 }
+
+/// Params flattened to dotted key paths (`env.sim.wind.speed_mph`) with their leaf values,
+/// for diffs and side-by-side comparisons. Empty objects are leaves.
+pub fn flatten_params(value: &serde_json::Value) -> std::collections::BTreeMap<String, serde_json::Value> {
+    fn walk(
+        prefix: &str,
+        value: &serde_json::Value,
+        out: &mut std::collections::BTreeMap<String, serde_json::Value>,
+    ) {
+        match value {
+            serde_json::Value::Object(map) if !map.is_empty() => {
+                for (k, v) in map {
+                    let key = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    walk(&key, v, out);
+                }
+            }
+            other => {
+                out.insert(prefix.to_string(), other.clone());
+            }
+        }
+    }
+    let mut out = std::collections::BTreeMap::new();
+    walk("", value, &mut out);
+    out
+}

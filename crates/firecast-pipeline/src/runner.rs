@@ -142,6 +142,15 @@ struct Processed {
     outputs: BTreeMap<String, ContentHash>,
 }
 
+/// What `finish` needs to know about a run that succeeded.
+struct FinishedRun {
+    run_id: String,
+    cache_key: String,
+    inputs: BTreeMap<String, Vec<LockedFile>>,
+    reasons: Vec<String>,
+    started: Instant,
+}
+
 /// Shared, read-only state for workers.
 struct RunShared<'a> {
     engine: &'a Engine,
@@ -649,8 +658,6 @@ impl RunShared<'_> {
         let run_id = new_run_id();
         let info = self.stage_info(stage, previous, &run_id, &cache_key);
         self.note(self.engine.observer.stage_started(&info), "run not registered");
-        let mut outputs = BTreeMap::new();
-        let mut output_locks = BTreeMap::new();
         for (name, output) in &stage.outputs {
             let Some(entry) = cached.get(name) else {
                 return Err(PipelineError::Stage {
@@ -658,46 +665,74 @@ impl RunShared<'_> {
                     message: format!("run-cache entry lacks output `{name}`"),
                 });
             };
-            let dest = self.engine.root.join(&output.path);
-            self.run_cache.restore(entry, &dest, &run_id)?;
+            self.run_cache
+                .restore(entry, &self.engine.root.join(&output.path), &run_id)?;
+        }
+        reasons.push("restored from the run-cache".into());
+        let run = FinishedRun {
+            run_id,
+            cache_key,
+            inputs: input_locks,
+            reasons,
+            started,
+        };
+        Ok(self.finish(stage, Outcome::Restored, run, &cached))
+    }
+
+    /// The common end of a stage that ran or was restored: record lineage and the run's
+    /// end, and return its report and lockfile entry.
+    fn finish(
+        &self,
+        stage: &PlannedStage,
+        outcome: Outcome,
+        run: FinishedRun,
+        cached: &BTreeMap<String, CachedOutput>,
+    ) -> Processed {
+        let mut output_locks = BTreeMap::new();
+        let mut outputs = BTreeMap::new();
+        for (name, entry) in cached {
             outputs.insert(name.clone(), entry.content.clone());
             output_locks.insert(
                 name.clone(),
                 LockedFile {
-                    path: output.path.display().to_string(),
+                    path: entry.path.clone(),
                     content: entry.content.clone(),
                 },
             );
         }
-        self.record_lineage(&run_id, &input_locks, &output_locks);
+        self.record_lineage(&run.run_id, &run.inputs, &output_locks);
+        let status = if outcome == Outcome::Restored {
+            RunStatus::Restored
+        } else {
+            RunStatus::Succeeded
+        };
         self.note(
             self.engine
                 .observer
-                .stage_finished(&run_id, RunStatus::Restored, chrono::Utc::now(), None),
+                .stage_finished(&run.run_id, status, chrono::Utc::now(), None),
             "run end not registered",
         );
-        reasons.push("restored from the run-cache".into());
-        Ok(Processed {
+        Processed {
             report: StageReport {
                 stage: stage.name.clone(),
                 kind: stage.kind.clone(),
-                outcome: Outcome::Restored,
-                reasons,
-                duration_secs: started.elapsed().as_secs_f64(),
-                run_id: Some(run_id.clone()),
+                outcome,
+                reasons: run.reasons,
+                duration_secs: run.started.elapsed().as_secs_f64(),
+                run_id: Some(run.run_id.clone()),
                 error: None,
             },
             lock_entry: Some(LockEntry {
                 kind: stage.kind.clone(),
                 kind_version: stage.kind_version,
-                cache_key,
-                run_id,
+                cache_key: run.cache_key,
+                run_id: run.run_id,
                 params: stage.params.clone(),
-                inputs: input_locks,
+                inputs: run.inputs,
                 outputs: output_locks,
             }),
             outputs,
-        })
+        }
     }
 
     fn stage_info(
@@ -871,51 +906,19 @@ impl RunShared<'_> {
             finals.insert(name.clone(), (dest, output.path.display().to_string()));
         }
         let cached = self.run_cache.save(&cache_key, &finals, &self.hashes)?;
-        let mut output_locks = BTreeMap::new();
-        let mut outputs = BTreeMap::new();
-        for (name, entry) in &cached {
-            outputs.insert(name.clone(), entry.content.clone());
-            output_locks.insert(
-                name.clone(),
-                LockedFile {
-                    path: entry.path.clone(),
-                    content: entry.content.clone(),
-                },
-            );
-        }
         for (name, output) in &stage.outputs {
             if output.artifact {
                 self.publish_artifact(&run_id, name, &root.join(&output.path));
             }
         }
-        self.record_lineage(&run_id, &input_locks, &output_locks);
-        self.note(
-            self.engine
-                .observer
-                .stage_finished(&run_id, RunStatus::Succeeded, chrono::Utc::now(), None),
-            "run end not registered",
-        );
-        Ok(Processed {
-            report: StageReport {
-                stage: stage.name.clone(),
-                kind: stage.kind.clone(),
-                outcome: Outcome::Ran,
-                reasons,
-                duration_secs: started.elapsed().as_secs_f64(),
-                run_id: Some(run_id.clone()),
-                error: None,
-            },
-            lock_entry: Some(LockEntry {
-                kind: stage.kind.clone(),
-                kind_version: stage.kind_version,
-                cache_key,
-                run_id,
-                params: stage.params.clone(),
-                inputs: input_locks,
-                outputs: output_locks,
-            }),
-            outputs,
-        })
+        let run = FinishedRun {
+            run_id,
+            cache_key,
+            inputs: input_locks,
+            reasons,
+            started,
+        };
+        Ok(self.finish(stage, Outcome::Ran, run, &cached))
     }
 
     fn publish_artifact(&self, run_id: &str, name: &str, path: &Path) {
@@ -1030,10 +1033,11 @@ fn stale_reasons(
             previous.kind, previous.kind_version, stage.kind, stage.kind_version
         ));
     }
-    let mut old = BTreeMap::new();
-    let mut new = BTreeMap::new();
-    flatten_json("", &previous.params, &mut old);
-    flatten_json("", &stage.params, &mut new);
+    let text = |m: BTreeMap<String, serde_json::Value>| -> BTreeMap<String, String> {
+        m.into_iter().map(|(k, v)| (k, v.to_string())).collect()
+    };
+    let old = text(crate::plan::flatten_params(&previous.params));
+    let new = text(crate::plan::flatten_params(&stage.params));
     let keys: BTreeSet<&String> = old.keys().chain(new.keys()).collect();
     for k in keys {
         match (old.get(k), new.get(k)) {
@@ -1103,24 +1107,6 @@ fn describe_change(old: &str, new: &str) -> String {
         )
     };
     format!("{} -> {}", excerpt(&a), excerpt(&b))
-}
-
-fn flatten_json(prefix: &str, value: &serde_json::Value, out: &mut BTreeMap<String, String>) {
-    match value {
-        serde_json::Value::Object(map) if !map.is_empty() => {
-            for (k, v) in map {
-                let key = if prefix.is_empty() {
-                    k.clone()
-                } else {
-                    format!("{prefix}.{k}")
-                };
-                flatten_json(&key, v, out);
-            }
-        }
-        other => {
-            out.insert(prefix.to_string(), other.to_string());
-        }
-    }
 }
 
 #[cfg(test)]

@@ -438,15 +438,7 @@ impl Registry {
             "SELECT run_id, name, uri, hash, size FROM artifacts WHERE run_id = ? ORDER BY name, uri",
         )?;
         let artifacts = stmt
-            .query_map(params![run_id], |r| {
-                Ok(ArtifactRow {
-                    run_id: r.get(0)?,
-                    name: r.get(1)?,
-                    uri: r.get(2)?,
-                    hash: r.get(3)?,
-                    size: r.get(4)?,
-                })
-            })?
+            .query_map(params![run_id], artifact_row)?
             .collect::<Result<_, _>>()?;
         let mut stmt = conn.prepare(
             "SELECT direction, name, uri, hash, size FROM lineage WHERE run_id = ? ORDER BY direction, name, uri",
@@ -491,15 +483,7 @@ impl Registry {
             ),
         };
         let mut stmt = conn.prepare(sql)?;
-        let rows = stmt.query_map(duckdb::params_from_iter(args.iter()), |r| {
-            Ok(ArtifactRow {
-                run_id: r.get(0)?,
-                name: r.get(1)?,
-                uri: r.get(2)?,
-                hash: r.get(3)?,
-                size: r.get(4)?,
-            })
-        })?;
+        let rows = stmt.query_map(duckdb::params_from_iter(args.iter()), artifact_row)?;
         Ok(rows.collect::<Result<_, _>>()?)
     }
 
@@ -594,6 +578,16 @@ const RUN_SELECT: &str =
     "SELECT run_id, pipeline_run_id, parent_run_id, pipeline, stage, kind, kind_version, params,
     status, strftime(started_at, '%Y-%m-%d %H:%M:%S'), strftime(ended_at, '%Y-%m-%d %H:%M:%S'),
     epoch(ended_at) - epoch(started_at), git_commit, cache_key, error FROM runs";
+
+fn artifact_row(r: &duckdb::Row<'_>) -> duckdb::Result<ArtifactRow> {
+    Ok(ArtifactRow {
+        run_id: r.get(0)?,
+        name: r.get(1)?,
+        uri: r.get(2)?,
+        hash: r.get(3)?,
+        size: r.get(4)?,
+    })
+}
 
 fn run_row(r: &duckdb::Row<'_>) -> duckdb::Result<RunRow> {
     let params: String = r.get(7)?;
@@ -705,9 +699,13 @@ pub fn params_side_by_side(runs: &[RunRow]) -> BTreeMap<String, Vec<Option<Strin
     let flat: Vec<BTreeMap<String, String>> = runs
         .iter()
         .map(|r| {
-            let mut out = BTreeMap::new();
-            flatten("", &r.params, &mut out);
-            out
+            firecast_pipeline::plan::flatten_params(&r.params)
+                .into_iter()
+                .map(|(k, v)| match v {
+                    serde_json::Value::String(s) => (k, s),
+                    other => (k, other.to_string()),
+                })
+                .collect()
         })
         .collect();
     let mut table: BTreeMap<String, Vec<Option<String>>> = BTreeMap::new();
@@ -717,27 +715,6 @@ pub fn params_side_by_side(runs: &[RunRow]) -> BTreeMap<String, Vec<Option<Strin
         }
     }
     table
-}
-
-fn flatten(prefix: &str, value: &serde_json::Value, out: &mut BTreeMap<String, String>) {
-    match value {
-        serde_json::Value::Object(map) if !map.is_empty() => {
-            for (k, v) in map {
-                let key = if prefix.is_empty() {
-                    k.clone()
-                } else {
-                    format!("{prefix}.{k}")
-                };
-                flatten(&key, v, out);
-            }
-        }
-        serde_json::Value::String(s) => {
-            out.insert(prefix.to_string(), s.clone());
-        }
-        other => {
-            out.insert(prefix.to_string(), other.to_string());
-        }
-    }
 }
 
 /// The version of the linked DuckDB library.
