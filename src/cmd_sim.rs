@@ -35,7 +35,8 @@ pub enum SimCommand {
 
 #[derive(Debug, Args)]
 pub struct RunArgs {
-    /// Terrain: `procedural:SEED` or `firecastrl:LAND_COVER.png,HEIGHTMAP.png`.
+    /// Terrain: `procedural:SEED` or `firecastrl:LAND_COVER.png,HEIGHTMAP.png`
+    /// [default: procedural:1].
     #[arg(long, value_name = "SPEC", conflicts_with = "scenario")]
     pub landscape: Option<String>,
     /// A scenario YAML (`landscape:` and `env:`), for GeoTIFF terrain and full env settings.
@@ -47,6 +48,7 @@ pub struct RunArgs {
     /// Episodes per agent (seeds SEED, SEED+1, …).
     #[arg(long, default_value_t = 10)]
     pub episodes: usize,
+    /// Seed of the first episode (every random draw is seeded: same seed, same fire).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Midflame wind speed, mi/h (overrides the scenario).
