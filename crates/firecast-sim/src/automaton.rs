@@ -37,6 +37,9 @@ const MIN_PER_DAY: f64 = 1440.0;
 const FLAG_RIVER: u8 = 1;
 const FLAG_FIRE_LINE: u8 = 2;
 const FLAG_ISLAND: u8 = 4;
+/// Bit pattern of a [`Automaton::rate_cache`] entry not yet computed (a NaN payload that no
+/// arithmetic produces).
+const RATE_UNSET: u64 = 0x7ff8_dead_beef_0001;
 
 /// Fire state of a cell (§A6.1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -323,6 +326,12 @@ pub struct Automaton {
     drops: Vec<u8>,
     in_sched: Vec<bool>,
     new_ign: Vec<f64>,
+    /// Memoised spread rate from source cell `c` along offset `k` (index `c * offsets + k`, so
+    /// one source's entries are contiguous) for the unmodified landscape: no helitack drop on
+    /// the target, no fire line on the target or the source. The rate is then a pure function
+    /// of (fuel entry, offset, rise), so entries stay valid across resets; `RATE_UNSET` marks
+    /// an entry not yet computed.
+    rate_cache: Vec<f64>,
     // Active lists and scratch.
     burning: Vec<u32>,
     scheduled: Vec<u32>,
@@ -506,6 +515,7 @@ impl Automaton {
             }
         }
 
+        let rate_cache = vec![f64::from_bits(RATE_UNSET); n * offsets.len()];
         let base_elev: Vec<f64> = landscape.elevation_ft.iter().map(|&e| f64::from(e)).collect();
         let mut a = Self {
             width: w,
@@ -531,6 +541,7 @@ impl Automaton {
             drops: vec![0; n],
             in_sched: vec![false; n],
             new_ign: vec![f64::INFINITY; n],
+            rate_cache,
             burning: Vec::new(),
             scheduled: Vec::new(),
             touched: Vec::new(),
@@ -794,7 +805,20 @@ impl Automaton {
             if blocked {
                 continue;
             }
-            let r = self.rate(n, &off, self.elev[n] - self.elev[c]);
+            let cacheable = self.drops[n] == 0 && (self.flags[n] | self.flags[c]) & FLAG_FIRE_LINE == 0;
+            let r = if cacheable {
+                let e = c * self.offsets.len() + k;
+                let v = self.rate_cache[e];
+                if v.to_bits() == RATE_UNSET {
+                    let r = self.rate(n, &off, self.elev[n] - self.elev[c]);
+                    self.rate_cache[e] = r;
+                    r
+                } else {
+                    v
+                }
+            } else {
+                self.rate(n, &off, self.elev[n] - self.elev[c])
+            };
             if r.is_nan() || r <= 0.0 {
                 continue;
             }

@@ -9,6 +9,7 @@ mod common;
 mod concord_kernel;
 mod env;
 mod identities;
+mod perf;
 mod properties;
 mod scenes;
 mod spread_csv;

@@ -1,0 +1,94 @@
+//! Step throughput of the helitack environment with a large wind-driven Rothermel fire (the
+//! `firecast bench sim` scenario), and a fixed hash of its fire-state sequence.
+
+use std::time::Instant;
+
+use firecast_landscape::procedural::{ProceduralOptions, generate};
+use firecast_sim::{Action, EnvConfig, FuelMoisture, KernelConfig, Termination, WildfireEnv, Wind};
+
+const ACTIONS: [Action; 8] = [
+    Action::Up,
+    Action::Right,
+    Action::Drop,
+    Action::Down,
+    Action::Left,
+    Action::Drop,
+    Action::Up,
+    Action::Right,
+];
+
+fn large_fire_env() -> WildfireEnv {
+    let land = generate(&ProceduralOptions::with_seed(1)).unwrap();
+    let mut cfg = EnvConfig {
+        termination: Termination::NoBurningCells,
+        ..EnvConfig::default()
+    };
+    cfg.sim.kernel = KernelConfig::Rothermel {
+        moisture: FuelMoisture::from_percent(5.0, 6.0, 8.0, 60.0, 90.0),
+        drop_moisture_increment: 0.05,
+    };
+    cfg.sim.wind = Wind {
+        speed_mph: 10.0,
+        from_direction_deg: 225.0,
+    };
+    WildfireEnv::new(&land, &cfg).unwrap()
+}
+
+/// FNV-1a over a byte slice, folded into `h`.
+fn fnv(mut h: u64, bytes: &[u8]) -> u64 {
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    h
+}
+
+/// Runs `steps` steps of the scenario; returns (with `hash`, an FNV-1a hash of every step's
+/// fire states, burn indices and observation frames; total cells burning summed over steps).
+fn run(steps: usize, hash: bool) -> (u64, u64) {
+    let mut env = large_fire_env();
+    let mut resets = 0u64;
+    env.reset(resets);
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    let mut burning = 0u64;
+    for k in 0..steps {
+        let (_obs, _r, term, trunc, info) = env.step(ACTIONS[k % ACTIONS.len()]);
+        burning += u64::from(info.cells_burning);
+        if term || trunc {
+            resets += 1;
+            env.reset(resets);
+        }
+        if hash {
+            let a = env.automaton();
+            h = fnv(fnv(h, a.fire_states()), a.burn_indices());
+            h = fnv(h, env.observation().frames);
+        }
+    }
+    (h, burning)
+}
+
+/// Hash of every step's fire states over 300 steps, recorded before the step-speed work.
+#[test]
+fn large_fire_state_sequence_is_unchanged() {
+    let (h, burning) = run(300, true);
+    assert_eq!(
+        (h, burning),
+        (0xb095_37e3_f5f6_bae0, 232_733),
+        "hash {h:#018x}, burning {burning}"
+    );
+}
+
+#[test]
+#[ignore = "timing; run with --ignored --nocapture"]
+fn large_fire_step_throughput() {
+    let steps = 50_000;
+    let start = Instant::now();
+    let (_, burning) = run(steps, false);
+    let secs = start.elapsed().as_secs_f64();
+    println!(
+        "{steps} steps in {secs:.3} s: {:.0} steps/s, {:.1} us/step, mean cells burning {:.1}",
+        steps as f64 / secs,
+        1e6 * secs / steps as f64,
+        burning as f64 / steps as f64
+    );
+}
