@@ -1,0 +1,2 @@
+//! FireCast data readers.
+pub mod gridmet;

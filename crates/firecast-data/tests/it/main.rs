@@ -1,0 +1,4 @@
+//! Integration tests for firecast-data.
+#![allow(clippy::unwrap_used)]
+
+mod gridmet;
