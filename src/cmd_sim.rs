@@ -273,25 +273,14 @@ struct EnvBench {
 
 /// `firecast bench sim`: environment steps per second and Rothermel evaluations per second.
 pub fn bench(settings: &Settings, args: &BenchSimArgs) -> anyhow::Result<ExitCode> {
-    use firecast_sim::{EnvConfig, KernelConfig, Termination};
     let landscape = LandscapeSpec::Procedural {
         seed: args.seed,
         width: 240,
         height: 160,
     }
     .load(&settings.root)?;
-    // Episodes end as soon as nothing burns, so every timed step has a fire.
-    let mut firecastrl = EnvConfig {
-        termination: Termination::NoBurningCells,
-        ..EnvConfig::default()
-    };
-    firecastrl.sim.wind.speed_mph = 10.0;
-    firecastrl.sim.wind.from_direction_deg = 225.0;
-    let mut wind_driven = firecastrl.clone();
-    wind_driven.sim.kernel = KernelConfig::Rothermel {
-        moisture: firecast_sim::FuelMoisture::from_percent(5.0, 6.0, 8.0, 60.0, 90.0),
-        drop_moisture_increment: 0.05,
-    };
+    let firecastrl = firecast_sim::bench::firecastrl_config();
+    let wind_driven = firecast_sim::bench::large_fire_config();
     let results = [
         bench_env(
             &landscape,
@@ -349,17 +338,8 @@ fn bench_env(
     scenario: &'static str,
     args: &BenchSimArgs,
 ) -> anyhow::Result<EnvBench> {
+    use firecast_sim::bench::ACTIONS;
     use firecast_sim::{Action, VecEnv, WildfireEnv};
-    const ACTIONS: [Action; 8] = [
-        Action::Up,
-        Action::Right,
-        Action::Drop,
-        Action::Down,
-        Action::Left,
-        Action::Drop,
-        Action::Up,
-        Action::Right,
-    ];
     let mut env = WildfireEnv::new(landscape, cfg)?;
     env.reset(0);
     let mut burning_sum = 0u64;

@@ -12,6 +12,7 @@
 
 pub mod agents;
 pub mod automaton;
+pub mod bench;
 pub mod concord;
 pub mod env;
 pub mod fuel;

@@ -4,34 +4,12 @@
 use std::time::Instant;
 
 use firecast_landscape::procedural::{ProceduralOptions, generate};
-use firecast_sim::{Action, EnvConfig, FuelMoisture, KernelConfig, Termination, WildfireEnv, Wind};
-
-const ACTIONS: [Action; 8] = [
-    Action::Up,
-    Action::Right,
-    Action::Drop,
-    Action::Down,
-    Action::Left,
-    Action::Drop,
-    Action::Up,
-    Action::Right,
-];
+use firecast_sim::WildfireEnv;
+use firecast_sim::bench::{self, ACTIONS};
 
 fn large_fire_env() -> WildfireEnv {
     let land = generate(&ProceduralOptions::with_seed(1)).unwrap();
-    let mut cfg = EnvConfig {
-        termination: Termination::NoBurningCells,
-        ..EnvConfig::default()
-    };
-    cfg.sim.kernel = KernelConfig::Rothermel {
-        moisture: FuelMoisture::from_percent(5.0, 6.0, 8.0, 60.0, 90.0),
-        drop_moisture_increment: 0.05,
-    };
-    cfg.sim.wind = Wind {
-        speed_mph: 10.0,
-        from_direction_deg: 225.0,
-    };
-    WildfireEnv::new(&land, &cfg).unwrap()
+    WildfireEnv::new(&land, &bench::large_fire_config()).unwrap()
 }
 
 /// FNV-1a over a byte slice, folded into `h`.
