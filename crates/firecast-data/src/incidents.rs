@@ -1,0 +1,1 @@
+//! IRWIN / WFIGS incident readers (data spec §1).

@@ -1,0 +1,1 @@
+//! Synthetic WFIGS + GRIDMET sources (seeded test bed).
