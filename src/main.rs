@@ -2,6 +2,7 @@
 //! command resolves its settings, calls a library crate, and prints a table or JSON.
 
 mod cmd_artifacts;
+mod cmd_dataset;
 mod cmd_pipeline;
 mod cmd_runs;
 mod cmd_sim;
@@ -43,6 +44,10 @@ enum Command {
         /// The SQL statement.
         sql: String,
     },
+    /// Ignition datasets: synthetic sources, ignitions, negatives, GRIDMET windows,
+    /// versioned datasets, Kaggle import and publish.
+    #[command(subcommand)]
+    Dataset(cmd_dataset::DatasetCommand),
     /// Fire simulation: spread rates, suppression episodes with helitack agents.
     #[command(subcommand)]
     Sim(cmd_sim::SimCommand),
@@ -89,6 +94,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Runs(command) => cmd_runs::run(&settings, command),
         Command::Artifacts(command) => cmd_artifacts::run(&settings, command),
         Command::Query { sql } => cmd_runs::query(&settings, &sql),
+        Command::Dataset(command) => cmd_dataset::run(&settings, command),
         Command::Sim(command) => cmd_sim::run(&settings, command),
         Command::Bench(BenchCommand::Sim(args)) => cmd_sim::bench(&settings, &args),
         Command::Doctor => doctor(&settings),

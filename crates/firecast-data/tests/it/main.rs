@@ -2,3 +2,5 @@
 #![allow(clippy::unwrap_used)]
 
 mod gridmet;
+mod incidents;
+mod synth;

@@ -1,1 +1,0 @@
-//! Synthetic WFIGS + GRIDMET sources (seeded test bed).

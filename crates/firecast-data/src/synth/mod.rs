@@ -1,0 +1,445 @@
+//! Seeded synthetic sources in the real formats: GRIDMET-style yearly NetCDF files
+//! (`gridmet/<short>_<YYYY>.nc`, NetCDF classic CDF-1/CDF-2) and a WFIGS-style incident CSV
+//! (`incidents/wfigs_incidents.csv`).
+//!
+//! **This is a test bed, not data.** The weather is a seeded stochastic model with plausible
+//! climatology, persistence, spatial correlation and NFDRS-style fuel-moisture integration
+//! (see [`model_card`]); the ignitions are a documented Poisson function of that weather and
+//! of a synthetic human-activity field. Nothing in these files is an observation.
+//!
+//! ```no_run
+//! use firecast_data::synth::{generate, Region, SynthConfig};
+//! let config = SynthConfig::new(42, Region::Box { lat_min: 39.0, lat_max: 40.0, lon_min: -117.0, lon_max: -116.0 }, (2018, 2019));
+//! let summary = generate(&config, std::path::Path::new("/tmp/synth"), &mut |_, _| {}).unwrap();
+//! println!("{} files, {} ignitions", summary.gridmet_files.len(), summary.ignitions);
+//! ```
+//!
+//! Determinism: the same configuration gives byte-identical files. All randomness is
+//! counter-based (a hash of seed, stream, day and global cell), rows are computed in parallel
+//! with rayon without any scheduling dependence, and the files contain no time stamps. A box
+//! region sees exactly the weather of the same cells in a CONUS run with the same seed and
+//! years (only the ignition record numbering differs).
+
+mod climate;
+mod files;
+mod grid;
+mod ignitions;
+pub mod netcdf3;
+mod noise;
+mod weather;
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+pub use files::{Packing, Vintage, packing};
+pub use grid::{
+    CONUS_OUTLINE, GRID_LAT0, GRID_LON0, GRID_N_LAT, GRID_N_LON, GRID_STEP, GridWindow, Region, grid_lat,
+    grid_lon, is_land, land_mask, state_of,
+};
+pub use ignitions::{IgnitionCause, SynthIgnition, WFIGS_HEADER, hub_datetime};
+pub use netcdf3::Version as NcVersion;
+
+use crate::gridmet::{GridmetVariable, day_to_ymd, ymd_to_day};
+
+/// Version of the synthetic model, written to every file (`firecast_synthetic_model_version`).
+pub const MODEL_VERSION: &str = "firecast-synth-1.0";
+
+/// File name of the incidents CSV inside `<out_dir>/incidents/`.
+pub const INCIDENTS_CSV: &str = "wfigs_incidents.csv";
+
+/// Storage layout of the yearly files.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DimOrderChoice {
+    /// Every year `(day, lat, lon)`, packed i16 with `crs` ([`Vintage::PackedLatLon`]).
+    LatLon,
+    /// Every year `(day, lon, lat)`, float32 with `missing_value`, no `crs`
+    /// ([`Vintage::FloatLonLat`]).
+    LonLat,
+    /// Like real GRIDMET downloads: years before 2019 in the old layout, later years new.
+    #[default]
+    ByVintage,
+}
+
+impl DimOrderChoice {
+    /// The vintage of `year`'s files.
+    pub fn vintage(self, year: i32) -> Vintage {
+        match self {
+            Self::LatLon => Vintage::PackedLatLon,
+            Self::LonLat => Vintage::FloatLonLat,
+            Self::ByVintage if year < 2019 => Vintage::FloatLonLat,
+            Self::ByVintage => Vintage::PackedLatLon,
+        }
+    }
+}
+
+/// What to generate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SynthConfig {
+    /// Seed of every random number.
+    pub seed: u64,
+    /// Grid window.
+    pub region: Region,
+    /// First and last year written (inclusive).
+    pub years: (i32, i32),
+    /// Variables to write files for (default: all 16). Duplicates are ignored. The whole
+    /// model always runs (the ignitions need it); only the file writing is skipped.
+    pub variables: Vec<GridmetVariable>,
+    /// Storage layout by year.
+    pub dim_order: DimOrderChoice,
+    /// Multiplier of every ignition rate (1.0 ≈ 30–40 thousand wildfires a year over CONUS).
+    pub ignition_rate_scale: f64,
+    /// Whether to write `incidents/wfigs_incidents.csv`.
+    pub write_incidents: bool,
+    /// Days simulated before 1 January of the first year, so fuel moistures and anomalies are
+    /// in equilibrium (default 365).
+    pub warmup_days: u32,
+    /// Fraction of wildfires reported twice (default 0.06).
+    pub duplicate_fraction: f64,
+    /// NetCDF classic version ([`NcVersion::Auto`]: CDF-2 only when a file exceeds 2 GiB).
+    pub netcdf_version: NcVersion,
+}
+
+impl SynthConfig {
+    /// A configuration with the defaults: all 16 variables, [`DimOrderChoice::ByVintage`],
+    /// rate scale 1, incidents written, 365 warm-up days, 6 % duplicates, automatic format.
+    pub fn new(seed: u64, region: Region, years: (i32, i32)) -> Self {
+        Self {
+            seed,
+            region,
+            years,
+            variables: GridmetVariable::ALL.to_vec(),
+            dim_order: DimOrderChoice::ByVintage,
+            ignition_rate_scale: 1.0,
+            write_incidents: true,
+            warmup_days: 365,
+            duplicate_fraction: 0.06,
+            netcdf_version: NcVersion::Auto,
+        }
+    }
+}
+
+/// What [`generate`] wrote.
+#[derive(Debug, Clone)]
+pub struct SynthSummary {
+    /// The NetCDF files, by year then in the order of [`SynthConfig::variables`].
+    pub gridmet_files: Vec<PathBuf>,
+    /// The incidents CSV, when written.
+    pub incidents_csv: Option<PathBuf>,
+    /// The grid window.
+    pub window: GridWindow,
+    /// Rows (latitudes) of the window.
+    pub n_lat: usize,
+    /// Columns (longitudes) of the window.
+    pub n_lon: usize,
+    /// Unmasked (land) cells of the window.
+    pub land_cells: usize,
+    /// Days written per variable (all years).
+    pub days_written: u64,
+    /// Days simulated including the warm-up.
+    pub days_simulated: u64,
+    /// Ignitions (true fires, `WF` and `RX`).
+    pub ignitions: u64,
+    /// CSV records (ignitions plus duplicate reports).
+    pub reported_records: u64,
+    /// The ignitions, in discovery order.
+    pub events: Vec<SynthIgnition>,
+    /// [`MODEL_VERSION`].
+    pub model_version: &'static str,
+}
+
+/// Errors of the generator.
+#[derive(Debug, thiserror::Error)]
+pub enum SynthError {
+    /// The configuration cannot be generated.
+    #[error("invalid synthetic-source configuration: {0}")]
+    InvalidConfig(String),
+    /// A file-system operation failed.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The path involved.
+        path: PathBuf,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// Writing a NetCDF file failed.
+    #[error("{}: {source}", path.display())]
+    NetCdf {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        source: netcdf3::NcWriteError,
+    },
+    /// Writing the CSV failed.
+    #[error("{}: CSV error: {message}", path.display())]
+    Csv {
+        /// The file.
+        path: PathBuf,
+        /// The csv crate's message.
+        message: String,
+    },
+}
+
+impl SynthError {
+    fn io(path: &Path, source: std::io::Error) -> Self {
+        Self::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    fn netcdf(path: &Path, source: netcdf3::NcWriteError) -> Self {
+        Self::NetCdf {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
+fn validate(config: &SynthConfig) -> Result<(), SynthError> {
+    let bad = |m: String| Err(SynthError::InvalidConfig(m));
+    let (y0, y1) = config.years;
+    if y0 > y1 {
+        return bad(format!("years ({y0}, {y1}): the first year is after the last"));
+    }
+    if !(1850..=2300).contains(&y0) || !(1850..=2300).contains(&y1) {
+        return bad(format!("years ({y0}, {y1}) must lie within 1850..=2300"));
+    }
+    if config.warmup_days > 3660 {
+        return bad(format!("warmup_days {} exceeds 10 years", config.warmup_days));
+    }
+    if !config.ignition_rate_scale.is_finite() || config.ignition_rate_scale < 0.0 {
+        return bad(format!(
+            "ignition_rate_scale {} must be finite and >= 0",
+            config.ignition_rate_scale
+        ));
+    }
+    if !(0.0..=1.0).contains(&config.duplicate_fraction) {
+        return bad(format!(
+            "duplicate_fraction {} must be in [0, 1]",
+            config.duplicate_fraction
+        ));
+    }
+    Ok(())
+}
+
+/// Generates the configured sources under `out_dir` (`gridmet/` and `incidents/` are created).
+///
+/// `progress(done, total)` is called after every simulated day (warm-up included). Every file
+/// is written to `.<name>.tmp-<pid>` in its directory and renamed when complete.
+pub fn generate(
+    config: &SynthConfig,
+    out_dir: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<SynthSummary, SynthError> {
+    validate(config)?;
+    let window = config.region.window()?;
+    let mut variables: Vec<GridmetVariable> = Vec::new();
+    for &v in &config.variables {
+        if !variables.contains(&v) {
+            variables.push(v);
+        }
+    }
+    let (y0, y1) = config.years;
+    let date = |y: i32, m: u32, d: u32| {
+        ymd_to_day(y, m, d).ok_or_else(|| SynthError::InvalidConfig(format!("year {y} out of range")))
+    };
+    let first_day = date(y0, 1, 1)?;
+    let last_day = date(y1, 12, 31)?;
+    let day0 = first_day - config.warmup_days as i32;
+
+    let grid_dir = out_dir.join("gridmet");
+    let inc_dir = out_dir.join("incidents");
+    if !variables.is_empty() {
+        fs::create_dir_all(&grid_dir).map_err(|e| SynthError::io(&grid_dir, e))?;
+    }
+    if config.write_incidents {
+        fs::create_dir_all(&inc_dir).map_err(|e| SynthError::io(&inc_dir, e))?;
+    }
+
+    let mut world = weather::World::new(config.seed, window, day0);
+    let mut state = vec![weather::FuelState::default(); world.land_cells()];
+    let all_index = |v: GridmetVariable| GridmetVariable::ALL.iter().position(|&a| a == v).unwrap_or(0);
+    let slots: Vec<(usize, usize)> = variables
+        .iter()
+        .enumerate()
+        .map(|(k, &v)| (all_index(v), k))
+        .collect();
+    let mut outputs: Vec<Vec<f32>> = vec![vec![f32::NAN; window.cells()]; variables.len()];
+    let total = (last_day - day0 + 1) as u64;
+    let mut candidates = Vec::new();
+    let mut writers: Vec<files::GridmetWriter> = Vec::new();
+    let mut gridmet_files = Vec::new();
+
+    for (done, day) in (day0..=last_day).enumerate() {
+        world.advance(day);
+        let record = day >= first_day;
+        let (y, m, d) = day_to_ymd(day);
+        if record && m == 1 && d == 1 && !variables.is_empty() {
+            let days: Vec<i32> = (date(y, 1, 1)?..=date(y, 12, 31)?).collect();
+            let vintage = config.dim_order.vintage(y);
+            writers = variables
+                .iter()
+                .map(|&v| {
+                    files::GridmetWriter::create(
+                        &grid_dir,
+                        v,
+                        y,
+                        &days,
+                        vintage,
+                        &window,
+                        config.seed,
+                        config.netcdf_version,
+                    )
+                })
+                .collect::<Result<_, _>>()?;
+        }
+        let ctx = weather::day_ctx(day, record, config.ignition_rate_scale);
+        let (outs, sl): (&mut [Vec<f32>], &[(usize, usize)]) = if record {
+            (&mut outputs, &slots)
+        } else {
+            (&mut [], &[])
+        };
+        candidates.extend(world.run_day(&ctx, record, &mut state, outs, sl));
+        if record {
+            for (w, grid) in writers.iter_mut().zip(&outputs) {
+                w.write_day(grid)?;
+            }
+            if m == 12 && d == 31 {
+                for w in writers.drain(..) {
+                    gridmet_files.push(w.finish()?);
+                }
+            }
+        }
+        progress(done as u64 + 1, total);
+    }
+
+    let set = ignitions::build(config.seed, &candidates, config.duplicate_fraction);
+    let incidents_csv = if config.write_incidents {
+        Some(ignitions::write_csv(&set, &inc_dir.join(INCIDENTS_CSV))?)
+    } else {
+        None
+    };
+    Ok(SynthSummary {
+        gridmet_files,
+        incidents_csv,
+        window,
+        n_lat: window.n_lat,
+        n_lon: window.n_lon,
+        land_cells: world.land_cells(),
+        days_written: (last_day - first_day + 1) as u64,
+        days_simulated: total,
+        ignitions: set.events.len() as u64,
+        reported_records: set.n_records(),
+        model_version: MODEL_VERSION,
+        events: set.events,
+    })
+}
+
+/// The model card (Markdown) that the dataset card embeds: what the generator is, its
+/// equations and constants (formatted from the code's own constants), and its limits.
+pub fn model_card() -> String {
+    use weather::{BASE_HUMAN, BASE_LIGHTNING, BASE_RX, K_BDY, K100, K1000, PDSI_RHO};
+    let mut s = String::new();
+    s.push_str(&format!(
+        "# FireCast synthetic sources — model card (`{MODEL_VERSION}`)\n\n\
+**Synthetic test-bed data. Not observations, not GRIDMET, not WFIGS.** The files reproduce the \
+real formats (GRIDMET yearly NetCDF, WFIGS CSV) and plausible physics so that the FireCast \
+pipeline, loaders and an ignition classifier can be exercised without downloads. Any \
+resemblance of a fire or a weather day to reality is chance.\n\n\
+## Files\n\n\
+* `gridmet/<short>_<YYYY>.nc` for the 16 variables pr, rmax, rmin, sph, vpd, vs, tmmx, tmmn, \
+srad, bi, erc, fm100, fm1000, pet, etr, th, on the real GRIDMET grid (1/24°, lat 49.4 → 25.0667 \
+descending, lon −124.7667 → −67.0583), `day` in days since 1900-01-01. NetCDF classic: CDF-1, \
+or CDF-2 (64-bit offsets) when a file exceeds 2 GiB.\n\
+* Layouts: *packed* `(day, lat, lon)` 16-bit integers with `scale_factor`, `add_offset`, \
+`_FillValue` = `missing_value` (−32767, or 65535 stored as −1 with `_Unsigned = \"true\"` for \
+pr, rmax, rmin, sph, srad, vpd, th), a `crs` grid-mapping variable, `day` double; *old* \
+`(day, lon, lat)` float32 with `missing_value = -32767`, no `crs`, `day` int. By default years \
+before 2019 use the old layout.\n\
+* Cells outside a rough ~125-vertex outline of the lower 48 states (ocean, Great Lakes, Canada, \
+Mexico) are masked in every variable.\n\
+* `incidents/wfigs_incidents.csv`: the 97 columns of a real 2023 WFIGS export, dates as \
+`YYYY/MM/DD HH:MM:SS+00` (UTC).\n\n\
+## World\n\n\
+Static fields per cell: elevation = hand-made macro relief (Rockies, Sierra/Cascades, Coast \
+Ranges, Plains slope, Appalachians) + seeded fractal value noise (7 octaves, 1/8°–8°); annual \
+precipitation from Gulf/Atlantic and Pacific moisture access, orography and a seeded ±15 % \
+field (≈150–300 mm in the interior West, 1000–1500 mm in the East, >2000 mm on the NW coast); \
+aridity `A = clamp(1 − (P − 220)/850, 0, 1)`; seasonal cycles as annual harmonics: \
+Mediterranean winter rain on the West Coast, the Southwest monsoon (Jul–Aug), a June Plains \
+maximum, a Florida wet summer. Temperature `T = 27 − 0.85(lat − 25) + maritime + 2.5A − 5.5 K/km·z`, \
+seasonal amplitude `(4 + 0.5(lat − 25))·continentality + 1.5A`. Human activity: ~50 metro \
+areas plus 400 seeded towns, saturating, times a seeded log-normal fractal.\n\n\
+## Daily weather\n\n\
+Anomalies are smooth Gaussian fields: lattices of independent AR(1) processes bilinearly \
+(smoothstep) upsampled with variance normalisation — temperature `aT = 0.8·T(2°, φ=0.75) + \
+0.6·T(0.5°, φ=0.6)`, moisture `aP = 0.8·P(2°, φ=0.55) + 0.6·P(0.5°, φ=0.35)`, convection \
+`aC` (0.25°, φ=0.1), wind `aU, aV` (2°, φ=0.55), gustiness `aW` (1°, φ=0.45), drought regime \
+`aD` (4°, φ=0.993) — plus white per-cell noise ε.\n\n\
+* Precipitation: wet when `z = (0.8aP + 0.35ε + c·aC)/‖·‖ > θ = Φ⁻¹(1 − f_w) + 0.3aD`, `f_w` \
+the climatological wet-day fraction; amount `α(1 − 0.15aD)·(−ln q)^1.25 / Γ(2.25)`, \
+`q = Q(z)/Q(θ)` (a Weibull(0.8) with mean α, the climatological wet-day mean), 0.1–400 mm.\n\
+* Cloud `c = σ(1.5(z − θ) + 0.5)`. Mean temperature `T̄ = T_clim + σ_T·aT + 0.5ε + 0.9aD − \
+1.8(c − 0.35)`; diurnal range `DTR·(1.3 − 0.75c)` (×0.85 on wet days); tmmx/tmmn = T̄ ± DTR/2.\n\
+* Humidity: dew point `Td = Tmin − D`, `D = D_clim − 2.2aP + 1.2aD + 0.8ε ≥ 0` (×0.15 on wet \
+days); `es(T) = 0.6108·exp(17.27T/(T + 237.3))` kPa, `ea = es(Td)`; rmax = 100·ea/es(Tmin), \
+rmin = 100·ea/es(Tmax), vpd = (es(Tmax) + es(Tmin))/2 − ea ≥ 0, sph = 0.622·ea/(p − 0.378·ea) \
+with p from elevation.\n\
+* srad = Ra·(0.75 + 2·10⁻⁵z)·(1 − 0.65c) (FAO-56 Ra; W m⁻²).\n\
+* Wind: flow `(u, v)` = climatological westerlies/southerlies + 2.8·(aU, aV); th = direction \
+the wind comes from + 14°·ε; vs = vs_clim·exp(0.33aW + 0.1ε − 0.06) + 0.12·max(0, |u,v| − 3), \
+0.1–29 m/s.\n\
+* pet (grass) = 0.0135·(T̄ + 17.8)·0.408·Rs + 0.22·u₂·vpd (Hargreaves 1975 radiation form plus \
+an aerodynamic term, u₂ = 0.748·vs), 0–17 mm; etr = pet·(1.15 + 0.04·min(u₂, 6) + \
+0.03·min(vpd, 6)) ≥ pet, ≤ 27 mm.\n\n\
+## Fuel moisture and fire danger (NFDRS 1978 style)\n\n\
+* EMC (Simard 1968, T in °F, H in %): H < 10: `0.03229 + 0.281073H − 0.000578HT`; \
+10 ≤ H < 50: `2.22749 + 0.160107H − 0.014784T`; H ≥ 50: `21.0606 + 0.005565H² − 0.00035HT − \
+0.483199H`. EMCmin from (Tmax, rmin), EMCmax from (Tmin, rmax), day-length weighted: \
+`EMC̄ = (N·EMCmin + (24 − N)·EMCmax)/24`.\n\
+* Precipitation duration `d = min(8, 1 + pr/4)` h when pr ≥ 0.25 mm.\n\
+* 100-h: `B₁₀₀ = ((24 − d)·EMC̄ + d·(0.5d + 41))/24`, `fm100 += (B₁₀₀ − fm100)·{K100:.4}` \
+(= 1 − 0.87·e^(−24/100)); 0.3–33 %.\n\
+* 1000-h: `B₁₀₀₀ = ((24 − d)·EMC̄ + d·(2.7d + 76))/24`, smoothed as a 7-day running mean \
+(`{K_BDY:.4}`/day), `fm1000 += (B̄ − fm1000)·{K1000:.4}` (NFDRS weekly 1 − 0.82·e^(−0.168) \
+spread over 7 days); 0.4–48 %.\n\
+* 1-h/10-h (not written): 1.03/1.28 × EMCmin, 35 % on wet days.\n\
+* ERC (fuel model G) surrogate: dryness `Δ = 0.15(1 − m₁/30)⁺ + 0.10(1 − m₁₀/30)⁺ + \
+0.25(1 − fm100/30)⁺ + 0.50(1 − fm1000/35)⁺`, greenness G (seasonal harmonic, 0–1), \
+`ERC = min(132, 165·(Δ(1 − 0.3G))^2.66)`.\n\
+* BI surrogate: spread component `SC = 4·η_f·(1 + 0.12·U₂₀^1.5)` (U₂₀ in mi/h = vs/1.15·2.237, \
+η_f Rothermel's moisture damping of the 1-h/10-h moistures with extinction 25 %), \
+`BI = min(214, 3.01·(SC·ERC)^0.46)` (the NFDRS BI formula).\n\
+* Drought index (internal, not written): `X = ρX + 0.1203/√f_w·(pr/α − f_w)`, ρ = {PDSI_RHO:.6} \
+(Palmer's monthly 0.897 per day).\n\
+* Spin-up: the state starts at fm100 = 18 %, fm1000 = 22 % and is run for `warmup_days` \
+(default 365) before the first written day.\n\n\
+## Ignitions\n\n\
+Per land cell-day `N ~ Poisson(λ)`, `λ = s·(λ_h + λ_l + λ_rx)` with \
+`x₁ = (12 − fm100)/4`, `x₂ = (15 − fm1000)/5`, `x₃ = (erc − 40)/25`, `x₄ = (vs − 3.5)/2.5`, \
+`x₅ = (vpd − 1.5)/1.2`, `x₆ = (30 − rmin)/15`, `cold = clamp((3 − Tx°C)/10, 0, 1)`:\n\n\
+* human WF: `λ_h = {BASE_HUMAN:e}·H/(1 + H/3)·m_day·exp(0.45x₁ + 0.2x₂ + 0.25x₃ + 0.2x₄ + 0.1x₅ + \
+0.1x₆ − 0.8·ln(1 + pr) − 2.5·cold)`, `m_day` = spring (×1.45 around late March) and autumn \
+bumps, ×1.15 on weekends, ×2.5 on 4–5 July;\n\
+* lightning WF: `λ_l = {BASE_LIGHTNING:e}·L·ramp((Tx − 22)/12)·ramp(ea/1.2)·exp(1.2aC − 0.72)·r·\
+exp(0.5x₁ + 0.3x₂ + 0.3x₃ − 2.5·cold)`, `L` terrain/monsoon/Florida propensity, `r` = 0.45 \
+(no rain), 1 (0.25–5 mm), exp(−(pr − 5)/4) (more rain);\n\
+* prescribed RX: `λ_rx = {BASE_RX:e}·R·m_rx·exp(−((fm100 − 14)/5)²)·exp(−0.5·max(0, vs − 5))` \
+when pr < 1 mm, `R` larger in the Southeast, `m_rx` peaking in late winter and autumn.\n\n\
+Each ignition: cause by the rates' proportions; point uniform in the cell; discovery hour \
+(local solar) ~N(14.5, 3.2) (85 %) or uniform for human, ~N(16.5, 3) lightning, ~N(11, 1.5) RX, \
+converted to UTC and kept in the GRIDMET day [07:00, 07:00) UTC; size 0.1·U^(−1/α) acres with \
+α = 0.95 − 0.35·ramp((erc − 30)/70) − 0.1·ramp((vs − 4)/6) (−0.08 for lightning), RX \
+log-normal around 40 acres. X/Y differ from InitialLatitude/Longitude by 0–60 m (85 %), up to \
+800 m (12 %) or 1–2.5 km (3 %); 3 % of records have no Initial* values. A fraction \
+(default 6 %) of wildfires gets a duplicate record from another unit 3–110 min later (25 %: \
+earlier) and 80–700 m away, with a new IrwinID and UniqueFireIdentifier — a 5 km / 2 h \
+de-duplication removes them.\n\n\
+## Limits\n\n\
+No snow, no terrain shading, no fronts that move, no lakes other than the Great Lakes mask; \
+ERC and BI are surrogates of the NFDRS fuel-model-G indices (same inputs and behaviour, not \
+the full Rothermel computation); states, units, GACCs and names in the CSV are rough or \
+invented; the GRIDMET packing of the real files is unverified and this generator's is finer.\n"
+    ));
+    s
+}

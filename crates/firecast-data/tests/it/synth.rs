@@ -1,0 +1,612 @@
+//! Synthetic sources: the GRIDMET-format files read back by `GridmetFile` (both vintages, all 16
+//! variables), determinism, seed dependence, physical sanity, the WFIGS CSV, and an independent
+//! cross-check with Python netCDF4/xarray (`tests/tools/check_synth.py`, skipped when the
+//! project's Python is absent).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use firecast_data::gridmet::{DimOrder, GridmetFile, GridmetVariable, day_to_ymd, ymd_to_day};
+use firecast_data::synth::{
+    DimOrderChoice, GridWindow, IgnitionCause, NcVersion, Region, SynthConfig, SynthSummary, WFIGS_HEADER,
+    generate, grid_lat, grid_lon, is_land, land_mask, packing,
+};
+use netcdf_reader::NcFile;
+
+/// Exactly 20 × 30 cells on the Mendocino coast (38.5–39.3°N, 124.2–123.0°W): the western
+/// columns are Pacific Ocean (masked), the rest land.
+fn coast_box() -> Region {
+    let (j0, i0) = (242, 14);
+    Region::Box {
+        lat_min: grid_lat(j0 + 19),
+        lat_max: grid_lat(j0),
+        lon_min: grid_lon(i0),
+        lon_max: grid_lon(i0 + 29),
+    }
+}
+
+/// An interior-West box (central Nevada).
+fn nevada_box() -> Region {
+    Region::Box {
+        lat_min: 39.5,
+        lat_max: 39.8,
+        lon_min: -117.0,
+        lon_max: -116.6,
+    }
+}
+
+fn run(config: &SynthConfig, dir: &Path) -> SynthSummary {
+    let mut calls = 0u64;
+    let mut last = (0, 0);
+    let s = generate(config, dir, &mut |done, total| {
+        calls += 1;
+        last = (done, total);
+    })
+    .unwrap();
+    assert_eq!(calls, s.days_simulated);
+    assert_eq!(last, (s.days_simulated, s.days_simulated));
+    s
+}
+
+/// Spec ranges (data spec §2.2), with the float tolerance of packing.
+fn range(v: GridmetVariable) -> (f32, f32) {
+    use GridmetVariable as G;
+    match v {
+        G::Pr => (0.0, 690.0),
+        G::Rmax => (1.0, 100.0),
+        G::Rmin => (0.0, 100.0),
+        G::Sph => (0.0, 0.02),
+        G::Srad => (0.0, 456.0),
+        G::Th => (0.0, 360.0),
+        G::Tmmn => (225.0, 315.0),
+        G::Tmmx => (233.0, 327.0),
+        G::Vs => (0.1, 29.0),
+        G::Bi => (0.0, 214.0),
+        G::Erc => (0.0, 132.0),
+        G::Fm100 => (0.3, 33.0),
+        G::Fm1000 => (0.4, 48.0),
+        G::Etr => (0.0, 27.0),
+        G::Pet => (0.0, 17.0),
+        G::Vpd => (0.0, 9.8),
+    }
+}
+
+fn read_all(f: &GridmetFile) -> Vec<Vec<f32>> {
+    (0..f.days().len()).map(|t| f.read_day(t).unwrap()).collect()
+}
+
+#[test]
+fn small_box_round_trips_for_all_variables_and_both_vintages() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = SynthConfig::new(11, coast_box(), (2018, 2019));
+    let s = run(&config, dir.path());
+    assert_eq!((s.n_lat, s.n_lon), (20, 30));
+    assert_eq!(s.gridmet_files.len(), 32);
+    assert!(
+        s.land_cells > 100 && s.land_cells < 600,
+        "{} land cells",
+        s.land_cells
+    );
+    let mask = land_mask(&s.window);
+    assert_eq!(mask.iter().filter(|&&m| m).count(), s.land_cells);
+
+    for year in [2018, 2019] {
+        for v in GridmetVariable::ALL {
+            let path = dir.path().join("gridmet").join(v.file_name(year));
+            assert!(s.gridmet_files.contains(&path), "{}", path.display());
+            let f = GridmetFile::open(&path, v).unwrap();
+            assert_eq!(f.var_name(), v.netcdf_names()[0]);
+            // Old vintage before 2019: (day, lon, lat) float32; then (day, lat, lon) packed.
+            let want_order = if year < 2019 {
+                DimOrder::DayLonLat
+            } else {
+                DimOrder::DayLatLon
+            };
+            assert_eq!(f.dim_order(), want_order, "{v} {year}");
+            assert_eq!(f.grid_shape(), (20, 30));
+            assert_eq!(f.days().len(), 365);
+            assert_eq!(f.days()[0], ymd_to_day(year, 1, 1).unwrap());
+            assert_eq!(f.dates()[364], (year, 12, 31));
+            assert!(f.lats().windows(2).all(|w| w[1] < w[0]), "latitude descends");
+            assert!((f.lats()[0] - grid_lat(242)).abs() < 1e-9);
+            assert!((f.lons()[0] - grid_lon(14)).abs() < 1e-9);
+            let (lo, hi) = range(v);
+            let tol = packing(v).scale as f32 + 1e-4 * hi;
+            for (t, day) in read_all(&f).iter().enumerate() {
+                for (k, &x) in day.iter().enumerate() {
+                    let (r, c) = (k / 30, k % 30);
+                    let land = is_land(f.lats()[r], f.lons()[c]);
+                    assert_eq!(land, mask[k]);
+                    if land {
+                        assert!(
+                            x.is_finite() && x >= lo - tol && x <= hi + tol,
+                            "{v} {year} day {t} cell {k}: {x}"
+                        );
+                    } else {
+                        assert!(x.is_nan(), "{v} {year} day {t}: ocean cell {k} is {x}");
+                    }
+                }
+            }
+        }
+    }
+    // The documented example: 2018-01-01 is day 43099.
+    let f = GridmetFile::open(dir.path().join("gridmet/pr_2018.nc"), GridmetVariable::Pr).unwrap();
+    assert_eq!(f.days()[0], 43_099);
+    assert_eq!(f.days()[2], 43_101);
+
+    // Header details of each vintage.
+    let old = NcFile::open(dir.path().join("gridmet/srad_2018.nc")).unwrap();
+    let new = NcFile::open(dir.path().join("gridmet/srad_2019.nc")).unwrap();
+    let has = |nc: &NcFile, name: &str| nc.variables().unwrap().iter().any(|v| v.name() == name);
+    assert!(!has(&old, "crs") && has(&new, "crs"));
+    let var = new.variable("surface_downwelling_shortwave_flux_in_air").unwrap();
+    assert_eq!(
+        var.attribute("_Unsigned").unwrap().value.as_string().as_deref(),
+        Some("true")
+    );
+    assert_eq!(
+        var.attribute("grid_mapping")
+            .unwrap()
+            .value
+            .as_string()
+            .as_deref(),
+        Some("crs")
+    );
+    let var = old.variable("surface_downwelling_shortwave_flux_in_air").unwrap();
+    assert_eq!(
+        var.attribute("missing_value").unwrap().value.as_f64(),
+        Some(-32767.0)
+    );
+    assert!(var.attribute("scale_factor").is_none());
+    for nc in [&old, &new] {
+        let g = nc.global_attribute("firecast_synthetic_model_version").unwrap();
+        assert_eq!(
+            g.value.as_string().as_deref(),
+            Some(firecast_data::synth::MODEL_VERSION)
+        );
+        assert!(nc.global_attribute("note5").is_ok());
+    }
+    let bytes = std::fs::read(dir.path().join("gridmet/srad_2019.nc")).unwrap();
+    assert_eq!(&bytes[..4], b"CDF\x01");
+    // No temporary file is left behind.
+    for entry in std::fs::read_dir(dir.path().join("gridmet")).unwrap() {
+        let name = entry.unwrap().file_name().to_string_lossy().into_owned();
+        assert!(!name.starts_with('.'), "leftover {name}");
+    }
+}
+
+#[test]
+fn both_dimension_orders_can_be_forced_and_cdf2_written() {
+    for (order, want) in [
+        (DimOrderChoice::LatLon, DimOrder::DayLatLon),
+        (DimOrderChoice::LonLat, DimOrder::DayLonLat),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut config = SynthConfig::new(3, nevada_box(), (2016, 2016));
+        config.variables = vec![GridmetVariable::Tmmx, GridmetVariable::Fm1000];
+        config.dim_order = order;
+        config.warmup_days = 30;
+        config.write_incidents = false;
+        config.netcdf_version = NcVersion::Cdf2;
+        let s = run(&config, dir.path());
+        assert_eq!(s.incidents_csv, None);
+        for path in &s.gridmet_files {
+            let bytes = std::fs::read(path).unwrap();
+            assert_eq!(&bytes[..4], b"CDF\x02");
+        }
+        let f = GridmetFile::open(&s.gridmet_files[0], GridmetVariable::Tmmx).unwrap();
+        assert_eq!(f.dim_order(), want);
+        assert_eq!(f.days().len(), 366, "2016 is a leap year");
+        assert_eq!(f.dates()[59], (2016, 2, 29));
+    }
+}
+
+fn file_bytes(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    for sub in ["gridmet", "incidents"] {
+        let mut names: Vec<PathBuf> = std::fs::read_dir(dir.join(sub))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        names.sort();
+        for p in names {
+            let rel = p.strip_prefix(dir).unwrap().to_path_buf();
+            out.push((rel, std::fs::read(&p).unwrap()));
+        }
+    }
+    out
+}
+
+#[test]
+fn same_seed_gives_identical_bytes_and_another_seed_differs() {
+    let mut config = SynthConfig::new(2024, coast_box(), (2019, 2019));
+    config.variables = vec![GridmetVariable::Tmmx, GridmetVariable::Pr, GridmetVariable::Erc];
+    config.warmup_days = 120;
+    config.ignition_rate_scale = 30.0;
+    let a = tempfile::tempdir().unwrap();
+    let b = tempfile::tempdir().unwrap();
+    let sa = run(&config, a.path());
+    // Another thread pool size must not change anything either.
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+    let sb = pool.install(|| run(&config, b.path()));
+    let (fa, fb) = (file_bytes(a.path()), file_bytes(b.path()));
+    assert_eq!(fa.len(), 4);
+    assert_eq!(
+        fa.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        fb.iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
+    for ((name, x), (_, y)) in fa.iter().zip(&fb) {
+        assert!(
+            x == y,
+            "{} differs between two runs with the same seed",
+            name.display()
+        );
+    }
+    assert_eq!(sa.events, sb.events);
+    assert!(sa.ignitions > 0, "rate scale 30 gives ignitions");
+
+    let c = tempfile::tempdir().unwrap();
+    config.seed = 2025;
+    run(&config, c.path());
+    let fc = file_bytes(c.path());
+    for ((name, x), (_, z)) in fa.iter().zip(&fc) {
+        assert!(x != z, "{} is the same for two seeds", name.display());
+    }
+    let read = |dir: &Path| {
+        let f = GridmetFile::open(dir.join("gridmet/tmmx_2019.nc"), GridmetVariable::Tmmx).unwrap();
+        f.read_day(200).unwrap()
+    };
+    let (ta, tc) = (read(a.path()), read(c.path()));
+    let differing = ta
+        .iter()
+        .zip(&tc)
+        .filter(|(x, y)| x.is_finite() && (*x - *y).abs() > 0.05)
+        .count();
+    assert!(differing > 100, "only {differing} cells differ");
+}
+
+#[test]
+fn a_box_sees_the_same_weather_as_a_larger_region() {
+    // Weather is a function of (seed, day, global cell): an inner box equals the same cells of
+    // an outer box.
+    let mk = |region| {
+        let mut c = SynthConfig::new(5, region, (2020, 2020));
+        c.variables = vec![GridmetVariable::Fm100, GridmetVariable::Vs];
+        c.warmup_days = 40;
+        c.write_incidents = false;
+        c.dim_order = DimOrderChoice::LatLon;
+        c
+    };
+    let (outer, inner) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let so = run(&mk(nevada_box()), outer.path());
+    let si = run(
+        &mk(Region::Box {
+            lat_min: 39.6,
+            lat_max: 39.7,
+            lon_min: -116.9,
+            lon_max: -116.7,
+        }),
+        inner.path(),
+    );
+    let (wo, wi): (GridWindow, GridWindow) = (so.window, si.window);
+    for v in [GridmetVariable::Fm100, GridmetVariable::Vs] {
+        let fo = GridmetFile::open(outer.path().join("gridmet").join(v.file_name(2020)), v).unwrap();
+        let fi = GridmetFile::open(inner.path().join("gridmet").join(v.file_name(2020)), v).unwrap();
+        for t in [0, 150, 365] {
+            let (a, b) = (fo.read_day(t).unwrap(), fi.read_day(t).unwrap());
+            for r in 0..wi.n_lat {
+                for c in 0..wi.n_lon {
+                    let ro = wi.lat_start + r - wo.lat_start;
+                    let co = wi.lon_start + c - wo.lon_start;
+                    assert_eq!(
+                        a[ro * wo.n_lon + co].to_bits(),
+                        b[r * wi.n_lon + c].to_bits(),
+                        "{v} day {t}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn physical_sanity_in_the_interior_west() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = SynthConfig::new(77, nevada_box(), (2021, 2021));
+    use GridmetVariable as G;
+    config.variables = vec![
+        G::Fm100,
+        G::Fm1000,
+        G::Tmmx,
+        G::Tmmn,
+        G::Vpd,
+        G::Pr,
+        G::Etr,
+        G::Pet,
+        G::Rmax,
+        G::Rmin,
+        G::Erc,
+    ];
+    config.write_incidents = false;
+    run(&config, dir.path());
+    let load = |v: GridmetVariable| {
+        read_all(&GridmetFile::open(dir.path().join("gridmet").join(v.file_name(2021)), v).unwrap())
+    };
+    let [fm100, fm1000, tmmx, tmmn, vpd, pr, etr, pet, rmax, rmin, erc] = [
+        G::Fm100,
+        G::Fm1000,
+        G::Tmmx,
+        G::Tmmn,
+        G::Vpd,
+        G::Pr,
+        G::Etr,
+        G::Pet,
+        G::Rmax,
+        G::Rmin,
+        G::Erc,
+    ]
+    .map(load);
+    let n = fm100[0].len();
+    let mean = |a: &[Vec<f32>], days: std::ops::Range<usize>, k: usize| {
+        days.clone().map(|t| f64::from(a[t][k])).sum::<f64>() / days.len() as f64
+    };
+    let mut land = 0;
+    for k in 0..n {
+        if fm100[0][k].is_nan() {
+            continue;
+        }
+        land += 1;
+        // Dry summer (Jul–Aug) against winter (Dec–Feb).
+        let summer = mean(&fm100, 181..243, k);
+        let winter = (mean(&fm100, 0..59, k) * 59.0 + mean(&fm100, 334..365, k) * 31.0) / 90.0;
+        assert!(
+            summer + 3.0 < winter,
+            "cell {k}: fm100 summer {summer:.1} vs winter {winter:.1}"
+        );
+        assert!(mean(&fm1000, 181..243, k) < mean(&fm1000, 0..59, k));
+        assert!(mean(&erc, 181..243, k) > mean(&erc, 0..59, k) + 20.0);
+        for t in 0..365 {
+            assert!(tmmx[t][k] > tmmn[t][k], "tmmx <= tmmn at day {t} cell {k}");
+            assert!(vpd[t][k] >= 0.0 && pr[t][k] >= 0.0);
+            assert!(etr[t][k] >= pet[t][k], "etr < pet at day {t} cell {k}");
+            assert!(rmax[t][k] >= rmin[t][k]);
+        }
+    }
+    assert!(land > 50);
+    // It rains on some days, not on most (interior West).
+    let wet = pr.iter().flatten().filter(|&&x| x > 0.0).count() as f64 / (365 * land) as f64;
+    assert!((0.05..0.35).contains(&wet), "wet-day fraction {wet}");
+}
+
+/// The Hub CSV date encoding `YYYY/MM/DD HH:MM:SS+00` → seconds since 1970.
+fn parse_hub(s: &str) -> i64 {
+    assert_eq!(s.len(), 22, "{s:?}");
+    assert!(s.ends_with("+00"), "{s:?}");
+    let n = |a: usize, b: usize| s[a..b].parse::<i64>().unwrap();
+    let day = ymd_to_day(n(0, 4) as i32, n(5, 7) as u32, n(8, 10) as u32).unwrap();
+    (i64::from(day) - 25_567) * 86_400 + n(11, 13) * 3600 + n(14, 16) * 60 + n(17, 19)
+}
+
+fn haversine_km(lat1: f64, lon1: f64, lat2: f64, lon2: f64) -> f64 {
+    let (p1, p2) = (lat1.to_radians(), lat2.to_radians());
+    let dp = p2 - p1;
+    let dl = (lon2 - lon1).to_radians();
+    let a = (dp / 2.0).sin().powi(2) + p1.cos() * p2.cos() * (dl / 2.0).sin().powi(2);
+    2.0 * 6371.0088 * a.sqrt().asin()
+}
+
+#[test]
+fn incidents_csv_has_the_wfigs_header_and_all_records() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = SynthConfig::new(9, nevada_box(), (2020, 2021));
+    config.variables = Vec::new();
+    config.ignition_rate_scale = 40.0;
+    config.duplicate_fraction = 0.2;
+    config.warmup_days = 200;
+    let s = run(&config, dir.path());
+    assert!(s.gridmet_files.is_empty());
+    let path = s.incidents_csv.clone().unwrap();
+    assert_eq!(path, dir.path().join("incidents/wfigs_incidents.csv"));
+    assert!(s.ignitions > 200, "{} ignitions", s.ignitions);
+    assert_eq!(s.events.len() as u64, s.ignitions);
+
+    let mut rdr = csv::Reader::from_path(&path).unwrap();
+    let header: Vec<String> = rdr.headers().unwrap().iter().map(str::to_string).collect();
+    assert_eq!(
+        header,
+        WFIGS_HEADER.iter().map(|s| s.to_string()).collect::<Vec<_>>()
+    );
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let records: Vec<csv::StringRecord> = rdr.records().map(Result::unwrap).collect();
+    assert_eq!(records.len() as u64, s.reported_records);
+    assert!(s.reported_records > s.ignitions, "some fires are reported twice");
+
+    let mut by_oid = std::collections::HashMap::new();
+    let mut no_initial = 0;
+    for (n, r) in records.iter().enumerate() {
+        assert_eq!(r.len(), 97);
+        assert_eq!(r[col("OBJECTID")].parse::<usize>().unwrap(), n + 1);
+        let t = parse_hub(&r[col("FireDiscoveryDateTime")]);
+        assert!(matches!(&r[col("IncidentTypeCategory")], "WF" | "RX"));
+        assert_eq!(&r[col("IncidentTypeKind")], "FI");
+        let ufi = &r[col("UniqueFireIdentifier")];
+        let parts: Vec<&str> = ufi.split('-').collect();
+        assert_eq!(parts.len(), 3, "{ufi}");
+        assert_eq!(parts[0], &r[col("FireDiscoveryDateTime")][..4]);
+        assert_eq!(parts[2].len(), 6);
+        assert!(r[col("IrwinID")].starts_with('{') && r[col("IrwinID")].ends_with('}'));
+        assert!(r[col("POOState")].starts_with("US-"));
+        let (x, y): (f64, f64) = (r[col("X")].parse().unwrap(), r[col("Y")].parse().unwrap());
+        if r[col("InitialLatitude")].is_empty() {
+            no_initial += 1;
+            assert!(r[col("InitialLongitude")].is_empty());
+        } else {
+            let lat: f64 = r[col("InitialLatitude")].parse().unwrap();
+            let lon: f64 = r[col("InitialLongitude")].parse().unwrap();
+            assert!(haversine_km(lat, lon, y, x) < 3.0);
+        }
+        let size: f64 = r[col("IncidentSize")].parse().unwrap();
+        assert!(size >= 0.1);
+        by_oid.insert(n as u64 + 1, (t, y, x));
+    }
+    assert!(no_initial > 0, "some records lack Initial* (X/Y fallback)");
+    assert!(no_initial * 10 < records.len());
+
+    // Every event: discovery inside its GRIDMET day (07:00 UTC to 07:00 UTC the next day) and
+    // its duplicates within 2 h and 5 km.
+    let mut dups = 0;
+    for e in &s.events {
+        let start = (i64::from(e.gridmet_day) - 25_567) * 86_400 + 7 * 3600;
+        assert!((start..start + 86_400).contains(&e.discovery_epoch_s));
+        let (t, y, x) = by_oid[&e.object_id];
+        assert_eq!(t, e.discovery_epoch_s);
+        assert!(haversine_km(e.lat, e.lon, y, x) < 3.0);
+        assert!(day_to_ymd(e.gridmet_day).0 >= 2020);
+        if e.cause == IgnitionCause::Prescribed {
+            assert_eq!(e.category, "RX");
+        }
+        for d in &e.duplicate_object_ids {
+            dups += 1;
+            let (td, yd, xd) = by_oid[d];
+            assert!((td - t).abs() <= 2 * 3600, "duplicate {d} is {} s away", td - t);
+            assert!(haversine_km(y, x, yd, xd) < 5.0);
+        }
+    }
+    assert_eq!(dups as u64 + s.ignitions, s.reported_records);
+    // Discoveries peak in the (local) afternoon: 18–02 UTC in Nevada.
+    let afternoon = s
+        .events
+        .iter()
+        .filter(|e| {
+            let h = e.discovery_epoch_s.rem_euclid(86_400) / 3600;
+            !(3..18).contains(&h)
+        })
+        .count();
+    assert!(afternoon * 2 > s.events.len());
+}
+
+#[test]
+fn ignitions_follow_fuel_dryness() {
+    // The classifier must have something to learn: ignition cell-days are drier than average.
+    let dir = tempfile::tempdir().unwrap();
+    let region = Region::Box {
+        lat_min: 38.0,
+        lat_max: 40.0,
+        lon_min: -121.5,
+        lon_max: -119.5,
+    };
+    let mut config = SynthConfig::new(21, region, (2021, 2021));
+    config.variables = vec![GridmetVariable::Fm100];
+    config.dim_order = DimOrderChoice::LatLon;
+    config.ignition_rate_scale = 5.0;
+    config.warmup_days = 200;
+    let s = run(&config, dir.path());
+    assert!(s.events.len() > 100, "{} ignitions", s.events.len());
+    let f = GridmetFile::open(&s.gridmet_files[0], GridmetVariable::Fm100).unwrap();
+    let all = read_all(&f);
+    let mut finite: Vec<f32> = all.iter().flatten().copied().filter(|x| x.is_finite()).collect();
+    finite.sort_by(f32::total_cmp);
+    let (q25, q75) = (finite[finite.len() / 4], finite[finite.len() * 3 / 4]);
+    // Both quartiles hold the same number of cell-days, so the counts compare rates.
+    let dry = s.events.iter().filter(|e| e.fm100 <= q25).count();
+    let moist = s.events.iter().filter(|e| e.fm100 >= q75).count();
+    assert!(
+        dry > 3 * moist.max(1),
+        "ignitions in the driest quartile {dry}, in the moistest {moist}"
+    );
+    // The event's recorded fm100 is the file's value for its cell and day (packing precision).
+    let e = &s.events[s.events.len() / 2];
+    let t = (e.gridmet_day - f.days()[0]) as usize;
+    let (j, i) = (e.lat_index - s.window.lat_start, e.lon_index - s.window.lon_start);
+    assert!((all[t][j * s.n_lon + i] - e.fm100).abs() < 0.01);
+}
+
+/// Runs `tests/tools/check_synth.py` (Python netCDF4 + xarray, an independent NetCDF stack) on
+/// freshly generated files and compares with what `GridmetFile` reads.
+#[test]
+fn python_netcdf4_and_xarray_read_the_same_values() {
+    let python = std::env::var_os("FIRECAST_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("/work/main/.venv/bin/python"));
+    if !python.exists() {
+        println!(
+            "SKIP python_netcdf4_and_xarray_read_the_same_values: no Python at {}",
+            python.display()
+        );
+        return;
+    }
+    let ok = Command::new(&python)
+        .args(["-c", "import netCDF4, xarray, numpy"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !ok {
+        println!(
+            "SKIP python_netcdf4_and_xarray_read_the_same_values: {} lacks netCDF4/xarray",
+            python.display()
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = SynthConfig::new(31, coast_box(), (2018, 2019));
+    config.warmup_days = 60;
+    let s = run(&config, dir.path());
+    // What our reader sees: days 0, 180 and 364 of every file, [lat][lon], null = masked.
+    let mut files = Vec::new();
+    for path in &s.gridmet_files {
+        let (v, year) = GridmetVariable::from_file_name(path).unwrap();
+        let f = GridmetFile::open(path, v).unwrap();
+        let days: Vec<serde_json::Value> = [0usize, 180, 364]
+            .iter()
+            .map(|&t| {
+                let vals: Vec<serde_json::Value> = f
+                    .read_day(t)
+                    .unwrap()
+                    .iter()
+                    .map(|&x| {
+                        if x.is_nan() {
+                            serde_json::Value::Null
+                        } else {
+                            serde_json::json!(x)
+                        }
+                    })
+                    .collect();
+                serde_json::json!({ "index": t, "values": vals })
+            })
+            .collect();
+        files.push(serde_json::json!({
+            "path": path,
+            "short": v.short_name(),
+            "year": year,
+            "variable": f.var_name(),
+            "n_lat": f.grid_shape().0,
+            "n_lon": f.grid_shape().1,
+            "first_day": f.days()[0],
+            "lat0": f.lats()[0],
+            "lon0": f.lons()[0],
+            "scale": packing(v).scale,
+            "days": days,
+        }));
+    }
+    let dump = dir.path().join("rust_reader_dump.json");
+    std::fs::write(
+        &dump,
+        serde_json::to_vec(&serde_json::json!({ "files": files })).unwrap(),
+    )
+    .unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/tools/check_synth.py");
+    let out = Command::new(&python)
+        .arg(&script)
+        .arg(dir.path())
+        .arg("--dump")
+        .arg(&dump)
+        .output()
+        .unwrap();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("{text}");
+    assert!(out.status.success(), "check_synth.py failed:\n{text}");
+    assert!(text.contains("ALL OK"), "{text}");
+}

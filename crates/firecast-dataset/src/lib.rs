@@ -1,0 +1,136 @@
+//! FireCast ignition datasets (stage A of FireCastRL, done properly):
+//!
+//! 1. [`sampling::dedup_ignitions`]: IRWIN/WFIGS reports → de-duplicated ignitions;
+//! 2. [`sampling::sample_negatives`]: three negative tiers (far, near, yearly), paper or
+//!    code variant, seeded;
+//! 3. [`windows::extract`]: GRIDMET weather windows, one pass per file;
+//! 4. [`dataset::build`]: a framing (`paper` or `forecast`), leak-free splits, normalisation
+//!    statistics from the training split, a version id, a dataset card and a map;
+//! 5. [`kaggle`]: the published FireCastRL CSV in and out.
+//!
+//! Tables are Parquet (arrow-rs); the card's statistics are computed with polars.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+pub mod bench;
+pub mod card;
+pub mod dataset;
+pub mod geo;
+pub mod kaggle;
+pub mod land;
+pub mod sampling;
+pub mod stage;
+pub mod table;
+pub mod time;
+pub mod windows;
+
+/// What kind of sample a row is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Tier {
+    /// A de-duplicated ignition.
+    Positive,
+    /// ≥ 100 km from every ignition, any time in the period.
+    Far,
+    /// Within 100 km of an ignition, shifted by months.
+    Near,
+    /// The place of an ignition, whole years earlier.
+    Yearly,
+    /// Imported without tier information (the Kaggle CSV): positive windows.
+    ImportedPositive,
+    /// Imported negative windows.
+    ImportedNegative,
+}
+
+impl Tier {
+    pub const ALL: [Tier; 6] = [
+        Tier::Positive,
+        Tier::Far,
+        Tier::Near,
+        Tier::Yearly,
+        Tier::ImportedPositive,
+        Tier::ImportedNegative,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Tier::Positive => "positive",
+            Tier::Far => "far",
+            Tier::Near => "near",
+            Tier::Yearly => "yearly",
+            Tier::ImportedPositive => "imported_positive",
+            Tier::ImportedNegative => "imported_negative",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Tier> {
+        Tier::ALL.into_iter().find(|t| t.as_str() == s)
+    }
+
+    /// Whether a fire was recorded at the sample's place and date.
+    pub fn is_positive(self) -> bool {
+        matches!(self, Tier::Positive | Tier::ImportedPositive)
+    }
+}
+
+/// Errors of dataset building. Every variant names the file, key or variable at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    #[error("{context} {}: {source}", path.display())]
+    Io {
+        context: &'static str,
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Gridmet(#[from] firecast_data::gridmet::GridmetError),
+    #[error(transparent)]
+    Incidents(#[from] firecast_data::incidents::IncidentError),
+    #[error("{}: {message}", path.display())]
+    Input { path: PathBuf, message: String },
+    #[error("{}:{line}: {message}", path.display())]
+    InputLine { path: PathBuf, line: u64, message: String },
+    #[error("missing {what}: {} does not exist", path.display())]
+    MissingSource { path: PathBuf, what: String },
+    #[error("`{key}`: {message}")]
+    Config { key: String, message: String },
+    #[error("Parquet {}: {message}", path.display())]
+    Parquet { path: PathBuf, message: String },
+    #[error("polars: {0}")]
+    Polars(String),
+}
+
+impl DatasetError {
+    pub(crate) fn io<'a>(context: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> DatasetError + 'a {
+        move |source| DatasetError::Io {
+            context,
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
+/// BLAKE3 of a file, hex.
+pub fn hash_file(path: &Path) -> Result<String, DatasetError> {
+    let mut hasher = blake3::Hasher::new();
+    let mut file = std::fs::File::open(path).map_err(DatasetError::io("hashing", path))?;
+    std::io::copy(&mut file, &mut hasher).map_err(DatasetError::io("hashing", path))?;
+    Ok(hasher.finalize().to_hex().to_string())
+}
+
+/// Writes `bytes` to `path` through a temporary sibling and a rename, so a reader never
+/// sees a half-written file.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
+    let tmp = tmp_sibling(path);
+    std::fs::write(&tmp, bytes).map_err(DatasetError::io("writing", &tmp))?;
+    std::fs::rename(&tmp, path).map_err(DatasetError::io("renaming into place", path))
+}
+
+/// `.<name>.tmp-<pid>` next to `path`.
+pub fn tmp_sibling(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+}
