@@ -434,3 +434,217 @@ fn synthesize(settings: &Settings, a: &SynthesizeArgs) -> anyhow::Result<ExitCod
         println!("synthetic test bed; the generative model is in {}", a.out.join(stage::SOURCE_MODEL_FILE).display());
     })
 }
+
+#[derive(Debug, Args)]
+pub struct BenchGridmetArgs {
+    /// Where the benchmark's GRIDMET files live; missing ones are generated (synthetic,
+    /// full CONUS grid unless --region says otherwise).
+    #[arg(long, value_name = "DIR", default_value = ".firecast/bench/gridmet")]
+    pub dir: PathBuf,
+    /// Windows to extract.
+    #[arg(long, default_value_t = 2000)]
+    pub samples: usize,
+    /// Years of files, e.g. 2020-2020.
+    #[arg(long, default_value = "2020-2020", value_name = "YYYY-YYYY")]
+    pub years: String,
+    /// GRIDMET variables.
+    #[arg(long, default_value = "pr,tmmx,rmin,vs", value_name = "LIST")]
+    pub variables: String,
+    /// `conus` (585 x 1386 cells) or LAT_MIN,LAT_MAX,LON_MIN,LON_MAX.
+    #[arg(long, default_value = "conus")]
+    pub region: String,
+    /// Python with xarray and netCDF4 [default: $FIRECAST_VENV, ./.venv, python3].
+    #[arg(long, value_name = "PATH")]
+    pub python: Option<PathBuf>,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+#[derive(serde::Serialize)]
+struct BenchGridmetReport {
+    grid: (usize, usize),
+    files: u64,
+    windows: usize,
+    variables: usize,
+    days_per_window: usize,
+    firecast_seconds: f64,
+    firecast_quarter_seconds: f64,
+    reference_seconds: f64,
+    reference_wall_seconds: f64,
+    speedup: f64,
+    agreement: firecast_dataset::bench::Agreement,
+    paper_scale_firecast_seconds: f64,
+    paper_scale_reference_seconds: f64,
+    paper_scale_speedup: f64,
+    threads: usize,
+    xarray: String,
+}
+
+pub fn bench_gridmet(settings: &Settings, a: &BenchGridmetArgs) -> anyhow::Result<ExitCode> {
+    use firecast_dataset::bench;
+    use std::time::Instant;
+
+    let (y0, y1) = a
+        .years
+        .split_once('-')
+        .and_then(|(x, y)| Some((x.trim().parse::<i32>().ok()?, y.trim().parse::<i32>().ok()?)))
+        .with_context(|| format!("--years: `{}` is not YYYY-YYYY", a.years))?;
+    let variables: Vec<String> = a.variables.split(',').map(|s| s.trim().to_string()).collect();
+    let extract_cfg = firecast_dataset::windows::ExtractConfig {
+        variables: variables.clone(),
+        ..Default::default()
+    };
+    let vars = extract_cfg.resolve_variables()?;
+    let dir = settings.root.join(&a.dir);
+    let gridmet = dir.join("gridmet");
+    let missing: Vec<_> = (y0..=y1)
+        .flat_map(|y| vars.iter().map(move |v| (*v, y)))
+        .filter(|(v, y)| !gridmet.join(v.file_name(*y)).is_file())
+        .collect();
+    if !missing.is_empty() {
+        let region = if a.region == "conus" {
+            json!("conus")
+        } else {
+            let v: Vec<f64> = a
+                .region
+                .split(',')
+                .map(|x| x.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .with_context(|| format!("--region: `{}`", a.region))?;
+            anyhow::ensure!(v.len() == 4, "--region: expected 4 numbers");
+            json!({"lat_min": v[0], "lat_max": v[1], "lon_min": v[2], "lon_max": v[3]})
+        };
+        let p: stage::SynthParams = params(
+            None,
+            &[
+                ("seed", Some(json!(a.seed))),
+                ("years", Some(json!([y0, y1]))),
+                ("region", Some(region)),
+                ("variables", Some(json!(variables))),
+                ("dim_order", Some(json!("lat_lon"))),
+                ("warmup_days", Some(json!(30))),
+            ],
+        )?;
+        eprintln!(
+            "generating {} synthetic GRIDMET file(s) in {} (kept for later runs)",
+            missing.len(),
+            gridmet.display()
+        );
+        let scratch = firecast_dataset::tmp_sibling(&dir.join("generate"));
+        let _ = std::fs::remove_dir_all(&scratch);
+        std::fs::create_dir_all(&gridmet).with_context(|| format!("cannot create {}", gridmet.display()))?;
+        let mut cfg = p.to_config()?;
+        cfg.write_incidents = false;
+        let bar = progress_bar(settings, "simulated days");
+        firecast_data::synth::generate(&cfg, &scratch, &mut |d, t| {
+            bar.set_length(t);
+            bar.set_position(d);
+        })?;
+        bar.finish_and_clear();
+        for (v, y) in &missing {
+            let name = v.file_name(*y);
+            std::fs::rename(scratch.join("gridmet").join(&name), gridmet.join(&name))
+                .with_context(|| format!("moving {name}"))?;
+        }
+        let _ = std::fs::remove_dir_all(&scratch);
+    }
+
+    let mask = firecast_dataset::land::LandMask::from_gridmet_dir(&gridmet)?;
+    let offsets = (extract_cfg.first_offset, extract_cfg.last_offset);
+    let samples = bench::random_samples(&mask, (y0, y1), offsets, a.samples, a.seed)?;
+    let quarter = &samples[..samples.len() / 4];
+    let no_progress = |_: u64, _: u64| {};
+
+    eprintln!("FireCast: {} windows x {} variables ...", samples.len(), vars.len());
+    let start = Instant::now();
+    let (table, report) = firecast_dataset::windows::extract(&samples, &gridmet, &extract_cfg, false, &no_progress)?;
+    let firecast_seconds = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    firecast_dataset::windows::extract(quarter, &gridmet, &extract_cfg, false, &no_progress)?;
+    let firecast_quarter_seconds = start.elapsed().as_secs_f64();
+
+    let python = bench::find_python(a.python.as_deref(), &settings.root);
+    eprintln!("reference (xarray + netCDF4, {}) on the same windows ...", python.display());
+    let work = tempfile_dir(&dir)?;
+    let reference = bench::run_reference(&python, &gridmet, &table, &work);
+    let _ = std::fs::remove_dir_all(&work);
+    let reference = reference?;
+    let agreement = bench::compare(&table.values, &reference.values);
+
+    // Paper scale: 126,800 windows x 15 variables over 12 years of CONUS files.
+    // FireCast costs per file plus per window: fit both from the full and the quarter run.
+    let files = report.files_read as f64;
+    let n = samples.len() as f64;
+    let per_window = ((firecast_seconds - firecast_quarter_seconds) / (n - n / 4.0)).max(0.0);
+    let per_file = ((firecast_seconds - per_window * n) / files).max(0.0);
+    let paper_files = bench::PAPER_VARIABLES * bench::PAPER_YEARS;
+    let paper_firecast = per_file * paper_files
+        + per_window * bench::PAPER_WINDOWS * (bench::PAPER_VARIABLES / vars.len() as f64);
+    // The reference costs per window and variable.
+    let per_selection = reference.seconds / (n * vars.len() as f64);
+    let paper_reference = per_selection * bench::PAPER_WINDOWS * bench::PAPER_VARIABLES;
+    let out = BenchGridmetReport {
+        grid: (mask.lats().len(), mask.lons().len()),
+        files: report.files_read,
+        windows: samples.len(),
+        variables: vars.len(),
+        days_per_window: table.n_days,
+        firecast_seconds,
+        firecast_quarter_seconds,
+        reference_seconds: reference.seconds,
+        reference_wall_seconds: reference.wall_seconds,
+        speedup: reference.seconds / firecast_seconds,
+        agreement,
+        paper_scale_firecast_seconds: paper_firecast,
+        paper_scale_reference_seconds: paper_reference,
+        paper_scale_speedup: paper_reference / paper_firecast,
+        threads: rayon_threads(),
+        xarray: reference.xarray.clone(),
+    };
+    print(settings, &out, || {
+        println!(
+            "GRIDMET window extraction: {} windows x {} variables x {} days, {} files of {} x {} cells",
+            out.windows, out.variables, out.days_per_window, out.files, out.grid.0, out.grid.1
+        );
+        let mut t = output::table(&["extractor", "seconds", "windows/s", "ratio"]);
+        t.add_row(vec![
+            "reference: xarray + netCDF4, nearest cell per window (authors' method)".into(),
+            format!("{:.2}", out.reference_seconds),
+            format!("{:.0}", out.windows as f64 / out.reference_seconds),
+            "1.0x".into(),
+        ]);
+        t.add_row(vec![
+            format!("FireCast: each file read once, {} threads", out.threads),
+            format!("{:.2}", out.firecast_seconds),
+            format!("{:.0}", out.windows as f64 / out.firecast_seconds),
+            format!("{:.1}x", out.speedup),
+        ]);
+        let _ = output::print_table(&t);
+        println!(
+            "agreement: {} values, max |difference| {:.2e}, missing-value mismatches {}",
+            out.agreement.values, out.agreement.max_abs_diff, out.agreement.missing_mismatches
+        );
+        println!(
+            "projection to the paper's scale (126,800 windows x 15 variables, 12 years of CONUS files): \
+             reference {:.0} s ({:.1} h), FireCast {:.0} s, {:.0}x",
+            out.paper_scale_reference_seconds,
+            out.paper_scale_reference_seconds / 3600.0,
+            out.paper_scale_firecast_seconds,
+            out.paper_scale_speedup
+        );
+        println!(
+            "(reference time is measured inside Python, without interpreter start: {:.2} s wall)",
+            out.reference_wall_seconds
+        );
+    })
+}
+
+fn rayon_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+fn tempfile_dir(parent: &Path) -> anyhow::Result<PathBuf> {
+    let dir = parent.join(format!(".reference-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    Ok(dir)
+}

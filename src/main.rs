@@ -63,6 +63,10 @@ enum BenchCommand {
     /// Simulator speed: env steps per second (one env on one thread, and vectorised on all
     /// cores) with an active fire, and Rothermel point evaluations per second.
     Sim(cmd_sim::BenchSimArgs),
+    /// GRIDMET window extraction: FireCast beside the authors' xarray method (Python, run in
+    /// the same command on the same files and windows), with the ratio and a projection to
+    /// the paper's scale.
+    Gridmet(cmd_dataset::BenchGridmetArgs),
 }
 
 fn main() -> ExitCode {
@@ -97,6 +101,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Dataset(command) => cmd_dataset::run(&settings, command),
         Command::Sim(command) => cmd_sim::run(&settings, command),
         Command::Bench(BenchCommand::Sim(args)) => cmd_sim::bench(&settings, &args),
+        Command::Bench(BenchCommand::Gridmet(args)) => cmd_dataset::bench_gridmet(&settings, &args),
         Command::Doctor => doctor(&settings),
     }
 }

@@ -258,8 +258,7 @@ pub fn import(
         // Row 61 is the event day (the ignition day of a positive window).
         let event_day = w.first_day + 60;
         // The GRIDMET cell by the grid's formula (data spec §2.3).
-        let j = ((49.4 - w.lat) * 24.0).round().clamp(0.0, 584.0);
-        let i = ((w.lon + 124.766_666_633_3) * 24.0).round().clamp(0.0, 1385.0);
+        let (j, i) = crate::geo::gridmet_cell_index(w.lat, w.lon);
         samples.push(WindowSample {
             sample_id: k as u32,
             lat: w.lat,
@@ -272,9 +271,9 @@ pub fn import(
                 Tier::ImportedNegative
             },
             source_row: None,
-            cell: (j as u32, i as u32),
-            cell_lat: 49.4 - j / 24.0,
-            cell_lon: -124.766_666_633_3 + i / 24.0,
+            cell: (j, i),
+            cell_lat: 49.4 - f64::from(j) / 24.0,
+            cell_lon: -124.766_666_633_3 + f64::from(i) / 24.0,
         });
         values.extend_from_slice(&w.values);
         labels.extend_from_slice(&w.labels);

@@ -146,7 +146,8 @@ pub struct WindowSample {
     pub event_day: i32,
     pub tier: Tier,
     pub source_row: Option<u64>,
-    /// GRIDMET cell (row in the file's latitude order, column) and its centre.
+    /// GRIDMET cell (row from the north, column from the west, on the full CONUS grid) and
+    /// its centre.
     pub cell: (u32, u32),
     pub cell_lat: f64,
     pub cell_lon: f64,
@@ -221,7 +222,6 @@ struct Task {
     variable: GridmetVariable,
     feature: usize,
     path: PathBuf,
-    year: i32,
     /// `(sample slot, first window day slot, first day index in the file, number of days)`
     needs: Vec<(usize, usize, i32, usize)>,
 }
@@ -274,6 +274,8 @@ pub fn extract(
     };
     let n_days = (cfg.last_offset - cfg.first_offset + 1) as usize;
     let mut kept: Vec<WindowSample> = Vec::with_capacity(samples.len());
+    // Cell indices in the files' own axes, for reading.
+    let mut local: Vec<(usize, usize)> = Vec::with_capacity(samples.len());
     for s in samples {
         let event_day = time::gridmet_day(s.time_ms, cfg.day_boundary);
         let (first, last) = (event_day + cfg.first_offset, event_day + cfg.last_offset);
@@ -285,6 +287,7 @@ pub fn extract(
             *report.dropped.entry("outside_gridmet_grid".into()).or_default() += 1;
             continue;
         };
+        local.push((j, i));
         kept.push(WindowSample {
             sample_id: s.sample_id,
             lat: s.lat,
@@ -293,7 +296,7 @@ pub fn extract(
             event_day,
             tier: s.tier,
             source_row: s.source_row,
-            cell: (j as u32, i as u32),
+            cell: crate::geo::gridmet_cell_index(grid.lats()[j], grid.lons()[i]),
             cell_lat: grid.lats()[j],
             cell_lon: grid.lons()[i],
         });
@@ -322,7 +325,6 @@ pub fn extract(
                             variable: *v,
                             feature: f,
                             path,
-                            year,
                             needs: Vec::new(),
                         })
                     }
@@ -344,7 +346,7 @@ pub fn extract(
         let results: Vec<Result<TaskResult, DatasetError>> = chunk
             .par_iter()
             .map(|task| {
-                let r = run_task(task, &kept, grid.lats(), grid.lons(), hash_sources);
+                let r = run_task(task, &local, grid.lats(), grid.lons(), hash_sources);
                 let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
                 progress(d, total);
                 r
@@ -408,7 +410,7 @@ struct TaskResult {
 
 fn run_task(
     task: &Task,
-    kept: &[WindowSample],
+    local: &[(usize, usize)],
     lats: &[f64],
     lons: &[f64],
     hash_sources: bool,
@@ -440,7 +442,7 @@ fn run_task(
     let mut cells: Vec<(usize, usize)> = task
         .needs
         .iter()
-        .map(|n| (kept[n.0].cell.0 as usize, kept[n.0].cell.1 as usize))
+        .map(|n| local[n.0])
         .collect();
     cells.sort_unstable();
     cells.dedup();
@@ -471,10 +473,7 @@ fn run_task(
         .zip(located)
         .map(|(n, at)| {
             let at = at?;
-            let s = &kept[n.0];
-            let c = cells
-                .binary_search(&(s.cell.0 as usize, s.cell.1 as usize))
-                .ok()?;
+            let c = cells.binary_search(&local[n.0]).ok()?;
             Some(gathered[c][at - lo..at - lo + n.3].to_vec())
         })
         .collect();
@@ -483,6 +482,5 @@ fn run_task(
     } else {
         None
     };
-    let _ = task.year;
     Ok(TaskResult { series, hash })
 }

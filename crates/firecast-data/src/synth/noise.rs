@@ -133,7 +133,6 @@ pub(crate) struct ArLattice {
     phi: f64,
     a0: usize,
     b0: usize,
-    pub na: usize,
     pub nb: usize,
     values: Vec<f32>,
 }
@@ -158,7 +157,6 @@ impl ArLattice {
             phi,
             a0,
             b0,
-            na,
             nb,
             values: vec![0.0; na * nb],
         };
@@ -177,15 +175,18 @@ impl ArLattice {
 
     /// Advances every node one day with the innovations of `day`.
     pub fn step_day(&mut self, seed: u64, day: i32) {
+        use rayon::prelude::*;
         let k = key(seed, self.stream, i64::from(day));
         let s = (1.0 - self.phi * self.phi).sqrt();
-        for a in 0..self.na {
-            for b in 0..self.nb {
-                let e = normal(hash_with(k, self.node_id(a, b)));
-                let v = &mut self.values[a * self.nb + b];
-                *v = (self.phi * f64::from(*v) + s * e) as f32;
+        let (a0, b0, phi, nb) = (self.a0, self.b0, self.phi, self.nb);
+        // Every node's innovation is a hash of its own id: rows of nodes can go in parallel.
+        self.values.par_chunks_mut(nb).enumerate().for_each(|(a, row)| {
+            for (b, v) in row.iter_mut().enumerate() {
+                let id = ((a0 + a) as u64) << 32 | (b0 + b) as u64;
+                let e = normal(hash_with(k, id));
+                *v = (phi * f64::from(*v) + s * e) as f32;
             }
-        }
+        });
     }
 
     /// Axis coordinates of a global row.

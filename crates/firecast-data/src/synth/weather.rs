@@ -335,9 +335,7 @@ impl World {
     /// Advances the anomaly lattices to `day`.
     pub fn advance(&mut self, day: i32) {
         let seed = self.seed;
-        for l in &mut self.lattices {
-            l.step_day(seed, day);
-        }
+        self.lattices.par_iter_mut().for_each(|l| l.step_day(seed, day));
     }
 
     /// Computes one day for every land cell of every row: updates `state`, writes the
@@ -762,11 +760,18 @@ impl QuantileTable {
 
     #[inline]
     pub fn upper(&self, f: f32) -> f32 {
-        let x = ((f - Self::LO) * (Self::N as f32 / (Self::HI - Self::LO))).clamp(0.0, Self::N as f32 - 1e-3);
+        let x = clampf(
+            (f - Self::LO) * (Self::N as f32 / (Self::HI - Self::LO)),
+            0.0,
+            Self::N as f32 - 1e-3,
+        );
         // Via i32: an f32 → usize cast needs a slower saturating sequence.
         let k = x as i32 as usize;
         let t = x - k as f32;
-        self.values[k] * (1.0 - t) + self.values[k + 1] * t
+        match self.values.get(k..k + 2) {
+            Some(&[a, b]) => a + (b - a) * t,
+            _ => self.values[Self::N],
+        }
     }
 }
 
