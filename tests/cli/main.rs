@@ -2,6 +2,7 @@
 //! whole CLI (link time matters with this dependency stack).
 #![allow(clippy::unwrap_used)]
 
+mod dataset;
 mod pipeline;
 mod registry;
 mod sim;

@@ -3,20 +3,23 @@
 //! ```text
 //! cargo run --release -p firecast-data --example synth_gen -- OUT_DIR [--years 2021 2021]
 //!     [--vars tmmx,pr|all|none] [--box LAT_MIN LAT_MAX LON_MIN LON_MAX] [--seed N]
-//!     [--order latlon|lonlat|vintage] [--warmup DAYS] [--no-incidents]
+//!     [--order latlon|lonlat|vintage] [--warmup DAYS] [--no-incidents] [--cdf2] [--verify]
 //! ```
+//!
+//! `--verify` opens every written file with `GridmetFile` and reads two days back.
 #![allow(clippy::unwrap_used)]
 
 use std::path::PathBuf;
 use std::time::Instant;
 
-use firecast_data::gridmet::GridmetVariable;
-use firecast_data::synth::{DimOrderChoice, IgnitionCause, Region, SynthConfig, generate};
+use firecast_data::gridmet::{GridmetFile, GridmetVariable};
+use firecast_data::synth::{DimOrderChoice, IgnitionCause, NcVersion, Region, SynthConfig, generate};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let out = PathBuf::from(args.first().expect("usage: synth_gen OUT_DIR [options]"));
     let mut config = SynthConfig::new(42, Region::Conus, (2021, 2021));
+    let mut verify = false;
     let mut k = 1;
     while k < args.len() {
         let a = args[k].as_str();
@@ -64,6 +67,8 @@ fn main() {
                 k += 1;
             }
             "--no-incidents" => config.write_incidents = false,
+            "--cdf2" => config.netcdf_version = NcVersion::Cdf2,
+            "--verify" => verify = true,
             other => panic!("unknown option {other}"),
         }
         k += 1;
@@ -88,6 +93,25 @@ fn main() {
     println!("elapsed {secs:.2} s");
     for f in &summary.gridmet_files {
         println!("{}  {} bytes", f.display(), std::fs::metadata(f).unwrap().len());
+        if verify {
+            let t = Instant::now();
+            let (v, _) = GridmetVariable::from_file_name(f).unwrap();
+            let file = GridmetFile::open(f, v).unwrap();
+            for day in [0, file.days().len() - 1] {
+                let grid = file.read_day(day).unwrap();
+                let valid: Vec<f32> = grid.iter().copied().filter(|x| x.is_finite()).collect();
+                let mean = valid.iter().map(|&x| f64::from(x)).sum::<f64>() / valid.len() as f64;
+                println!(
+                    "  GridmetFile {:?}: day {} ({:?}) {} valid of {}, mean {mean:.3}",
+                    file.dim_order(),
+                    day,
+                    file.dates()[day],
+                    valid.len(),
+                    grid.len()
+                );
+            }
+            println!("  read back in {:.2} s", t.elapsed().as_secs_f64());
+        }
     }
     if let Some(csv) = &summary.incidents_csv {
         println!(

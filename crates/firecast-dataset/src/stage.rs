@@ -542,22 +542,28 @@ impl StageKind for DatasetStage {
         let model = ctx.input_list("source_model").first().cloned();
         let out = ctx.output("dataset")?.to_path_buf();
         let m = run_dataset(&windows, model.as_deref(), &cfg, &out).map_err(stage_err)?;
-        let location = ctx
-            .output_final_path("dataset")
-            .unwrap_or(&out)
-            .display()
-            .to_string();
+        let dir = ctx.output_final_path("dataset").unwrap_or(&out).to_path_buf();
         let mut metadata = BTreeMap::new();
         metadata.insert("framing".to_string(), serde_json::to_string(&m.framing).unwrap_or_default());
         metadata.insert("positives".to_string(), m.positives.to_string());
         metadata.insert("splits".to_string(), serde_json::to_string(&m.splits).unwrap_or_default());
-        metadata.insert("day_rows".to_string(), m.day_rows.to_string());
+        metadata.insert("directory".to_string(), dir.display().to_string());
+        // Two views for `firecast query`: the long per-day table under the dataset's name and
+        // the per-sample table under `<name>_samples`; they join on sample_id.
         ctx.dataset(&DatasetRecord {
             name: m.name.clone(),
             version: m.version.clone(),
             schema_json: serde_json::to_string(&m.features).unwrap_or_default(),
+            rows: m.day_rows,
+            location: dir.join(crate::table::DAYS_FILE).display().to_string(),
+            metadata: metadata.clone(),
+        });
+        ctx.dataset(&DatasetRecord {
+            name: format!("{}_samples", m.name),
+            version: m.version.clone(),
+            schema_json: serde_json::to_string(&crate::table::sample_columns()).unwrap_or_default(),
             rows: m.samples,
-            location,
+            location: dir.join(crate::table::SAMPLES_FILE).display().to_string(),
             metadata,
         });
         ctx.metric("samples", 0, m.samples as f64);

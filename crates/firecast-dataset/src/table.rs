@@ -418,3 +418,8 @@ pub fn read_sample_list(path: &Path) -> Result<Vec<crate::windows::SampleIn>, Da
     }
     Ok(out)
 }
+
+/// Column names of `samples.parquet` in a finished dataset.
+pub fn sample_columns() -> Vec<String> {
+    samples_schema(true).fields().iter().map(|f| f.name().clone()).collect()
+}

@@ -407,8 +407,45 @@ const STATE_CENTRES: &[(&str, f64, f64)] = &[
     ("WY", -107.55, 43.0),
 ];
 
-/// Two-letter state code of a land point (nearest state centre; rough near borders).
+/// States whose borders are (nearly) parallels and meridians, as `(code, lat_min, lat_max,
+/// lon_min, lon_max)`; the first box containing a point wins (so the Utah notch is Wyoming's
+/// first, the Nebraska notch Colorado's, the Texas part of the Rio Grande valley before New
+/// Mexico).
+const STATE_BOXES: &[(&str, f64, f64, f64, f64)] = &[
+    ("WY", 41.0, 45.0, -111.05, -104.05),
+    ("CO", 37.0, 41.0, -109.05, -102.05),
+    ("UT", 37.0, 42.0, -114.05, -109.05),
+    ("TX", 25.0, 32.0, -106.65, -93.5),
+    ("NM", 31.33, 37.0, -109.05, -103.05),
+    ("AZ", 31.33, 37.0, -114.8, -109.05),
+    ("OK", 36.5, 37.0, -103.05, -100.0),
+    ("TX", 32.0, 36.5, -103.05, -100.0),
+    ("ND", 45.94, 49.0, -104.05, -97.0),
+    ("SD", 42.5, 45.94, -104.05, -96.6),
+    ("NE", 40.0, 43.0, -104.05, -95.8),
+    ("KS", 37.0, 40.0, -102.05, -94.6),
+    ("MT", 44.4, 49.0, -111.05, -104.05),
+    ("MT", 47.0, 49.0, -116.05, -111.05),
+    ("MT", 45.6, 47.0, -114.3, -111.05),
+    ("ID", 42.0, 49.0, -117.05, -111.05),
+    ("NV", 35.0, 42.0, -120.0, -114.05),
+    ("OR", 42.0, 46.0, -124.7, -116.9),
+    ("WA", 46.0, 49.0, -124.8, -117.05),
+];
+
+/// Two-letter state code of a land point: a box for the states with straight borders, else the
+/// nearest state centre (rough near the other borders; Nevada's diagonal border with California
+/// is approximated by 120°W).
 pub fn state_of(lat: f64, lon: f64) -> &'static str {
+    for &(code, la0, la1, lo0, lo1) in STATE_BOXES {
+        if (la0..la1).contains(&lat) && (lo0..lo1).contains(&lon) {
+            // Nevada's border with California runs diagonally south of Lake Tahoe.
+            if code == "NV" && lat < 39.0 && lon < -120.0 + (39.0 - lat) * (5.4 / 4.0) {
+                break;
+            }
+            return code;
+        }
+    }
     let c = lat.to_radians().cos();
     let mut best = ("", f64::INFINITY);
     for &(code, x, y) in STATE_CENTRES {
@@ -468,6 +505,15 @@ mod tests {
         assert_eq!(state_of(34.05, -118.25), "CA");
         assert_eq!(state_of(33.45, -112.07), "AZ");
         assert_eq!(state_of(40.7, -74.0), "NJ"); // near a border: rough is fine
+        assert_eq!(state_of(32.66, -104.57), "NM");
+        assert_eq!(state_of(31.8, -104.5), "TX");
+        assert_eq!(state_of(41.5, -110.5), "WY");
+        assert_eq!(state_of(40.76, -111.89), "UT");
+        assert_eq!(state_of(36.17, -115.14), "NV");
+        assert_eq!(state_of(36.0, -118.0), "CA");
+        assert_eq!(state_of(43.6, -116.2), "ID");
+        assert_eq!(state_of(46.87, -113.99), "MT");
+        assert_eq!(state_of(47.66, -117.43), "WA");
     }
 
     #[test]

@@ -1,25 +1,25 @@
 //! The synthetic ignition model and its WFIGS-style CSV export.
 //!
 //! For every land cell-day of the written years, the generator draws `N ~ Poisson(λ)` with
-//! `λ = s·(λ_h + λ_l + λ_rx)` (`s` = [`super::SynthConfig::ignition_rate_scale`]):
+//! `λ = s·(λ_h + λ_l + λ_rx)` (`s` = [`super::SynthConfig::ignition_rate_scale`]; the rates are
+//! computed in `weather::ignition_rates`):
 //!
 //! * human wildfires `λ_h = B_h·H/(1 + H/3)·m_day·exp(η_h)`, `H` the seeded human-activity
 //!   field, `m_day` the spring/autumn, weekend and 4–5 July multipliers, and
-//!   `η_h = 0.45·x₁ + 0.2·x₂ + 0.25·x₃ + 0.2·x₄ + 0.1·x₅ + 0.1·x₆ − 0.8·ln(1+pr) − 2.5·cold`;
-//! * lightning wildfires `λ_l = B_l·L·conv·rain_eff·exp(0.5·x₁ + 0.3·x₂ + 0.3·x₃ − 2.5·cold)`,
-//!   `L` the terrain/monsoon/Florida propensity, `conv = ramp((Tx−22)/12)·ramp(ea/1.2)·
-//!   exp(1.2·aC − 0.72)` (warm, moist, convective days), `rain_eff` 0.45 without rain, 1 for
-//!   0.25–5 mm, decaying above 5 mm;
-//! * prescribed fires `λ_rx = B_rx·R·m_rx·exp(−((fm100−14)/5)²)·exp(−0.5·max(0, vs−5))` on days
+//!   `η_h = 0.35·x₁ + 0.15·x₂ + 0.2·x₃ + 0.2·x₄ + 0.1·x₅ + 0.1·x₆ − 0.8·ln(1+pr) − 2.5·cold`;
+//! * lightning wildfires `λ_l = B_l·L·ramp((Tx−22)/12)·ramp(ea/1.2)·r·exp(1.2·aC − 0.72 +
+//!   0.5·x₁ + 0.3·x₂ + 0.3·x₃ − 2.5·cold − max(0, (pr − 5)/4))`, `L` the terrain/monsoon/Florida
+//!   propensity, `aC` the convective anomaly, `r` 0.45 without rain and 1 with it;
+//! * prescribed fires `λ_rx = B_rx·R·m_rx·exp(−((fm100−14)/5)² − 0.5·max(0, vs−5))` on days
 //!   with pr < 1 mm;
 //!
 //! with `x₁ = (12 − fm100)/4`, `x₂ = (15 − fm1000)/5`, `x₃ = (erc − 40)/25`,
 //! `x₄ = (vs − 3.5)/2.5`, `x₅ = (vpd − 1.5)/1.2`, `x₆ = (30 − rmin)/15` and
 //! `cold = ramp((3 − Tx[°C])/10)`. Each ignition gets a cause by the three rates' proportions,
 //! a point uniformly inside the cell, a discovery time within the GRIDMET day (07:00 UTC to
-//! 07:00 UTC the next day) with a mid-afternoon local peak, and a heavy-tailed size that grows
-//! with ERC and wind. A fraction of wildfires is reported twice (a second IRWIN record from
-//! another unit minutes to 110 minutes later and 80–700 m away).
+//! 07:00 UTC the next day) with a mid-afternoon local peak, and a heavy-tailed size
+//! `0.1·U^(−1/α)` acres whose tail grows with ERC and wind. A fraction of wildfires is reported
+//! twice (a second IRWIN record from another unit 3 to 110 minutes later and 80–700 m away).
 
 use std::cmp::Ordering;
 use std::fs::{self, File};

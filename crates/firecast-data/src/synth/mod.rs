@@ -86,7 +86,7 @@ pub struct SynthConfig {
     pub variables: Vec<GridmetVariable>,
     /// Storage layout by year.
     pub dim_order: DimOrderChoice,
-    /// Multiplier of every ignition rate (1.0 ≈ 30–40 thousand wildfires a year over CONUS).
+    /// Multiplier of every ignition rate (1.0 ≈ 27 000 ignitions a year over CONUS).
     pub ignition_rate_scale: f64,
     /// Whether to write `incidents/wfigs_incidents.csv`.
     pub write_incidents: bool,
@@ -336,110 +336,198 @@ pub fn generate(
 }
 
 /// The model card (Markdown) that the dataset card embeds: what the generator is, its
-/// equations and constants (formatted from the code's own constants), and its limits.
+/// equations and constants (the rates and response factors are formatted from the code's own
+/// constants), calibration notes and limits.
 pub fn model_card() -> String {
     use weather::{BASE_HUMAN, BASE_LIGHTNING, BASE_RX, K_BDY, K100, K1000, PDSI_RHO};
-    let mut s = String::new();
-    s.push_str(&format!(
-        "# FireCast synthetic sources — model card (`{MODEL_VERSION}`)\n\n\
-**Synthetic test-bed data. Not observations, not GRIDMET, not WFIGS.** The files reproduce the \
-real formats (GRIDMET yearly NetCDF, WFIGS CSV) and plausible physics so that the FireCast \
-pipeline, loaders and an ignition classifier can be exercised without downloads. Any \
-resemblance of a fire or a weather day to reality is chance.\n\n\
-## Files\n\n\
-* `gridmet/<short>_<YYYY>.nc` for the 16 variables pr, rmax, rmin, sph, vpd, vs, tmmx, tmmn, \
-srad, bi, erc, fm100, fm1000, pet, etr, th, on the real GRIDMET grid (1/24°, lat 49.4 → 25.0667 \
-descending, lon −124.7667 → −67.0583), `day` in days since 1900-01-01. NetCDF classic: CDF-1, \
-or CDF-2 (64-bit offsets) when a file exceeds 2 GiB.\n\
-* Layouts: *packed* `(day, lat, lon)` 16-bit integers with `scale_factor`, `add_offset`, \
-`_FillValue` = `missing_value` (−32767, or 65535 stored as −1 with `_Unsigned = \"true\"` for \
-pr, rmax, rmin, sph, srad, vpd, th), a `crs` grid-mapping variable, `day` double; *old* \
-`(day, lon, lat)` float32 with `missing_value = -32767`, no `crs`, `day` int. By default years \
-before 2019 use the old layout.\n\
-* Cells outside a rough ~125-vertex outline of the lower 48 states (ocean, Great Lakes, Canada, \
-Mexico) are masked in every variable.\n\
-* `incidents/wfigs_incidents.csv`: the 97 columns of a real 2023 WFIGS export, dates as \
-`YYYY/MM/DD HH:MM:SS+00` (UTC).\n\n\
-## World\n\n\
-Static fields per cell: elevation = hand-made macro relief (Rockies, Sierra/Cascades, Coast \
-Ranges, Plains slope, Appalachians) + seeded fractal value noise (7 octaves, 1/8°–8°); annual \
-precipitation from Gulf/Atlantic and Pacific moisture access, orography and a seeded ±15 % \
-field (≈150–300 mm in the interior West, 1000–1500 mm in the East, >2000 mm on the NW coast); \
-aridity `A = clamp(1 − (P − 220)/850, 0, 1)`; seasonal cycles as annual harmonics: \
-Mediterranean winter rain on the West Coast, the Southwest monsoon (Jul–Aug), a June Plains \
-maximum, a Florida wet summer. Temperature `T = 27 − 0.85(lat − 25) + maritime + 2.5A − 5.5 K/km·z`, \
-seasonal amplitude `(4 + 0.5(lat − 25))·continentality + 1.5A`. Human activity: ~50 metro \
-areas plus 400 seeded towns, saturating, times a seeded log-normal fractal.\n\n\
-## Daily weather\n\n\
-Anomalies are smooth Gaussian fields: lattices of independent AR(1) processes bilinearly \
-(smoothstep) upsampled with variance normalisation — temperature `aT = 0.8·T(2°, φ=0.75) + \
-0.6·T(0.5°, φ=0.6)`, moisture `aP = 0.8·P(2°, φ=0.55) + 0.6·P(0.5°, φ=0.35)`, convection \
-`aC` (0.25°, φ=0.1), wind `aU, aV` (2°, φ=0.55), gustiness `aW` (1°, φ=0.45), drought regime \
-`aD` (4°, φ=0.993) — plus white per-cell noise ε.\n\n\
-* Precipitation: wet when `z = (0.8aP + 0.35ε + c·aC)/‖·‖ > θ = Φ⁻¹(1 − f_w) + 0.3aD`, `f_w` \
-the climatological wet-day fraction; amount `α(1 − 0.15aD)·(−ln q)^1.25 / Γ(2.25)`, \
-`q = Q(z)/Q(θ)` (a Weibull(0.8) with mean α, the climatological wet-day mean), 0.1–400 mm.\n\
-* Cloud `c = σ(1.5(z − θ) + 0.5)`. Mean temperature `T̄ = T_clim + σ_T·aT + 0.5ε + 0.9aD − \
-1.8(c − 0.35)`; diurnal range `DTR·(1.3 − 0.75c)` (×0.85 on wet days); tmmx/tmmn = T̄ ± DTR/2.\n\
-* Humidity: dew point `Td = Tmin − D`, `D = D_clim − 2.2aP + 1.2aD + 0.8ε ≥ 0` (×0.15 on wet \
-days); `es(T) = 0.6108·exp(17.27T/(T + 237.3))` kPa, `ea = es(Td)`; rmax = 100·ea/es(Tmin), \
-rmin = 100·ea/es(Tmax), vpd = (es(Tmax) + es(Tmin))/2 − ea ≥ 0, sph = 0.622·ea/(p − 0.378·ea) \
-with p from elevation.\n\
-* srad = Ra·(0.75 + 2·10⁻⁵z)·(1 − 0.65c) (FAO-56 Ra; W m⁻²).\n\
-* Wind: flow `(u, v)` = climatological westerlies/southerlies + 2.8·(aU, aV); th = direction \
-the wind comes from + 14°·ε; vs = vs_clim·exp(0.33aW + 0.1ε − 0.06) + 0.12·max(0, |u,v| − 3), \
-0.1–29 m/s.\n\
-* pet (grass) = 0.0135·(T̄ + 17.8)·0.408·Rs + 0.22·u₂·vpd (Hargreaves 1975 radiation form plus \
-an aerodynamic term, u₂ = 0.748·vs), 0–17 mm; etr = pet·(1.15 + 0.04·min(u₂, 6) + \
-0.03·min(vpd, 6)) ≥ pet, ≤ 27 mm.\n\n\
-## Fuel moisture and fire danger (NFDRS 1978 style)\n\n\
-* EMC (Simard 1968, T in °F, H in %): H < 10: `0.03229 + 0.281073H − 0.000578HT`; \
-10 ≤ H < 50: `2.22749 + 0.160107H − 0.014784T`; H ≥ 50: `21.0606 + 0.005565H² − 0.00035HT − \
-0.483199H`. EMCmin from (Tmax, rmin), EMCmax from (Tmin, rmax), day-length weighted: \
-`EMC̄ = (N·EMCmin + (24 − N)·EMCmax)/24`.\n\
-* Precipitation duration `d = min(8, 1 + pr/4)` h when pr ≥ 0.25 mm.\n\
-* 100-h: `B₁₀₀ = ((24 − d)·EMC̄ + d·(0.5d + 41))/24`, `fm100 += (B₁₀₀ − fm100)·{K100:.4}` \
-(= 1 − 0.87·e^(−24/100)); 0.3–33 %.\n\
-* 1000-h: `B₁₀₀₀ = ((24 − d)·EMC̄ + d·(2.7d + 76))/24`, smoothed as a 7-day running mean \
-(`{K_BDY:.4}`/day), `fm1000 += (B̄ − fm1000)·{K1000:.4}` (NFDRS weekly 1 − 0.82·e^(−0.168) \
-spread over 7 days); 0.4–48 %.\n\
-* 1-h/10-h (not written): 1.03/1.28 × EMCmin, 35 % on wet days.\n\
-* ERC (fuel model G) surrogate: dryness `Δ = 0.15(1 − m₁/30)⁺ + 0.10(1 − m₁₀/30)⁺ + \
-0.25(1 − fm100/30)⁺ + 0.50(1 − fm1000/35)⁺`, greenness G (seasonal harmonic, 0–1), \
-`ERC = min(132, 165·(Δ(1 − 0.3G))^2.66)`.\n\
-* BI surrogate: spread component `SC = 4·η_f·(1 + 0.12·U₂₀^1.5)` (U₂₀ in mi/h = vs/1.15·2.237, \
-η_f Rothermel's moisture damping of the 1-h/10-h moistures with extinction 25 %), \
-`BI = min(214, 3.01·(SC·ERC)^0.46)` (the NFDRS BI formula).\n\
-* Drought index (internal, not written): `X = ρX + 0.1203/√f_w·(pr/α − f_w)`, ρ = {PDSI_RHO:.6} \
-(Palmer's monthly 0.897 per day).\n\
-* Spin-up: the state starts at fm100 = 18 %, fm1000 = 22 % and is run for `warmup_days` \
-(default 365) before the first written day.\n\n\
-## Ignitions\n\n\
-Per land cell-day `N ~ Poisson(λ)`, `λ = s·(λ_h + λ_l + λ_rx)` with \
-`x₁ = (12 − fm100)/4`, `x₂ = (15 − fm1000)/5`, `x₃ = (erc − 40)/25`, `x₄ = (vs − 3.5)/2.5`, \
-`x₅ = (vpd − 1.5)/1.2`, `x₆ = (30 − rmin)/15`, `cold = clamp((3 − Tx°C)/10, 0, 1)`:\n\n\
-* human WF: `λ_h = {BASE_HUMAN:e}·H/(1 + H/3)·m_day·exp(0.45x₁ + 0.2x₂ + 0.25x₃ + 0.2x₄ + 0.1x₅ + \
-0.1x₆ − 0.8·ln(1 + pr) − 2.5·cold)`, `m_day` = spring (×1.45 around late March) and autumn \
-bumps, ×1.15 on weekends, ×2.5 on 4–5 July;\n\
-* lightning WF: `λ_l = {BASE_LIGHTNING:e}·L·ramp((Tx − 22)/12)·ramp(ea/1.2)·exp(1.2aC − 0.72)·r·\
-exp(0.5x₁ + 0.3x₂ + 0.3x₃ − 2.5·cold)`, `L` terrain/monsoon/Florida propensity, `r` = 0.45 \
-(no rain), 1 (0.25–5 mm), exp(−(pr − 5)/4) (more rain);\n\
-* prescribed RX: `λ_rx = {BASE_RX:e}·R·m_rx·exp(−((fm100 − 14)/5)²)·exp(−0.5·max(0, vs − 5))` \
-when pr < 1 mm, `R` larger in the Southeast, `m_rx` peaking in late winter and autumn.\n\n\
-Each ignition: cause by the rates' proportions; point uniform in the cell; discovery hour \
-(local solar) ~N(14.5, 3.2) (85 %) or uniform for human, ~N(16.5, 3) lightning, ~N(11, 1.5) RX, \
-converted to UTC and kept in the GRIDMET day [07:00, 07:00) UTC; size 0.1·U^(−1/α) acres with \
-α = 0.95 − 0.35·ramp((erc − 30)/70) − 0.1·ramp((vs − 4)/6) (−0.08 for lightning), RX \
-log-normal around 40 acres. X/Y differ from InitialLatitude/Longitude by 0–60 m (85 %), up to \
-800 m (12 %) or 1–2.5 km (3 %); 3 % of records have no Initial* values. A fraction \
-(default 6 %) of wildfires gets a duplicate record from another unit 3–110 min later (25 %: \
-earlier) and 80–700 m away, with a new IrwinID and UniqueFireIdentifier — a 5 km / 2 h \
-de-duplication removes them.\n\n\
-## Limits\n\n\
-No snow, no terrain shading, no fronts that move, no lakes other than the Great Lakes mask; \
-ERC and BI are surrogates of the NFDRS fuel-model-G indices (same inputs and behaviour, not \
-the full Rothermel computation); states, units, GACCs and names in the CSV are rough or \
-invented; the GRIDMET packing of the real files is unverified and this generator's is finer.\n"
-    ));
-    s
+    let n_vertices = CONUS_OUTLINE.len();
+    format!(
+        "# FireCast synthetic sources — model card (`{MODEL_VERSION}`)
+
+**Synthetic test-bed data: not observations, not GRIDMET, not WFIGS.** The files reproduce the
+real formats (GRIDMET yearly NetCDF, WFIGS CSV) and plausible physics so that the FireCast
+pipeline, its loaders and an ignition classifier can be exercised without downloads. Any
+resemblance of a fire or a weather day to reality is chance. Same seed and configuration →
+byte-identical files.
+
+## Files
+
+* `gridmet/<short>_<YYYY>.nc` for pr, rmax, rmin, sph, vpd, vs, tmmx, tmmn, srad, bi, erc,
+  fm100, fm1000, pet, etr, th on the real GRIDMET grid (1/24°; lat 49.4 → 25.0667 descending,
+  lon −124.7667 → −67.0583; a box region is a window of it), `day` in days since 1900-01-01
+  (gregorian). NetCDF classic CDF-1, or CDF-2 (64-bit offsets) when a file exceeds 2 GiB.
+* Two layouts, as GRIDMET had: *packed* — `(day, lat, lon)` 16-bit integers with
+  `scale_factor`, `add_offset`, `_FillValue` = `missing_value` (−32767, or 65535 stored as −1
+  with `_Unsigned = \"true\"` for pr, rmax, rmin, sph, srad, vpd, th), a `crs` grid-mapping
+  variable, `day` double; *old* — `(day, lon, lat)` float32 with `missing_value = -32767`, no
+  `crs`, `day` int. By default years before 2019 use the old layout.
+* Cells outside FireCast's rough {n_vertices}-vertex outline of the lower 48 states (ocean,
+  Great Lakes, Canada, Mexico) are masked in every variable.
+* `incidents/wfigs_incidents.csv`: the 97 columns of a real 2023 WFIGS export in order, dates
+  `YYYY/MM/DD HH:MM:SS+00` (UTC), fields FireCast has filled, the rest empty.
+
+## Static world (per cell; seeded, identical for any region)
+
+* Elevation z: hand-made macro relief (intermountain plateau ~1500 m with the Sonoran/Mojave
+  deserts and the Columbia Basin cut out, the Colorado Plateau, a Rocky Mountain block west of
+  the Front Range, the Sierra Nevada and Cascades, the Coast Ranges, the Great Plains sloping
+  from ~1600 m to ~300 m, the Appalachians) plus seeded 7-octave fractal value noise (1/8°–8°),
+  rougher in the mountains.
+* Annual precipitation P from Gulf/Atlantic moisture access (east of ~99°W, more to the south),
+  Pacific access (a coastal term cut by the Sierra/Cascade rain shadow and a weaker far-reaching
+  one, both mostly north of 38°N), orography (0.2 mm per m above 900 m), the monsoon, and a
+  seeded ±15 % field: ~150–350 mm in the interior West, ~800–1500 mm in the East, >1000 mm on the
+  Northwest coast. Aridity `A = clamp(1 − (P − 220)/850, 0, 1)`.
+* Seasonal cycles as annual and semi-annual harmonics: Mediterranean winter rain near the Pacific,
+  a one-sided Jul–Sep monsoon bump `(1 + cos(x − φ))²/4` in Arizona/New Mexico, a June Plains
+  maximum, a Florida wet summer. Wet-day fraction `f_w = f₀·√P_rel`,
+  `f₀ = 0.07 + 0.33(1 − e^(−P/800))`.
+* Temperature `T̄ = 27 − 0.85(lat − 25) + maritime + desert heat + interior-West mildness −
+  4.5 K/km·z` °C, seasonal half-range `(5.5 + 0.45(lat − 25))·continentality` (0.3 on the Pacific
+  coast, ~1.1 inland), peak late July (later on the coast). Diurnal range
+  `8.5 + 3A + 1.5·min(z/2000, 1.5) − coastal fog`, larger in summer.
+* Dew-point depression below Tmin: `0.8 + 11A^1.2` K, drier summers in arid and Mediterranean
+  climates, moister under the monsoon and on the immediate coast.
+* Wind climatology (windy Plains and mountains, calm Southeast, spring maximum), westerlies
+  strengthening north and in winter, summer southerlies over the Plains, northerlies on the
+  California coast, easterlies in south Florida.
+* Human activity H: ~50 metro areas and 400 seeded towns (saturating), a rural base larger in
+  the East, ×2.5 in the rural Southeast, × a seeded log-normal fractal. Lightning propensity L:
+  terrain, monsoon, Florida. Prescribed-fire propensity R: Southeast, wetter forests.
+
+## Daily weather (per land cell and day)
+
+Anomalies are smooth Gaussian fields: lattices of independent AR(1) processes, smoothstep-
+bilinearly upsampled with variance normalisation — temperature `aT = 0.8·T(2°, φ 0.75) +
+0.6·T(0.5°, φ 0.6)`, moisture `aP = 0.8·P(2°, φ 0.55) + 0.6·P(0.5°, φ 0.35)`, convection `aC`
+(0.25°, φ 0.1), wind `aU, aV` (2°, φ 0.55), gustiness `aW` (1°, φ 0.45), drought regime `aD`
+(4°, φ 0.993) — plus white per-cell noise ε (counter-based hashes).
+
+* Precipitation: wet when `z = (0.8aP + 0.35ε + c·aC)/‖·‖ > θ = Φ⁻¹(1 − f_w) + 0.12aD`
+  (c > 0 on warm days: convective patchiness); amount
+  `α(1 − 0.06aD)·(−ln q)^1.25/Γ(2.25)`, `q = Q(z)/Q(θ)` — a Weibull(0.8) with the climatological
+  wet-day mean α = P_clim/f_w; 0.1–400 mm.
+* Cloud `c = ½ + ½x/(1 + |x|)`, `x = 1.5(z − θ) + 0.5`. Mean temperature
+  `T̄ + σ_T·aT + 0.5ε + 0.9aD − 1.8(c − 0.35)` (σ_T larger in winter and inland); daily range
+  `DTR·(1.3 − 0.75c)` (×0.85 on wet days, ≥ 2 K); tmmx/tmmn = mean ± range/2.
+* Humidity: `Td = Tmin − D`, `D = D_clim − 2.2aP + 1.2aD + 0.8ε ≥ 0` (×0.15 on wet days);
+  `es(T) = 0.6108·exp(17.27T/(T + 237.3))` kPa, `ea = es(Td)`; rmax = 100·ea/es(Tmin),
+  rmin = 100·ea/es(Tmax), vpd = (es(Tmax) + es(Tmin))/2 − ea ≥ 0, sph = 0.622·ea/(p − 0.378·ea)
+  with p from elevation.
+* srad = Ra·(0.75 + 2·10⁻⁵z)·(1 − 0.65c) (FAO-56 extraterrestrial radiation Ra), W m⁻².
+* Wind: flow (u, v) = climatology + 2.8·(aU, aV); th = the direction it comes from + 14°·ε;
+  vs = vs_clim·exp(0.33aW + 0.1ε − 0.06) + 0.12·max(0, |(u, v)| − 3), 0.1–29 m/s.
+* pet (grass) = 0.0135·(T̄ + 17.8)·0.408·Rs + 0.22·u₂·vpd (Hargreaves 1975 radiation form plus
+  an aerodynamic term, u₂ = 0.748·vs), 0–17 mm; etr = pet·(1.15 + 0.04·min(u₂, 6) +
+  0.03·min(vpd, 6)) ≥ pet, ≤ 27 mm.
+
+## Fuel moisture and fire danger (NFDRS 1978 style)
+
+* EMC (Simard 1968; T °F, H %): H < 10: `0.03229 + 0.281073H − 0.000578HT`; 10 ≤ H < 50:
+  `2.22749 + 0.160107H − 0.014784T`; H ≥ 50: `21.0606 + 0.005565H² − 0.00035HT − 0.483199H`.
+  EMCmin from (Tmax, rmin), EMCmax from (Tmin, rmax), weighted by day length N:
+  `EMC̄ = (N·EMCmin + (24 − N)·EMCmax)/24`.
+* Precipitation duration `d = min(8, 1 + pr/4)` h when pr ≥ 0.25 mm, else 0.
+* 100-h: `B = ((24 − d)·EMC̄ + d·(0.5d + 41))/24`; `fm100 += (B − fm100)·{K100:.4}`
+  (1 − 0.87·e^(−24/100)); 0.3–33 %.
+* 1000-h: `B = ((24 − d)·EMC̄ + d·(2.7d + 76))/24`, a 7-day running mean of it
+  (`{K_BDY:.4}`/day), `fm1000 += (B̄ − fm1000)·{K1000:.4}` (the NFDRS weekly factor
+  1 − 0.82·e^(−168/1000) spread over 7 days); 0.4–48 %.
+* 1-h / 10-h (internal): 1.03 / 1.28 × EMCmin, 35 % on wet days.
+* ERC (fuel model G) surrogate: `Δ = 0.15(1 − m₁/30)⁺ + 0.10(1 − m₁₀/30)⁺ + 0.25(1 − fm100/30)⁺ +
+  0.50(1 − fm1000/35)⁺`, greenness G (seasonal, 0–1), `ERC = min(132, 158·(Δ(1 − 0.3G))^2.5)`.
+* BI surrogate: spread component `SC = 4·η·(1 + 0.12·U₂₀^1.5)` (U₂₀ = vs/1.15 in mi/h; η =
+  Rothermel's moisture damping of m₁, m₁₀ with extinction 25 %), `BI = min(214, 3.01·(SC·ERC)^0.46)`
+  (the NFDRS BI formula).
+* Drought index (internal, not written): `X = ρX + 0.1203/√f_w·(pr/α − f_w)`, ρ = {PDSI_RHO:.6}
+  (Palmer's monthly 0.897 per day).
+* Spin-up: the state starts at fm100 = 18 %, fm1000 = 22 % and runs `warmup_days` (default
+  365) before the first written day; anomaly lattices start from their stationary distribution.
+
+## Ignitions
+
+Per land cell-day `N ~ Poisson(λ)`, `λ = s·(λ_h + λ_l + λ_rx)` (s = `ignition_rate_scale`), with
+`x₁ = (12 − fm100)/4`, `x₂ = (15 − fm1000)/5`, `x₃ = (erc − 40)/25`, `x₄ = (vs − 3.5)/2.5`,
+`x₅ = (vpd − 1.5)/1.2`, `x₆ = (30 − rmin)/15`, `cold = clamp((3 − Tmax°C)/10, 0, 1)`:
+
+* human WF: `λ_h = {BASE_HUMAN:e}·H/(1 + H/3)·m_day·exp(0.35x₁ + 0.15x₂ + 0.2x₃ + 0.2x₄ +
+  0.1x₅ + 0.1x₆ − 0.8·ln(1 + pr) − 2.5·cold)`; `m_day`: spring (×1.45 late March) and autumn
+  bumps, ×1.15 on weekends, ×2.5 on 4–5 July;
+* lightning WF: `λ_l = {BASE_LIGHTNING:e}·L·ramp((Tmax − 22)/12)·ramp(ea/1.2)·r·exp(1.2aC − 0.72 +
+  0.5x₁ + 0.3x₂ + 0.3x₃ − 2.5·cold − max(0, (pr − 5)/4))`, r = 0.45 without rain, 1 with it —
+  warm, moist, convective days, most efficient with little rain;
+* prescribed RX: `λ_rx = {BASE_RX:e}·R·m_rx·exp(−((fm100 − 14)/5)² − 0.5·max(0, vs − 5))` on days
+  with pr < 1 mm; `m_rx` peaks in late winter and autumn.
+
+Each ignition: cause by the rates' proportions; a point uniform in the cell; a discovery hour
+(local solar) ~N(14.5, 3.2) (85 %) or uniform for human fires, ~N(16.5, 3) lightning,
+~N(11, 1.5) RX, converted to UTC and kept inside the GRIDMET day (07:00 to 07:00 UTC); size
+`0.1·U^(−1/α)` acres, `α = 0.85 − 0.4·ramp((erc − 30)/70) − 0.15·ramp((vs − 4)/6)` (−0.05 for
+lightning; heavier tails when dry and windy), ≤ 500 000 acres; RX log-normal around 40 acres.
+X/Y differ from InitialLatitude/InitialLongitude by 0–60 m (85 %), 60–800 m (12 %) or
+1–2.5 km (3 %); 3 % of records have no Initial* values. A fraction (default 6 %) of wildfires
+gets a second record from another unit 3–110 min later (25 %: earlier) and 80–700 m away, with
+its own IrwinID and UniqueFireIdentifier, which a 5 km / 2 h de-duplication removes.
+`POOState` comes from the nearest of ~70 state centres; units, GACCs, names and causes are
+invented but WFIGS-shaped.
+
+Calibration (seed 42, CONUS, 2021, scale 1): ~27 000 ignitions (~84 % human, ~13 % lightning,
+~3 % RX) and ~29 000 records; most in CA, TX, AZ, UT, OK, CO, ID; human fires peak in spring in
+the Southeast and in summer in the West. Ignition cell-days are markedly drier than average
+(the rate varies by two orders of magnitude between wet and dry fuels).
+
+## Limits
+
+No snow, no terrain shading, no moving fronts, no lakes but the Great Lakes; ERC and BI are
+surrogates of the NFDRS fuel-model-G indices (the same inputs and behaviour, not the full
+Rothermel computation); a single cell's annual precipitation varies more from year to year
+(CV ≈ 0.3) than in reality; states, units, GACCs and names in the CSV are rough or invented; the
+real GRIDMET packing is unverified and this generator's is finer.
+"
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn model_card_is_complete() {
+        let card = model_card();
+        assert!(card.starts_with("# FireCast synthetic sources"));
+        assert!(card.contains(MODEL_VERSION));
+        assert!(card.contains("0.3156") && card.contains("0.0510") && card.contains("3.2e-4"));
+        assert!(
+            !card.contains('{') && !card.contains('}'),
+            "unformatted placeholder"
+        );
+    }
+
+    #[test]
+    fn invalid_configs_are_rejected() {
+        let dir = std::env::temp_dir().join("firecast-synth-invalid");
+        let mut c = SynthConfig::new(1, Region::Conus, (2020, 2019));
+        assert!(matches!(
+            generate(&c, &dir, &mut |_, _| {}),
+            Err(SynthError::InvalidConfig(_))
+        ));
+        c.years = (2020, 2020);
+        c.ignition_rate_scale = f64::NAN;
+        assert!(matches!(
+            generate(&c, &dir, &mut |_, _| {}),
+            Err(SynthError::InvalidConfig(_))
+        ));
+        c.ignition_rate_scale = 1.0;
+        c.region = Region::Box {
+            lat_min: 10.0,
+            lat_max: 11.0,
+            lon_min: 0.0,
+            lon_max: 1.0,
+        };
+        assert!(matches!(
+            generate(&c, &dir, &mut |_, _| {}),
+            Err(SynthError::InvalidConfig(_))
+        ));
+        assert!(!dir.exists(), "nothing is created for an invalid configuration");
+    }
 }

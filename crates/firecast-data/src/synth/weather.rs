@@ -9,9 +9,9 @@
 //!    convection `aC` (0.25°), wind `aU`, `aV` (2°), gustiness `aW` (1°), drought regime `aD`
 //!    (4°, φ = 0.993).
 //! 2. **Precipitation.** A latent `z = (0.8·aP + 0.35·ε + c·aC)/‖·‖` is thresholded at
-//!    `θ = Φ⁻¹(1 − f_w) + 0.3·aD` (f_w the climatological wet-day fraction for the cell and
-//!    season); the amount on a wet day is `α·(−ln q)^1.25/Γ(2.25)` with `q = Q(z)/Q(θ)` —
-//!    a Weibull(0.8) with the climatological mean wet-day amount α.
+//!    `θ = Φ⁻¹(1 − f_w) + 0.12·aD` (f_w the climatological wet-day fraction for the cell and
+//!    season); the amount on a wet day is `α(1 − 0.06·aD)·(−ln q)^1.25/Γ(2.25)` with
+//!    `q = Q(z)/Q(θ)` — a Weibull(0.8) with the climatological mean wet-day amount α.
 //! 3. **Temperature, humidity, radiation, wind, reference ET** from the climatology plus the
 //!    anomalies, with cloudiness from the precipitation latent; `vpd = (es(Tx)+es(Tn))/2 − ea`.
 //! 4. **Fuel moisture (NFDRS 1978).** Simard EMC from (Tmax, RHmin) and (Tmin, RHmax),
@@ -614,8 +614,9 @@ impl World {
                     if th < 0.0 {
                         th += 360.0;
                     }
-                    if th >= 360.0 {
-                        th -= 360.0;
+                    // [0, 360) even after packing to 0.01°: 359.995 and up is north, 0.
+                    if th >= 359.995 {
+                        th = 0.0;
                     }
                     vals[idx::TH] = th;
                 }
