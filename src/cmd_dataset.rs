@@ -161,13 +161,18 @@ pub struct PublishArgs {
 }
 
 /// Params from `--config` (YAML) with flag overrides, deserialized strictly.
-fn params<T: DeserializeOwned>(config: Option<&Path>, overrides: &[(&str, Option<Value>)]) -> anyhow::Result<T> {
+fn params<T: DeserializeOwned>(
+    config: Option<&Path>,
+    overrides: &[(&str, Option<Value>)],
+) -> anyhow::Result<T> {
     let mut value = match config {
         Some(path) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+            let text =
+                std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
             let yaml: serde_yaml_ng::Value =
                 serde_yaml_ng::from_str(&text).with_context(|| format!("{}: not YAML", path.display()))?;
-            firecast_pipeline::plan::yaml_to_json(&yaml).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
+            firecast_pipeline::plan::yaml_to_json(&yaml)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
         }
         None => json!({}),
     };
@@ -187,7 +192,11 @@ fn params<T: DeserializeOwned>(config: Option<&Path>, overrides: &[(&str, Option
     }
     firecast_pipeline::stage::deserialize_params(&value).map_err(|e| {
         let origin = config.map_or("flags".to_string(), |p| p.display().to_string());
-        let key = if e.path.is_empty() { String::new() } else { format!("{}: ", e.path) };
+        let key = if e.path.is_empty() {
+            String::new()
+        } else {
+            format!("{}: ", e.path)
+        };
         anyhow::anyhow!("{origin}: {key}{}", e.message)
     })
 }
@@ -206,7 +215,11 @@ fn progress_bar(settings: &Settings, message: &'static str) -> indicatif::Progre
     bar
 }
 
-fn print(settings: &Settings, value: &impl serde::Serialize, human: impl FnOnce()) -> anyhow::Result<ExitCode> {
+fn print(
+    settings: &Settings,
+    value: &impl serde::Serialize,
+    human: impl FnOnce(),
+) -> anyhow::Result<ExitCode> {
     if settings.json {
         output::print_json(value)?;
     } else {
@@ -219,7 +232,10 @@ fn print(settings: &Settings, value: &impl serde::Serialize, human: impl FnOnce(
 /// half-built dataset is never visible; an existing directory is not replaced.
 fn with_fresh_dir<R>(out: &Path, build: impl FnOnce(&Path) -> anyhow::Result<R>) -> anyhow::Result<R> {
     if out.exists() {
-        anyhow::bail!("{} already exists; remove it or choose another path (nothing was changed)", out.display());
+        anyhow::bail!(
+            "{} already exists; remove it or choose another path (nothing was changed)",
+            out.display()
+        );
     }
     if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
@@ -252,7 +268,10 @@ pub fn run(settings: &Settings, command: DatasetCommand) -> anyhow::Result<ExitC
         DatasetCommand::Ignitions(a) => {
             let p: stage::IgnitionParams = params(a.common.config.as_deref(), &[])?;
             parent_dir(&a.out)?;
-            let rejects = a.rejects.clone().unwrap_or_else(|| a.out.with_extension("rejects.csv"));
+            let rejects = a
+                .rejects
+                .clone()
+                .unwrap_or_else(|| a.out.with_extension("rejects.csv"));
             let r = stage::run_ignitions(&a.incidents, a.gridmet.as_deref(), &p, &a.out, &rejects)?;
             print(settings, &r, || {
                 println!("{} rows read from {}", r.rows_read, r.incidents_file);
@@ -262,8 +281,14 @@ pub fn run(settings: &Settings, command: DatasetCommand) -> anyhow::Result<ExitC
                 let c = &r.rules;
                 println!("  outside the region: {}", c.outside_region);
                 println!("  off land (no GRIDMET data): {}", c.off_land);
-                println!("  within the time gap of the last kept report: {}", c.within_gap_hours);
-                println!("  within the distance of the last kept report: {}", c.within_distance_km);
+                println!(
+                    "  within the time gap of the last kept report: {}",
+                    c.within_gap_hours
+                );
+                println!(
+                    "  within the distance of the last kept report: {}",
+                    c.within_distance_km
+                );
                 println!("{} ignitions -> {}", c.kept, a.out.display());
                 println!("reject report -> {}", rejects.display());
             })
@@ -290,7 +315,12 @@ pub fn run(settings: &Settings, command: DatasetCommand) -> anyhow::Result<ExitC
                     ]);
                 }
                 let _ = output::print_table(&t);
-                println!("{} positives + negatives = {} samples -> {}", r.positives, r.samples, a.out.display());
+                println!(
+                    "{} positives + negatives = {} samples -> {}",
+                    r.positives,
+                    r.samples,
+                    a.out.display()
+                );
             })
         }
         DatasetCommand::Windows(a) => {
@@ -326,7 +356,12 @@ pub fn run(settings: &Settings, command: DatasetCommand) -> anyhow::Result<ExitC
                 &[("name", a.name.clone().map(Value::from)), ("framing", framing)],
             )?;
             let m = with_fresh_dir(&a.out, |dir| {
-                Ok(stage::run_dataset(&a.windows, a.source_model.as_deref(), &cfg, dir)?)
+                Ok(stage::run_dataset(
+                    &a.windows,
+                    a.source_model.as_deref(),
+                    &cfg,
+                    dir,
+                )?)
             })?;
             print(settings, &m, || print_manifest(&m, &a.out))
         }
@@ -334,14 +369,19 @@ pub fn run(settings: &Settings, command: DatasetCommand) -> anyhow::Result<ExitC
             let cfg: firecast_dataset::kaggle::ImportConfig = params(a.common.config.as_deref(), &[])?;
             let bar = progress_bar(settings, "CSV rows");
             let (r, _) = with_fresh_dir(&a.out, |dir| {
-                Ok(stage::run_import_kaggle(&a.csv, &cfg, dir, &mut |rows| bar.set_position(rows))?)
+                Ok(stage::run_import_kaggle(&a.csv, &cfg, dir, &mut |rows| {
+                    bar.set_position(rows)
+                })?)
             })?;
             bar.finish_and_clear();
             print(settings, &r, || {
                 for (k, v) in firecast_dataset::kaggle::report_lines(&r) {
                     println!("{k:>22}: {v}");
                 }
-                println!("{:>22}: {} positive, {} negative", "kept", r.kept_positive, r.kept_negative);
+                println!(
+                    "{:>22}: {} positive, {} negative",
+                    "kept", r.kept_positive, r.kept_negative
+                );
                 println!("{:>22}: {}", "fill rows (>= 30000)", r.fill_rows);
                 println!("{:>22}: {}", "duplicate place-dates", r.duplicate_place_dates);
                 println!("-> {}", a.out.display());
@@ -381,16 +421,25 @@ fn print_manifest(m: &firecast_dataset::dataset::DatasetManifest, dir: &Path) {
     println!(
         "  splits: {}{}",
         splits.join(", "),
-        m.test_from.as_ref().map_or(String::new(), |d| format!(" (test from {d})"))
+        m.test_from
+            .as_ref()
+            .map_or(String::new(), |d| format!(" (test from {d})"))
     );
-    println!("  card: {}", dir.join(firecast_dataset::dataset::CARD_FILE).display());
+    println!(
+        "  card: {}",
+        dir.join(firecast_dataset::dataset::CARD_FILE).display()
+    );
 }
 
 fn synthesize(settings: &Settings, a: &SynthesizeArgs) -> anyhow::Result<ExitCode> {
     let years = match &a.years {
         Some(y) => {
             let (first, last) = y.split_once('-').unwrap_or((y, y));
-            let parse = |s: &str| s.trim().parse::<i32>().with_context(|| format!("--years: `{y}` is not YYYY-YYYY"));
+            let parse = |s: &str| {
+                s.trim()
+                    .parse::<i32>()
+                    .with_context(|| format!("--years: `{y}` is not YYYY-YYYY"))
+            };
             Some(json!([parse(first)?, parse(last)?]))
         }
         None => None,
@@ -402,7 +451,9 @@ fn synthesize(settings: &Settings, a: &SynthesizeArgs) -> anyhow::Result<ExitCod
                 .split(',')
                 .map(|x| x.trim().parse::<f64>())
                 .collect::<Result<_, _>>()
-                .with_context(|| format!("--region: `{r}` is not `conus` or LAT_MIN,LAT_MAX,LON_MIN,LON_MAX"))?;
+                .with_context(|| {
+                    format!("--region: `{r}` is not `conus` or LAT_MIN,LAT_MAX,LON_MIN,LON_MAX")
+                })?;
             anyhow::ensure!(v.len() == 4, "--region: expected 4 numbers, got {}", v.len());
             Some(json!({"lat_min": v[0], "lat_max": v[1], "lon_min": v[2], "lon_max": v[3]}))
         }
@@ -410,7 +461,11 @@ fn synthesize(settings: &Settings, a: &SynthesizeArgs) -> anyhow::Result<ExitCod
     };
     let p: stage::SynthParams = params(
         a.common.config.as_deref(),
-        &[("seed", a.seed.map(Value::from)), ("years", years), ("region", region)],
+        &[
+            ("seed", a.seed.map(Value::from)),
+            ("years", years),
+            ("region", region),
+        ],
     )?;
     let bar = progress_bar(settings, "simulated days");
     let r = with_fresh_dir(&a.out, |dir| {
@@ -431,7 +486,10 @@ fn synthesize(settings: &Settings, a: &SynthesizeArgs) -> anyhow::Result<ExitCod
             r.ignitions,
             a.out.display()
         );
-        println!("synthetic test bed; the generative model is in {}", a.out.join(stage::SOURCE_MODEL_FILE).display());
+        println!(
+            "synthetic test bed; the generative model is in {}",
+            a.out.join(stage::SOURCE_MODEL_FILE).display()
+        );
     })
 }
 
@@ -555,16 +613,24 @@ pub fn bench_gridmet(settings: &Settings, a: &BenchGridmetArgs) -> anyhow::Resul
     let quarter = &samples[..samples.len() / 4];
     let no_progress = |_: u64, _: u64| {};
 
-    eprintln!("FireCast: {} windows x {} variables ...", samples.len(), vars.len());
+    eprintln!(
+        "FireCast: {} windows x {} variables ...",
+        samples.len(),
+        vars.len()
+    );
     let start = Instant::now();
-    let (table, report) = firecast_dataset::windows::extract(&samples, &gridmet, &extract_cfg, false, &no_progress)?;
+    let (table, report) =
+        firecast_dataset::windows::extract(&samples, &gridmet, &extract_cfg, false, &no_progress)?;
     let firecast_seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
     firecast_dataset::windows::extract(quarter, &gridmet, &extract_cfg, false, &no_progress)?;
     let firecast_quarter_seconds = start.elapsed().as_secs_f64();
 
     let python = bench::find_python(a.python.as_deref(), &settings.root);
-    eprintln!("reference (xarray + netCDF4, {}) on the same windows ...", python.display());
+    eprintln!(
+        "reference (xarray + netCDF4, {}) on the same windows ...",
+        python.display()
+    );
     let work = tempfile_dir(&dir)?;
     let reference = bench::run_reference(&python, &gridmet, &table, &work);
     let _ = std::fs::remove_dir_all(&work);
@@ -614,7 +680,10 @@ pub fn bench_gridmet(settings: &Settings, a: &BenchGridmetArgs) -> anyhow::Resul
             "1.0x".into(),
         ]);
         t.add_row(vec![
-            format!("FireCast: each file read once, {} threads", out.threads),
+            format!(
+                "FireCast: each file opened once, all its windows gathered, {} threads",
+                out.threads
+            ),
             format!("{:.2}", out.firecast_seconds),
             format!("{:.0}", out.windows as f64 / out.firecast_seconds),
             format!("{:.1}x", out.speedup),

@@ -42,7 +42,10 @@ pub struct TierCount {
 
 /// Per-split, per-feature statistics of the model-input rows, and sample counts, in one
 /// polars query each.
-pub fn statistics(table: &WindowTable, splits: &[&str]) -> Result<(Vec<FeatureStats>, Vec<TierCount>), DatasetError> {
+pub fn statistics(
+    table: &WindowTable,
+    splits: &[&str],
+) -> Result<(Vec<FeatureStats>, Vec<TierCount>), DatasetError> {
     let nd = table.n_days;
     let nf = table.n_features();
     let rows = table.samples.len() * nd;
@@ -65,7 +68,12 @@ pub fn statistics(table: &WindowTable, splits: &[&str]) -> Result<(Vec<FeatureSt
     let mut aggs = vec![len().alias("__rows")];
     for name in &table.features {
         let c = || col(name.as_str()).cast(DataType::Float64);
-        aggs.push(col(name.as_str()).null_count().cast(DataType::Float64).alias(format!("{name}__missing")));
+        aggs.push(
+            col(name.as_str())
+                .null_count()
+                .cast(DataType::Float64)
+                .alias(format!("{name}__missing")),
+        );
         aggs.push(c().min().alias(format!("{name}__min")));
         aggs.push(c().mean().alias(format!("{name}__mean")));
         aggs.push(c().max().alias(format!("{name}__max")));
@@ -79,7 +87,11 @@ pub fn statistics(table: &WindowTable, splits: &[&str]) -> Result<(Vec<FeatureSt
         .collect()
         .map_err(pe)?;
     let split_col = by_split.column("split").map_err(pe)?.str().map_err(pe)?.clone();
-    let n_rows = by_split.column("__rows").map_err(pe)?.cast(&DataType::UInt64).map_err(pe)?;
+    let n_rows = by_split
+        .column("__rows")
+        .map_err(pe)?
+        .cast(&DataType::UInt64)
+        .map_err(pe)?;
     let n_rows = n_rows.u64().map_err(pe)?.clone();
     let get = |name: &str, i: usize| -> Result<Option<f64>, DatasetError> {
         Ok(by_split.column(name).map_err(pe)?.f64().map_err(pe)?.get(i))
@@ -105,7 +117,10 @@ pub fn statistics(table: &WindowTable, splits: &[&str]) -> Result<(Vec<FeatureSt
         s.len(),
         vec![
             Column::new("split".into(), splits.to_vec()),
-            Column::new("tier".into(), s.iter().map(|x| x.tier.as_str()).collect::<Vec<_>>()),
+            Column::new(
+                "tier".into(),
+                s.iter().map(|x| x.tier.as_str()).collect::<Vec<_>>(),
+            ),
             Column::new(
                 "positive".into(),
                 s.iter().map(|x| u32::from(x.label())).collect::<Vec<_>>(),
@@ -258,7 +273,10 @@ pub fn render_card(ds: &BuiltDataset, ctx: &CardContext<'_>) -> String {
         cfg.split.val_fraction * 100.0
     );
     let _ = writeln!(md, "## Samples per tier\n");
-    let _ = writeln!(md, "| split | tier | samples | positive | first date | last date |");
+    let _ = writeln!(
+        md,
+        "| split | tier | samples | positive | first date | last date |"
+    );
     let _ = writeln!(md, "|---|---|---:|---:|---|---|");
     for c in ctx.tiers {
         let _ = writeln!(
@@ -371,7 +389,11 @@ impl MapGrid {
         }
         runs.push(run);
         Self {
-            lat_north: if north_first { lats[0] } else { lats[lats.len() - 1] },
+            lat_north: if north_first {
+                lats[0]
+            } else {
+                lats[lats.len() - 1]
+            },
             lon_west: lons[0],
             step_deg: step,
             n_lat: lats.len(),
@@ -418,7 +440,7 @@ pub fn draw_map(table: &WindowTable, grid: &MapGrid, path: &Path) -> Result<(), 
             }
         }
     }
-    let radius = (scale as i64).max(2);
+    let radius = (scale as i64 / 2).max(2);
     let mut order: Vec<&crate::windows::WindowSample> = table.samples.iter().collect();
     // Negatives first, so positives stay visible on top.
     order.sort_by_key(|s| s.label());

@@ -211,7 +211,9 @@ pub fn build(input: &WindowTable, cfg: &DatasetConfig) -> Result<BuiltDataset, D
         // The sample label: a fire on the sample's date. For imported rows, "any Yes" in
         // the source window, which is how the authors labelled windows.
         let label = match &input.row_labels {
-            Some(labels) => labels[s * input.n_days..(s + 1) * input.n_days].iter().any(|l| *l),
+            Some(labels) => labels[s * input.n_days..(s + 1) * input.n_days]
+                .iter()
+                .any(|l| *l),
             None => sample.label(),
         };
         let mut sample = sample.clone();
@@ -292,7 +294,10 @@ fn assign_splits(
     table: &WindowTable,
     cfg: &SplitConfig,
 ) -> Result<(Vec<&'static str>, Option<i32>, usize), DatasetError> {
-    for (key, v) in [("split.test_fraction", cfg.test_fraction), ("split.val_fraction", cfg.val_fraction)] {
+    for (key, v) in [
+        ("split.test_fraction", cfg.test_fraction),
+        ("split.val_fraction", cfg.val_fraction),
+    ] {
         if !(0.0..1.0).contains(&v) {
             return Err(DatasetError::Config {
                 key: key.into(),
@@ -497,7 +502,9 @@ pub fn write(
         CARD_FILE,
         MAP_FILE,
     ] {
-        manifest.files.insert(f.to_string(), crate::hash_file(&dir.join(f))?);
+        manifest
+            .files
+            .insert(f.to_string(), crate::hash_file(&dir.join(f))?);
     }
     crate::write_atomically(&dir.join(MANIFEST_FILE), json(&manifest).as_bytes())?;
     Ok(manifest)

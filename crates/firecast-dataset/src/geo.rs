@@ -52,7 +52,10 @@ pub fn geodesic_destination(lat: f64, lon: f64, bearing_deg: f64, distance_km: f
             * (cos2sm
                 + big_b / 4.0
                     * (cos_s * (-1.0 + 2.0 * cos2sm * cos2sm)
-                        - big_b / 6.0 * cos2sm * (-3.0 + 4.0 * sin_s * sin_s) * (-3.0 + 4.0 * cos2sm * cos2sm)));
+                        - big_b / 6.0
+                            * cos2sm
+                            * (-3.0 + 4.0 * sin_s * sin_s)
+                            * (-3.0 + 4.0 * cos2sm * cos2sm)));
         let next = s / (B * big_a) + delta;
         iterations += 1;
         if (next - sigma).abs() < 1e-12 || iterations > 200 {
@@ -65,11 +68,15 @@ pub fn geodesic_destination(lat: f64, lon: f64, bearing_deg: f64, distance_km: f
     cos_s = sigma.cos();
     cos2sm = (2.0 * sigma1 + sigma).cos();
     let tmp = sin_u1 * sin_s - cos_u1 * cos_s * cos_a1;
-    let lat2 = (sin_u1 * cos_s + cos_u1 * sin_s * cos_a1).atan2((1.0 - F) * (sin_alpha.powi(2) + tmp * tmp).sqrt());
+    let lat2 =
+        (sin_u1 * cos_s + cos_u1 * sin_s * cos_a1).atan2((1.0 - F) * (sin_alpha.powi(2) + tmp * tmp).sqrt());
     let lambda = (sin_s * sin_a1).atan2(cos_u1 * cos_s - sin_u1 * sin_s * cos_a1);
     let c = F / 16.0 * cos2_alpha * (4.0 + F * (4.0 - 3.0 * cos2_alpha));
     let l = lambda
-        - (1.0 - c) * F * sin_alpha * (sigma + c * sin_s * (cos2sm + c * cos_s * (-1.0 + 2.0 * cos2sm * cos2sm)));
+        - (1.0 - c)
+            * F
+            * sin_alpha
+            * (sigma + c * sin_s * (cos2sm + c * cos_s * (-1.0 + 2.0 * cos2sm * cos2sm)));
     let mut lon2 = lon + l.to_degrees();
     if lon2 > 180.0 {
         lon2 -= 360.0;
@@ -142,7 +149,13 @@ impl PointIndex {
 
     /// Calls `visit(id, distance_km)` for every point within `radius_km`; stops early when
     /// `visit` returns `true` and then returns `true`.
-    pub fn any_within(&self, lat: f64, lon: f64, radius_km: f64, mut visit: impl FnMut(u32, f64) -> bool) -> bool {
+    pub fn any_within(
+        &self,
+        lat: f64,
+        lon: f64,
+        radius_km: f64,
+        mut visit: impl FnMut(u32, f64) -> bool,
+    ) -> bool {
         let dlat = (radius_km / 110.5).ceil() as i32 + 1;
         // Longitude degrees shrink with latitude; use the widest latitude the disc reaches.
         let widest = (lat.abs() + radius_km / 110.5).min(89.0);
@@ -150,7 +163,9 @@ impl PointIndex {
         let (bl, bo) = bucket(lat, lon);
         for i in bl - dlat..=bl + dlat {
             for j in bo - dlon..=bo + dlon {
-                let Some(ids) = self.buckets.get(&(i, j)) else { continue };
+                let Some(ids) = self.buckets.get(&(i, j)) else {
+                    continue;
+                };
                 for &id in ids {
                     let d = haversine_km(lat, lon, self.lats[id as usize], self.lons[id as usize]);
                     if d < radius_km && visit(id, d) {
@@ -202,7 +217,12 @@ mod tests {
             }
             b += 0.0005;
         }
-        assert!(best.0 < 0.002, "closest approach {} km at bearing {}", best.0, best.1);
+        assert!(
+            best.0 < 0.002,
+            "closest approach {} km at bearing {}",
+            best.0,
+            best.1
+        );
     }
 
     #[test]

@@ -14,8 +14,25 @@ use crate::{DatasetError, Tier};
 
 /// Columns of the published CSV, in order.
 pub const CSV_COLUMNS: [&str; 19] = [
-    "latitude", "longitude", "datetime", "Wildfire", "pr", "rmax", "rmin", "sph", "srad", "tmmn", "tmmx", "vs",
-    "bi", "fm100", "fm1000", "erc", "etr", "pet", "vpd",
+    "latitude",
+    "longitude",
+    "datetime",
+    "Wildfire",
+    "pr",
+    "rmax",
+    "rmin",
+    "sph",
+    "srad",
+    "tmmn",
+    "tmmx",
+    "vs",
+    "bi",
+    "fm100",
+    "fm1000",
+    "erc",
+    "etr",
+    "pet",
+    "vpd",
 ];
 
 /// Rows per window in the published layout.
@@ -121,14 +138,20 @@ pub fn import(
             message: e.to_string(),
         })?
         .clone();
-    let names: Vec<String> = headers.iter().map(|h| h.trim_start_matches('\u{feff}').trim().to_string()).collect();
+    let names: Vec<String> = headers
+        .iter()
+        .map(|h| h.trim_start_matches('\u{feff}').trim().to_string())
+        .collect();
     let mut idx = [0usize; 19];
     for (k, want) in CSV_COLUMNS.iter().enumerate() {
-        idx[k] = names.iter().position(|n| n == want).ok_or_else(|| DatasetError::InputLine {
-            path: path.to_path_buf(),
-            line: 1,
-            message: format!("no column `{want}` in the header (found: {})", names.join(", ")),
-        })?;
+        idx[k] = names
+            .iter()
+            .position(|n| n == want)
+            .ok_or_else(|| DatasetError::InputLine {
+                path: path.to_path_buf(),
+                line: 1,
+                message: format!("no column `{want}` in the header (found: {})", names.join(", ")),
+            })?;
     }
 
     let mut report = ImportReport::default();
@@ -147,11 +170,13 @@ pub fn import(
         }
     };
     loop {
-        let more = reader.read_record(&mut record).map_err(|e| DatasetError::InputLine {
-            path: path.to_path_buf(),
-            line: e.position().map_or(0, |p| p.line()),
-            message: e.to_string(),
-        })?;
+        let more = reader
+            .read_record(&mut record)
+            .map_err(|e| DatasetError::InputLine {
+                path: path.to_path_buf(),
+                line: e.position().map_or(0, |p| p.line()),
+                message: e.to_string(),
+            })?;
         if !more {
             break;
         }
@@ -222,15 +247,19 @@ pub fn import(
     let mut seen: HashMap<(u64, u64, i32), u32> = HashMap::new();
     for w in &windows {
         for d in 0..WINDOW_ROWS as i32 {
-            *seen.entry((w.lat.to_bits(), w.lon.to_bits(), w.first_day + d)).or_default() += 1;
+            *seen
+                .entry((w.lat.to_bits(), w.lon.to_bits(), w.first_day + d))
+                .or_default() += 1;
         }
     }
     report.duplicate_place_dates = seen.values().filter(|c| **c > 1).count() as u64;
 
     let mut kept = Vec::new();
     for w in windows {
-        let overlaps = (0..WINDOW_ROWS as i32)
-            .any(|d| seen.get(&(w.lat.to_bits(), w.lon.to_bits(), w.first_day + d)).is_some_and(|c| *c > 1));
+        let overlaps = (0..WINDOW_ROWS as i32).any(|d| {
+            seen.get(&(w.lat.to_bits(), w.lon.to_bits(), w.first_day + d))
+                .is_some_and(|c| *c > 1)
+        });
         let positive_layout = w.labels[..60].iter().all(|l| !l) && w.labels[60..].iter().all(|l| *l);
         let negative_layout = w.labels.iter().all(|l| !l);
         let contradictory = !positive_layout && !negative_layout;
@@ -281,7 +310,10 @@ pub fn import(
     report.kept_windows = samples.len() as u64;
     Ok((
         WindowTable {
-            features: PAPER_FEATURES.iter().map(|v| v.short_name().to_string()).collect(),
+            features: PAPER_FEATURES
+                .iter()
+                .map(|v| v.short_name().to_string())
+                .collect(),
             first_offset: -60,
             n_days: WINDOW_ROWS,
             samples,
@@ -402,10 +434,18 @@ pub fn validate_metadata(meta: &KaggleMetadata, folder: &Path) -> Vec<String> {
         problems.push("id/title: the template defaults are rejected".into());
     }
     if !(6..=50).contains(&slug.len()) {
-        problems.push(format!("id: slug `{slug}` must be 6 to 50 characters (it is {})", slug.len()));
+        problems.push(format!(
+            "id: slug `{slug}` must be 6 to 50 characters (it is {})",
+            slug.len()
+        ));
     }
-    if !slug.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-') {
-        problems.push(format!("id: slug `{slug}` may only hold lowercase letters, digits and dashes"));
+    if !slug
+        .chars()
+        .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-')
+    {
+        problems.push(format!(
+            "id: slug `{slug}` may only hold lowercase letters, digits and dashes"
+        ));
     }
     let title_len = meta.title.chars().count();
     if !(6..=50).contains(&title_len) {
@@ -418,21 +458,34 @@ pub fn validate_metadata(meta: &KaggleMetadata, folder: &Path) -> Vec<String> {
         }
     }
     if meta.licenses.len() != 1 {
-        problems.push(format!("licenses: exactly one licence is required ({} given)", meta.licenses.len()));
+        problems.push(format!(
+            "licenses: exactly one licence is required ({} given)",
+            meta.licenses.len()
+        ));
     }
     for l in &meta.licenses {
         if !LICENSES.contains(&l.name.as_str()) {
-            problems.push(format!("licenses: unknown licence `{}` (known: {})", l.name, LICENSES.join(", ")));
+            problems.push(format!(
+                "licenses: unknown licence `{}` (known: {})",
+                l.name,
+                LICENSES.join(", ")
+            ));
         }
     }
     for (k, r) in meta.resources.iter().enumerate() {
         if !folder.join(&r.path).is_file() {
-            problems.push(format!("resources[{k}].path: `{}` is not a file in the folder", r.path));
+            problems.push(format!(
+                "resources[{k}].path: `{}` is not a file in the folder",
+                r.path
+            ));
         }
         if let Some(schema) = &r.schema {
             for (j, f) in schema.fields.iter().enumerate() {
                 if !FIELD_TYPES.contains(&f.kind.as_str()) {
-                    problems.push(format!("resources[{k}].schema.fields[{j}].type: unknown type `{}`", f.kind));
+                    problems.push(format!(
+                        "resources[{k}].schema.fields[{j}].type: unknown type `{}`",
+                        f.kind
+                    ));
                 }
             }
         }
@@ -459,8 +512,12 @@ fn describe(name: &str) -> (&'static str, String) {
             "Yes on the ignition day and the 14 days after it in a positive window, else No".into(),
         ),
         other => {
-            let unit = firecast_data::gridmet::GridmetVariable::from_short_name(other).map_or("", |v| v.units());
-            ("numeric", format!("GRIDMET `{other}` ({unit}); empty when GRIDMET has no data"))
+            let unit =
+                firecast_data::gridmet::GridmetVariable::from_short_name(other).map_or("", |v| v.units());
+            (
+                "numeric",
+                format!("GRIDMET `{other}` ({unit}); empty when GRIDMET has no data"),
+            )
         }
     }
 }
@@ -469,7 +526,11 @@ fn describe(name: &str) -> (&'static str, String) {
 /// column order, the Parquet tables, the card and `dataset-metadata.json`. The folder is
 /// assembled under a temporary name and renamed into place; an existing folder is never
 /// overwritten.
-pub fn publish(dataset_dir: &Path, folder: &Path, cfg: &PublishConfig) -> Result<PublishReport, DatasetError> {
+pub fn publish(
+    dataset_dir: &Path,
+    folder: &Path,
+    cfg: &PublishConfig,
+) -> Result<PublishReport, DatasetError> {
     let manifest: DatasetManifest = crate::dataset::read_manifest(dataset_dir)?;
     if manifest.framing.kind != FramingKind::Paper {
         return Err(DatasetError::Input {
@@ -520,7 +581,14 @@ pub fn publish(dataset_dir: &Path, folder: &Path, cfg: &PublishConfig) -> Result
             fields.push(format!("{}", sample.lat));
             fields.push(format!("{}", sample.lon));
             fields.push(time::format_date(sample.event_day + t.offset(d)));
-            fields.push(if crate::table::row_label(t, s, d) { "Yes" } else { "No" }.into());
+            fields.push(
+                if crate::table::row_label(t, s, d) {
+                    "Yes"
+                } else {
+                    "No"
+                }
+                .into(),
+            );
             for v in t.row(s, d) {
                 fields.push(if v.is_nan() { String::new() } else { format!("{v}") });
             }
@@ -539,11 +607,13 @@ pub fn publish(dataset_dir: &Path, folder: &Path, cfg: &PublishConfig) -> Result
         crate::dataset::MAP_FILE,
         crate::dataset::NORMALIZATION_FILE,
     ] {
-        std::fs::copy(dataset_dir.join(f), tmp.join(f)).map_err(DatasetError::io("copying", &dataset_dir.join(f)))?;
+        std::fs::copy(dataset_dir.join(f), tmp.join(f))
+            .map_err(DatasetError::io("copying", &dataset_dir.join(f)))?;
         files.push(f.to_string());
     }
-    let card = std::fs::read_to_string(dataset_dir.join(crate::dataset::CARD_FILE))
-        .map_err(DatasetError::io("reading", &dataset_dir.join(crate::dataset::CARD_FILE)))?;
+    let card = std::fs::read_to_string(dataset_dir.join(crate::dataset::CARD_FILE)).map_err(
+        DatasetError::io("reading", &dataset_dir.join(crate::dataset::CARD_FILE)),
+    )?;
     let csv_fields = CSV_COLUMNS
         .iter()
         .map(|n| {
@@ -591,7 +661,10 @@ pub fn publish(dataset_dir: &Path, folder: &Path, cfg: &PublishConfig) -> Result
         let _ = std::fs::remove_dir_all(&tmp);
         return Err(DatasetError::Config {
             key: "kaggle".into(),
-            message: format!("dataset-metadata.json would be rejected:\n  {}", problems.join("\n  ")),
+            message: format!(
+                "dataset-metadata.json would be rejected:\n  {}",
+                problems.join("\n  ")
+            ),
         });
     }
     let text = serde_json::to_string_pretty(&meta).unwrap_or_default();

@@ -92,7 +92,11 @@ pub enum DatasetError {
     #[error("{}: {message}", path.display())]
     Input { path: PathBuf, message: String },
     #[error("{}:{line}: {message}", path.display())]
-    InputLine { path: PathBuf, line: u64, message: String },
+    InputLine {
+        path: PathBuf,
+        line: u64,
+        message: String,
+    },
     #[error("missing {what}: {} does not exist", path.display())]
     MissingSource { path: PathBuf, what: String },
     #[error("`{key}`: {message}")]
@@ -104,7 +108,10 @@ pub enum DatasetError {
 }
 
 impl DatasetError {
-    pub(crate) fn io<'a>(context: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> DatasetError + 'a {
+    pub(crate) fn io<'a>(
+        context: &'static str,
+        path: &'a Path,
+    ) -> impl FnOnce(std::io::Error) -> DatasetError + 'a {
         move |source| DatasetError::Io {
             context,
             path: path.to_path_buf(),
@@ -131,6 +138,9 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
 
 /// `.<name>.tmp-<pid>` next to `path`.
 pub fn tmp_sibling(path: &Path) -> PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
 }

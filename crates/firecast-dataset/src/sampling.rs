@@ -111,7 +111,11 @@ pub struct Ignitions {
 /// The authors' rule (spec §4.1): sort by time (stably, then by row), walk the reports and
 /// keep one only if it is in the region, on land, and — against the *last kept* report —
 /// both at least `min_distance_km` away and `min_gap_hours` later.
-pub fn dedup_ignitions(reports: &[IncidentPoint], rules: &IgnitionRules, mask: Option<&LandMask>) -> Ignitions {
+pub fn dedup_ignitions(
+    reports: &[IncidentPoint],
+    rules: &IgnitionRules,
+    mask: Option<&LandMask>,
+) -> Ignitions {
     let mut order: Vec<&IncidentPoint> = reports.iter().collect();
     order.sort_by_key(|r| (r.time_ms, r.row));
     let gap_ms = (rules.min_gap_hours * 3_600_000.0).round() as i64;
@@ -366,10 +370,18 @@ pub fn sample_negatives(
         key: key.to_string(),
         message,
     };
-    let start_day = time::parse_date(&cfg.period_start)
-        .ok_or_else(|| bad("period_start", format!("`{}` is not a YYYY-MM-DD date", cfg.period_start)))?;
-    let end_day = time::parse_date(&cfg.period_end)
-        .ok_or_else(|| bad("period_end", format!("`{}` is not a YYYY-MM-DD date", cfg.period_end)))?;
+    let start_day = time::parse_date(&cfg.period_start).ok_or_else(|| {
+        bad(
+            "period_start",
+            format!("`{}` is not a YYYY-MM-DD date", cfg.period_start),
+        )
+    })?;
+    let end_day = time::parse_date(&cfg.period_end).ok_or_else(|| {
+        bad(
+            "period_end",
+            format!("`{}` is not a YYYY-MM-DD date", cfg.period_end),
+        )
+    })?;
     if end_day < start_day {
         return Err(bad("period_end", "is before period_start".into()));
     }
@@ -378,7 +390,10 @@ pub fn sample_negatives(
         Variant::Code => (90, 120),
     });
     if offsets.0 > offsets.1 {
-        return Err(bad("near_offset_days", "the first bound exceeds the second".into()));
+        return Err(bad(
+            "near_offset_days",
+            "the first bound exceeds the second".into(),
+        ));
     }
     let mut pos_index = PointIndex::new();
     for p in positives {
@@ -425,7 +440,11 @@ pub fn sample_negatives(
 
     // Exact duplicates are dropped within each tier only (spec §4.5).
     let mut samples = Vec::new();
-    for (tier, report) in [(far, &mut far_report), (near, &mut near_report), (yearly, &mut yearly_report)] {
+    for (tier, report) in [
+        (far, &mut far_report),
+        (near, &mut near_report),
+        (yearly, &mut yearly_report),
+    ] {
         let mut seen = HashSet::new();
         for s in tier {
             if seen.insert((s.lat.to_bits(), s.lon.to_bits(), s.time_ms)) {

@@ -83,7 +83,11 @@ pub fn run_ignitions(
         .iter()
         .map(|r| (r.row, r.reason.slug().to_string(), r.detail.clone()))
         .collect();
-    rows.extend(kept.dropped.iter().map(|(row, why)| (*row, why.to_string(), String::new())));
+    rows.extend(
+        kept.dropped
+            .iter()
+            .map(|(row, why)| (*row, why.to_string(), String::new())),
+    );
     rows.sort();
     let mut csv_out = Vec::new();
     {
@@ -94,15 +98,22 @@ pub fn run_ignitions(
         };
         w.write_record(["row", "reason", "detail"]).map_err(werr)?;
         for (row, reason, detail) in &rows {
-            w.write_record([row.to_string().as_str(), reason, detail]).map_err(werr)?;
+            w.write_record([row.to_string().as_str(), reason, detail])
+                .map_err(werr)?;
         }
         w.flush().map_err(DatasetError::io("writing", reject_report))?;
     }
     crate::write_atomically(reject_report, &csv_out)?;
 
     let mut kv = BTreeMap::new();
-    kv.insert("firecast.ignitions.source".into(), incidents.display().to_string());
-    kv.insert("firecast.ignitions.source_blake3".into(), crate::hash_file(incidents)?);
+    kv.insert(
+        "firecast.ignitions.source".into(),
+        incidents.display().to_string(),
+    );
+    kv.insert(
+        "firecast.ignitions.source_blake3".into(),
+        crate::hash_file(incidents)?,
+    );
     table::write_sample_list(out, &kept.positives, &kv)?;
     Ok(IgnitionsReport {
         incidents_file: incidents.display().to_string(),
@@ -229,7 +240,10 @@ pub fn run_import_kaggle(
 ) -> Result<(ImportReport, WindowsManifest), DatasetError> {
     let (windows, report) = crate::kaggle::import(csv, cfg, progress)?;
     let mut source_hashes = BTreeMap::new();
-    let name = csv.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = csv
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     source_hashes.insert(name, crate::hash_file(csv)?);
     let manifest = WindowsManifest {
         config: ExtractConfig::default(),
@@ -338,7 +352,8 @@ impl StageKind for IgnitionsStage {
         let gridmet = ctx.input_list("gridmet").first().cloned();
         let out = ctx.output("ignitions")?.to_path_buf();
         let rejects = ctx.output("rejects")?.to_path_buf();
-        let report = run_ignitions(&incidents, gridmet.as_deref(), &params, &out, &rejects).map_err(stage_err)?;
+        let report =
+            run_ignitions(&incidents, gridmet.as_deref(), &params, &out, &rejects).map_err(stage_err)?;
         ctx.metric("ignitions_kept", 0, report.rules.kept as f64);
         ctx.metric("incident_rows", 0, report.rows_read as f64);
         ctx.log(format!(
@@ -390,7 +405,11 @@ impl StageKind for NegativesStage {
         let gridmet = ctx.input_list("gridmet").first().cloned();
         let out = ctx.output("samples")?.to_path_buf();
         let report = run_negatives(&ignitions, gridmet.as_deref(), &cfg, &out).map_err(stage_err)?;
-        for (tier, r) in [("far", &report.far), ("near", &report.near), ("yearly", &report.yearly)] {
+        for (tier, r) in [
+            ("far", &report.far),
+            ("near", &report.near),
+            ("yearly", &report.yearly),
+        ] {
             ctx.metric(&format!("negatives_{tier}"), 0, r.accepted as f64);
         }
         ctx.log(format!(
@@ -495,7 +514,8 @@ impl StageKind for ImportKaggleStage {
         }
         let out = ctx.output("windows")?.to_path_buf();
         let bar = ctx.progress_bar(0, "CSV rows");
-        let (report, _) = run_import_kaggle(&csv, &cfg, &out, &mut |rows| bar.set_position(rows)).map_err(stage_err)?;
+        let (report, _) =
+            run_import_kaggle(&csv, &cfg, &out, &mut |rows| bar.set_position(rows)).map_err(stage_err)?;
         bar.finish_and_clear();
         ctx.metric("kaggle_windows_kept", 0, report.kept_windows as f64);
         write_json(ctx.output("report")?, &report)
@@ -519,7 +539,11 @@ impl StageKind for DatasetStage {
     fn ports(&self) -> Ports {
         const IN: &[Port] = &[
             port("windows", true, "window table (directory)"),
-            port("source_model", false, "Markdown describing how the sources were made"),
+            port(
+                "source_model",
+                false,
+                "Markdown describing how the sources were made",
+            ),
         ];
         const OUT: &[Port] = &[port("dataset", true, "the dataset (directory)")];
         Ports {
@@ -544,9 +568,15 @@ impl StageKind for DatasetStage {
         let m = run_dataset(&windows, model.as_deref(), &cfg, &out).map_err(stage_err)?;
         let dir = ctx.output_final_path("dataset").unwrap_or(&out).to_path_buf();
         let mut metadata = BTreeMap::new();
-        metadata.insert("framing".to_string(), serde_json::to_string(&m.framing).unwrap_or_default());
+        metadata.insert(
+            "framing".to_string(),
+            serde_json::to_string(&m.framing).unwrap_or_default(),
+        );
         metadata.insert("positives".to_string(), m.positives.to_string());
-        metadata.insert("splits".to_string(), serde_json::to_string(&m.splits).unwrap_or_default());
+        metadata.insert(
+            "splits".to_string(),
+            serde_json::to_string(&m.splits).unwrap_or_default(),
+        );
         metadata.insert("directory".to_string(), dir.display().to_string());
         // Two views for `firecast query`: the long per-day table under the dataset's name and
         // the per-sample table under `<name>_samples`; they join on sample_id.
@@ -661,7 +691,9 @@ impl SynthParams {
             RegionParam::Named(other) => {
                 return Err(DatasetError::Config {
                     key: "region".into(),
-                    message: format!("`{other}`: expected `conus` or a box {{lat_min, lat_max, lon_min, lon_max}}"),
+                    message: format!(
+                        "`{other}`: expected `conus` or a box {{lat_min, lat_max, lon_min, lon_max}}"
+                    ),
                 });
             }
             RegionParam::Box(b) => Region::Box {
@@ -714,10 +746,11 @@ pub fn run_synthesize(
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<SynthReport, DatasetError> {
     let cfg = params.to_config()?;
-    let summary = firecast_data::synth::generate(&cfg, out_dir, progress).map_err(|e| DatasetError::Input {
-        path: out_dir.to_path_buf(),
-        message: e.to_string(),
-    })?;
+    let summary =
+        firecast_data::synth::generate(&cfg, out_dir, progress).map_err(|e| DatasetError::Input {
+            path: out_dir.to_path_buf(),
+            message: e.to_string(),
+        })?;
     crate::write_atomically(
         &out_dir.join(SOURCE_MODEL_FILE),
         firecast_data::synth::model_card().as_bytes(),
@@ -787,11 +820,17 @@ impl StageKind for SynthesizeStage {
         bar.finish_and_clear();
         let moves = [
             (scratch.join("gridmet"), &gridmet),
-            (scratch.join("incidents").join(firecast_data::synth::INCIDENTS_CSV), &incidents),
+            (
+                scratch
+                    .join("incidents")
+                    .join(firecast_data::synth::INCIDENTS_CSV),
+                &incidents,
+            ),
             (scratch.join(SOURCE_MODEL_FILE), &model),
         ];
         for (from, to) in moves {
-            std::fs::rename(&from, to).map_err(|e| StageError::msg(format!("moving {}: {e}", from.display())))?;
+            std::fs::rename(&from, to)
+                .map_err(|e| StageError::msg(format!("moving {}: {e}", from.display())))?;
         }
         let _ = std::fs::remove_dir_all(&scratch);
         ctx.metric("synthetic_ignitions", 0, report.ignitions as f64);

@@ -86,7 +86,10 @@ fn days_schema(features: &[String]) -> Schema {
 }
 
 fn properties(kv: &BTreeMap<String, String>) -> WriterProperties {
-    let mut meta = vec![KeyValue::new(META_SCHEMA_VERSION.to_string(), SCHEMA_VERSION.to_string())];
+    let mut meta = vec![KeyValue::new(
+        META_SCHEMA_VERSION.to_string(),
+        SCHEMA_VERSION.to_string(),
+    )];
     meta.extend(kv.iter().map(|(k, v)| KeyValue::new(k.clone(), v.clone())));
     WriterProperties::builder()
         .set_compression(Compression::ZSTD(ZstdLevel::try_new(3).unwrap_or_default()))
@@ -122,11 +125,19 @@ pub fn write_window_table(
         Arc::new(UInt32Array::from_iter_values(s.iter().map(|x| x.sample_id))),
         Arc::new(Float64Array::from_iter_values(s.iter().map(|x| x.lat))),
         Arc::new(Float64Array::from_iter_values(s.iter().map(|x| x.lon))),
-        Arc::new(TimestampMillisecondArray::from_iter_values(s.iter().map(|x| x.time_ms)).with_timezone("UTC")),
-        Arc::new(Date32Array::from_iter_values(s.iter().map(|x| time::date32(x.event_day)))),
+        Arc::new(
+            TimestampMillisecondArray::from_iter_values(s.iter().map(|x| x.time_ms)).with_timezone("UTC"),
+        ),
+        Arc::new(Date32Array::from_iter_values(
+            s.iter().map(|x| time::date32(x.event_day)),
+        )),
         Arc::new(StringArray::from_iter_values(s.iter().map(|x| x.tier.as_str()))),
-        Arc::new(BooleanArray::from(s.iter().map(|x| x.label()).collect::<Vec<_>>())),
-        Arc::new(UInt64Array::from(s.iter().map(|x| x.source_row).collect::<Vec<_>>())),
+        Arc::new(BooleanArray::from(
+            s.iter().map(|x| x.label()).collect::<Vec<_>>(),
+        )),
+        Arc::new(UInt64Array::from(
+            s.iter().map(|x| x.source_row).collect::<Vec<_>>(),
+        )),
         Arc::new(UInt32Array::from_iter_values(s.iter().map(|x| x.cell.0))),
         Arc::new(UInt32Array::from_iter_values(s.iter().map(|x| x.cell.1))),
         Arc::new(Float64Array::from_iter_values(s.iter().map(|x| x.cell_lat))),
@@ -174,7 +185,11 @@ pub fn write_window_table(
             Arc::new(Date32Array::from(date)),
             Arc::new(BooleanArray::from(wildfire)),
         ];
-        columns.extend(feats.into_iter().map(|f| Arc::new(Float32Array::from(f)) as ArrayRef));
+        columns.extend(
+            feats
+                .into_iter()
+                .map(|f| Arc::new(Float32Array::from(f)) as ArrayRef),
+        );
         RecordBatch::try_new(schema_b.clone(), columns).map_err(|e| e.to_string())
     });
     write_batches(&path, schema, &props, batches)?;
@@ -190,9 +205,12 @@ fn write_batches(
     let tmp = tmp_sibling(path);
     let err = pq_err(path);
     let file = File::create(&tmp).map_err(DatasetError::io("creating", &tmp))?;
-    let mut writer = ArrowWriter::try_new(file, schema, Some(props.clone())).map_err(|e| err(e.to_string()))?;
+    let mut writer =
+        ArrowWriter::try_new(file, schema, Some(props.clone())).map_err(|e| err(e.to_string()))?;
     for batch in batches {
-        writer.write(&batch.map_err(&err)?).map_err(|e| err(e.to_string()))?;
+        writer
+            .write(&batch.map_err(&err)?)
+            .map_err(|e| err(e.to_string()))?;
     }
     writer.close().map_err(|e| err(e.to_string()))?;
     std::fs::rename(&tmp, path).map_err(DatasetError::io("renaming into place", path))
@@ -215,7 +233,9 @@ fn column<'a, T: 'static>(batch: &'a RecordBatch, name: &str, path: &Path) -> Re
         })
 }
 
-fn read_batches(path: &Path) -> Result<(Vec<RecordBatch>, BTreeMap<String, String>, Vec<String>), DatasetError> {
+fn read_batches(
+    path: &Path,
+) -> Result<(Vec<RecordBatch>, BTreeMap<String, String>, Vec<String>), DatasetError> {
     let err = pq_err(path);
     let file = File::open(path).map_err(DatasetError::io("opening", path))?;
     let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| err(e.to_string()))?;
@@ -229,9 +249,16 @@ fn read_batches(path: &Path) -> Result<(Vec<RecordBatch>, BTreeMap<String, Strin
                 .collect()
         })
         .unwrap_or_default();
-    let names = builder.schema().fields().iter().map(|f| f.name().clone()).collect();
+    let names = builder
+        .schema()
+        .fields()
+        .iter()
+        .map(|f| f.name().clone())
+        .collect();
     let reader = builder.build().map_err(|e| err(e.to_string()))?;
-    let batches = reader.collect::<Result<Vec<_>, _>>().map_err(|e| err(e.to_string()))?;
+    let batches = reader
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| err(e.to_string()))?;
     Ok((batches, metadata, names))
 }
 
@@ -319,9 +346,11 @@ pub fn read_window_table(dir: &Path) -> Result<StoredTable, DatasetError> {
     let rows = ids.len();
     let n_days = day_index.iter().max().map_or(0, |m| *m as usize + 1);
     let consistent = rows == samples.len() * n_days
-        && ids.iter().zip(&day_index).enumerate().all(|(r, (id, d))| {
-            *d as usize == r % n_days && samples[r / n_days].sample_id == *id
-        });
+        && ids
+            .iter()
+            .zip(&day_index)
+            .enumerate()
+            .all(|(r, (id, d))| *d as usize == r % n_days && samples[r / n_days].sample_id == *id);
     if !consistent {
         return Err(DatasetError::Parquet {
             path,
@@ -341,10 +370,13 @@ pub fn read_window_table(dir: &Path) -> Result<StoredTable, DatasetError> {
         row_labels: Some(labels),
     };
     // Keep explicit row labels only when they differ from the layout rule.
-    let derived = (0..table.samples.len())
-        .all(|s| (0..n_days).all(|d| table.row_labels.as_ref().is_some_and(|l| l[s * n_days + d]) == {
-            table.samples[s].label() && table.offset(d) >= 0
-        }));
+    let derived = (0..table.samples.len()).all(|s| {
+        (0..n_days).all(|d| {
+            table.row_labels.as_ref().is_some_and(|l| l[s * n_days + d]) == {
+                table.samples[s].label() && table.offset(d) >= 0
+            }
+        })
+    });
     if derived {
         table.row_labels = None;
     }
@@ -383,9 +415,16 @@ pub fn write_sample_list(
         Arc::new(UInt32Array::from_iter_values(0..samples.len() as u32)),
         Arc::new(Float64Array::from_iter_values(samples.iter().map(|x| x.lat))),
         Arc::new(Float64Array::from_iter_values(samples.iter().map(|x| x.lon))),
-        Arc::new(TimestampMillisecondArray::from_iter_values(samples.iter().map(|x| x.time_ms)).with_timezone("UTC")),
-        Arc::new(StringArray::from_iter_values(samples.iter().map(|x| x.tier.as_str()))),
-        Arc::new(UInt64Array::from(samples.iter().map(|x| x.source_row).collect::<Vec<_>>())),
+        Arc::new(
+            TimestampMillisecondArray::from_iter_values(samples.iter().map(|x| x.time_ms))
+                .with_timezone("UTC"),
+        ),
+        Arc::new(StringArray::from_iter_values(
+            samples.iter().map(|x| x.tier.as_str()),
+        )),
+        Arc::new(UInt64Array::from(
+            samples.iter().map(|x| x.source_row).collect::<Vec<_>>(),
+        )),
     ];
     let batch = RecordBatch::try_new(schema.clone(), columns).map_err(|e| pq_err(path)(e.to_string()))?;
     write_batches(path, schema, &properties(kv), std::iter::once(Ok(batch)))
@@ -421,5 +460,9 @@ pub fn read_sample_list(path: &Path) -> Result<Vec<crate::windows::SampleIn>, Da
 
 /// Column names of `samples.parquet` in a finished dataset.
 pub fn sample_columns() -> Vec<String> {
-    samples_schema(true).fields().iter().map(|f| f.name().clone()).collect()
+    samples_schema(true)
+        .fields()
+        .iter()
+        .map(|f| f.name().clone())
+        .collect()
 }

@@ -64,7 +64,13 @@ pub fn format_instant(time_ms: i64) -> String {
     let day = gridmet_day(time_ms, DayBoundary::Utc);
     let ms = time_ms - day_start_ms(day);
     let s = ms / 1000;
-    format!("{}T{:02}:{:02}:{:02}Z", format_date(day), s / 3600, (s / 60) % 60, s % 60)
+    format!(
+        "{}T{:02}:{:02}:{:02}Z",
+        format_date(day),
+        s / 3600,
+        (s / 60) % 60,
+        s % 60
+    )
 }
 
 /// The calendar year of a GRIDMET day.

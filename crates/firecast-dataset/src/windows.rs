@@ -86,7 +86,10 @@ fn default_last_offset() -> i32 {
     14
 }
 fn default_variables() -> Vec<String> {
-    PAPER_FEATURES.iter().map(|v| v.short_name().to_string()).collect()
+    PAPER_FEATURES
+        .iter()
+        .map(|v| v.short_name().to_string())
+        .collect()
 }
 
 impl Default for ExtractConfig {
@@ -128,7 +131,10 @@ impl ExtractConfig {
         if self.last_offset < self.first_offset {
             return Err(DatasetError::Config {
                 key: "last_offset".into(),
-                message: format!("{} is before first_offset {}", self.last_offset, self.first_offset),
+                message: format!(
+                    "{} is before first_offset {}",
+                    self.last_offset, self.first_offset
+                ),
             });
         }
         Ok(())
@@ -280,7 +286,10 @@ pub fn extract(
         let event_day = time::gridmet_day(s.time_ms, cfg.day_boundary);
         let (first, last) = (event_day + cfg.first_offset, event_day + cfg.last_offset);
         if time::year_of(first) < y0 || time::year_of(last) > y1 {
-            *report.dropped.entry("window_outside_gridmet_years".into()).or_default() += 1;
+            *report
+                .dropped
+                .entry("window_outside_gridmet_years".into())
+                .or_default() += 1;
             continue;
         }
         let Some((j, i)) = grid.nearest_cell(s.lat, s.lon) else {
@@ -329,7 +338,8 @@ pub fn extract(
                         })
                     }
                 };
-                task.needs.push((slot, (day - first) as usize, day, (last - day + 1) as usize));
+                task.needs
+                    .push((slot, (day - first) as usize, day, (last - day + 1) as usize));
             }
             day = last + 1;
         }
@@ -356,7 +366,11 @@ pub fn extract(
             let result = result?;
             report.files_read += 1;
             if let Some(h) = result.hash {
-                let name = task.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                let name = task
+                    .path
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default();
                 report.source_hashes.insert(name, h);
             }
             for (need, series) in task.needs.iter().zip(&result.series) {
@@ -378,7 +392,10 @@ pub fn extract(
     let mut values_out = Vec::with_capacity(values.len());
     for (slot, s) in kept.into_iter().enumerate() {
         if invalid[slot] {
-            *report.dropped.entry("days_missing_in_gridmet_file".into()).or_default() += 1;
+            *report
+                .dropped
+                .entry("days_missing_in_gridmet_file".into())
+                .or_default() += 1;
             continue;
         }
         values_out.extend_from_slice(&values[slot * n_days * nf..(slot + 1) * n_days * nf]);
@@ -429,7 +446,9 @@ fn run_task(
             hash: None,
         });
     };
-    let contiguous = days.last().is_some_and(|&l| (l - day0) as usize + 1 == days.len());
+    let contiguous = days
+        .last()
+        .is_some_and(|&l| (l - day0) as usize + 1 == days.len());
     let index_of = |day: i32| -> Option<usize> {
         if contiguous {
             let k = day - day0;
@@ -438,43 +457,66 @@ fn run_task(
             days.binary_search(&day).ok()
         }
     };
-    // Unique cells and the union of day indices this file must supply.
-    let mut cells: Vec<(usize, usize)> = task
+    // Where each need starts in the file, and the day range each unique cell must supply.
+    let located: Vec<Option<usize>> = task
         .needs
         .iter()
-        .map(|n| local[n.0])
+        .map(|n| match (index_of(n.2), index_of(n.2 + n.3 as i32 - 1)) {
+            (Some(a), Some(b)) if b - a + 1 == n.3 => Some(a),
+            _ => None,
+        })
         .collect();
-    cells.sort_unstable();
-    cells.dedup();
-    let mut lo = usize::MAX;
-    let mut hi = 0;
-    let mut located = Vec::with_capacity(task.needs.len());
-    for n in &task.needs {
-        let (first, last) = (index_of(n.2), index_of(n.2 + n.3 as i32 - 1));
-        match (first, last) {
-            (Some(a), Some(b)) if b - a + 1 == n.3 => {
-                lo = lo.min(a);
-                hi = hi.max(b + 1);
-                located.push(Some(a));
-            }
-            _ => located.push(None),
+    let mut ranges: BTreeMap<(usize, usize), (usize, usize)> = BTreeMap::new();
+    for (n, at) in task.needs.iter().zip(&located) {
+        if let Some(a) = at {
+            let r = ranges.entry(local[n.0]).or_insert((*a, a + n.3));
+            r.0 = r.0.min(*a);
+            r.1 = r.1.max(a + n.3);
         }
     }
-    if lo >= hi {
+    if ranges.is_empty() {
         return Ok(TaskResult {
             series: vec![None; task.needs.len()],
             hash: None,
         });
     }
-    let gathered = file.gather(&cells, lo..hi)?;
+    // Two ways to read: one time series per cell (what sparse samples need: a few hundred
+    // values each), or the bounding hyperslab in blocks of days (dense samples). Choose by the
+    // values each would read.
+    let needed: usize = ranges.values().map(|(a, b)| b - a).sum();
+    let (j0, j1) = ranges
+        .keys()
+        .fold((usize::MAX, 0), |acc, c| (acc.0.min(c.0), acc.1.max(c.0 + 1)));
+    let (i0, i1) = ranges
+        .keys()
+        .fold((usize::MAX, 0), |acc, c| (acc.0.min(c.1), acc.1.max(c.1 + 1)));
+    let (d0, d1) = ranges
+        .values()
+        .fold((usize::MAX, 0), |acc, r| (acc.0.min(r.0), acc.1.max(r.1)));
+    let bounding = (j1 - j0) * (i1 - i0) * (d1 - d0);
+    // A per-cell read costs about as much as a few hundred values of a block read.
+    let per_cell_cost = needed + 400 * ranges.len();
+    let mut by_cell: BTreeMap<(usize, usize), (usize, Vec<f32>)> = BTreeMap::new();
+    if per_cell_cost < bounding {
+        for (cell, (a, b)) in &ranges {
+            let mut series = file.gather(&[*cell], *a..*b)?;
+            by_cell.insert(*cell, (*a, series.pop().unwrap_or_default()));
+        }
+    } else {
+        let cells: Vec<(usize, usize)> = ranges.keys().copied().collect();
+        let gathered = file.gather(&cells, d0..d1)?;
+        for (cell, series) in cells.into_iter().zip(gathered) {
+            by_cell.insert(cell, (d0, series));
+        }
+    }
     let series = task
         .needs
         .iter()
         .zip(located)
         .map(|(n, at)| {
             let at = at?;
-            let c = cells.binary_search(&local[n.0]).ok()?;
-            Some(gathered[c][at - lo..at - lo + n.3].to_vec())
+            let (start, values) = by_cell.get(&local[n.0])?;
+            values.get(at - start..at - start + n.3).map(<[f32]>::to_vec)
         })
         .collect();
     let hash = if hash_sources {

@@ -58,11 +58,18 @@ fn cfg(kind: FramingKind) -> DatasetConfig {
 
 #[test]
 fn paper_framing_is_the_published_layout() {
-    let t = table(&[(0, 0, D2020 + 100, Tier::Positive), (1, 1, D2020 + 100, Tier::Far)]);
+    let t = table(&[
+        (0, 0, D2020 + 100, Tier::Positive),
+        (1, 1, D2020 + 100, Tier::Far),
+    ]);
     let ds = build(&t, &cfg(FramingKind::Paper)).unwrap();
     assert_eq!(ds.table.n_days, 75);
     assert_eq!(ds.label_offsets, (-60, 14));
-    let labels = |s: usize| -> Vec<bool> { (0..75).map(|d| firecast_dataset::table::row_label(&ds.table, s, d)).collect() };
+    let labels = |s: usize| -> Vec<bool> {
+        (0..75)
+            .map(|d| firecast_dataset::table::row_label(&ds.table, s, d))
+            .collect()
+    };
     let mut positive = vec![false; 60];
     positive.extend(vec![true; 15]);
     assert_eq!(labels(0), positive);
@@ -72,7 +79,10 @@ fn paper_framing_is_the_published_layout() {
 
 #[test]
 fn forecast_framing_ends_lead_days_before_the_predicted_date() {
-    let t = table(&[(0, 0, D2020 + 100, Tier::Positive), (1, 1, D2020 + 100, Tier::Near)]);
+    let t = table(&[
+        (0, 0, D2020 + 100, Tier::Positive),
+        (1, 1, D2020 + 100, Tier::Near),
+    ]);
     let ds = build(&t, &cfg(FramingKind::Forecast)).unwrap();
     assert_eq!(ds.label_offsets, (-30, -1));
     assert_eq!(ds.table.n_days, 30);
@@ -99,19 +109,45 @@ fn a_framing_wider_than_the_extraction_and_a_zero_lead_are_config_errors() {
 
 #[test]
 fn temporal_split_puts_the_last_months_in_test() {
-    let events: Vec<_> = (0..24).map(|k| (k, 0, D2020 + 15 * k as i32, if k % 3 == 0 { Tier::Positive } else { Tier::Far })).collect();
+    let events: Vec<_> = (0..24)
+        .map(|k| {
+            (
+                k,
+                0,
+                D2020 + 15 * k as i32,
+                if k % 3 == 0 { Tier::Positive } else { Tier::Far },
+            )
+        })
+        .collect();
     let ds = build(&table(&events), &cfg(FramingKind::Paper)).unwrap();
     // The last event is 2020-12-16, so the last 4 months start on 2020-09-01.
-    assert_eq!(ds.test_from.map(firecast_dataset::time::format_date).as_deref(), Some("2020-09-01"));
+    assert_eq!(
+        ds.test_from.map(firecast_dataset::time::format_date).as_deref(),
+        Some("2020-09-01")
+    );
     for (s, split) in ds.table.samples.iter().zip(&ds.splits) {
-        assert_eq!(*split == TEST, s.event_day >= ds.test_from.unwrap(), "{}", s.event_day);
+        assert_eq!(
+            *split == TEST,
+            s.event_day >= ds.test_from.unwrap(),
+            "{}",
+            s.event_day
+        );
     }
     assert!(ds.splits.contains(&VAL) && ds.splits.contains(&TRAIN));
 }
 
 #[test]
 fn the_same_config_gives_the_same_version_and_a_changed_one_does_not() {
-    let events: Vec<_> = (0..40).map(|k| (k % 7, 0, D2020 + 9 * k as i32, if k % 4 == 0 { Tier::Positive } else { Tier::Yearly })).collect();
+    let events: Vec<_> = (0..40)
+        .map(|k| {
+            (
+                k % 7,
+                0,
+                D2020 + 9 * k as i32,
+                if k % 4 == 0 { Tier::Positive } else { Tier::Yearly },
+            )
+        })
+        .collect();
     let t = table(&events);
     let mut c = cfg(FramingKind::Forecast);
     c.split.method = SplitMethod::StratifiedRandom;

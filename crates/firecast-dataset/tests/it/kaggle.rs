@@ -1,17 +1,34 @@
 use std::fmt::Write as _;
 
-use firecast_dataset::kaggle::{ImportConfig, KaggleLicense, KaggleMetadata, Policy, import, validate_metadata};
+use firecast_dataset::kaggle::{
+    ImportConfig, KaggleLicense, KaggleMetadata, Policy, import, validate_metadata,
+};
 
-const HEADER: &str = "latitude,longitude,datetime,Wildfire,pr,rmax,rmin,sph,srad,tmmn,tmmx,vs,bi,fm100,fm1000,erc,etr,pet,vpd";
+const HEADER: &str =
+    "latitude,longitude,datetime,Wildfire,pr,rmax,rmin,sph,srad,tmmn,tmmx,vs,bi,fm100,fm1000,erc,etr,pet,vpd";
 
 /// 75 rows of one window starting at `first` (a date), with labels and an optional fill row.
-fn window(csv: &mut String, lat: f64, lon: f64, first: (i32, u32, u32), positive: bool, rows: usize, fill_row: Option<usize>) {
+fn window(
+    csv: &mut String,
+    lat: f64,
+    lon: f64,
+    first: (i32, u32, u32),
+    positive: bool,
+    rows: usize,
+    fill_row: Option<usize>,
+) {
     let day0 = firecast_data::gridmet::ymd_to_day(first.0, first.1, first.2).unwrap();
     for r in 0..rows {
         let date = firecast_dataset::time::format_date(day0 + r as i32);
         let label = if positive && r >= 60 { "Yes" } else { "No" };
         let values: Vec<String> = (0..15)
-            .map(|f| if Some(r) == fill_row { "32767.0".into() } else { format!("{}.5", f + r) })
+            .map(|f| {
+                if Some(r) == fill_row {
+                    "32767.0".into()
+                } else {
+                    format!("{}.5", f + r)
+                }
+            })
             .collect();
         let _ = writeln!(csv, "{lat},{lon},{date},{label},{}", values.join(","));
     }
@@ -50,7 +67,10 @@ fn import_detects_and_counts_every_flaw() {
     assert_eq!(t.n_days, 75);
     assert_eq!(t.first_offset, -60);
     // Row 61 is the event day.
-    assert_eq!(firecast_dataset::time::format_date(t.samples[0].event_day), "2016-04-10");
+    assert_eq!(
+        firecast_dataset::time::format_date(t.samples[0].event_day),
+        "2016-04-10"
+    );
     assert_eq!(t.row(0, 3)[2], 5.5);
     // Keeping fill windows turns the sentinel into missing values.
     let keep = ImportConfig {
@@ -72,12 +92,22 @@ fn a_malformed_row_or_missing_column_is_an_error_naming_file_and_line() {
     window(&mut csv, 40.0, -105.0, (2016, 1, 1), false, 3, None);
     csv.push_str("40.0,-105.0,2016-01-04,Maybe,1,2,3,4,5,6,7,8,9,10,11,12,13,14,15\n");
     std::fs::write(&path, csv).unwrap();
-    let err = import(&path, &ImportConfig::default(), &mut |_| {}).unwrap_err().to_string();
-    assert_eq!(err, format!("{}:5: column `Wildfire`: cannot read `Maybe`", path.display()));
+    let err = import(&path, &ImportConfig::default(), &mut |_| {})
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        err,
+        format!("{}:5: column `Wildfire`: cannot read `Maybe`", path.display())
+    );
 
     std::fs::write(&path, "latitude,longitude,datetime\n1,2,2016-01-01\n").unwrap();
-    let err = import(&path, &ImportConfig::default(), &mut |_| {}).unwrap_err().to_string();
-    assert!(err.starts_with(&format!("{}:1: no column `Wildfire`", path.display())), "{err}");
+    let err = import(&path, &ImportConfig::default(), &mut |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with(&format!("{}:1: no column `Wildfire`", path.display())),
+        "{err}"
+    );
 }
 
 #[test]
@@ -89,7 +119,12 @@ fn metadata_validation_applies_the_kaggle_client_rules() {
         subtitle: Some("too short".into()),
         description: String::new(),
         id: "someone/fires".into(),
-        licenses: vec![KaggleLicense { name: "CC-BY-4.0".into() }, KaggleLicense { name: "MIT".into() }],
+        licenses: vec![
+            KaggleLicense {
+                name: "CC-BY-4.0".into(),
+            },
+            KaggleLicense { name: "MIT".into() },
+        ],
         keywords: vec![],
         resources: vec![firecast_dataset::kaggle::KaggleResource {
             path: "missing.csv".into(),
@@ -102,7 +137,11 @@ fn metadata_validation_applies_the_kaggle_client_rules() {
     assert!(problems[0].starts_with("id: slug `fires` must be 6 to 50 characters"));
     assert!(problems.iter().any(|p| p.starts_with("subtitle:")));
     assert!(problems.iter().any(|p| p.starts_with("licenses: exactly one")));
-    assert!(problems.iter().any(|p| p.starts_with("licenses: unknown licence `MIT`")));
+    assert!(
+        problems
+            .iter()
+            .any(|p| p.starts_with("licenses: unknown licence `MIT`"))
+    );
     assert!(problems.iter().any(|p| p.starts_with("resources[0].path")));
     meta.id = "someone/us-wildfire-ignitions".into();
     meta.subtitle = Some("Daily GRIDMET windows around IRWIN ignitions".into());

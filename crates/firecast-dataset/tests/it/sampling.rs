@@ -2,7 +2,8 @@ use firecast_dataset::Tier;
 use firecast_dataset::geo::haversine_km;
 use firecast_dataset::land::LandMask;
 use firecast_dataset::sampling::{
-    IgnitionRules, IncidentPoint, NegativeConfig, Sample, TierCounts, Variant, dedup_ignitions, sample_negatives,
+    IgnitionRules, IncidentPoint, NegativeConfig, Sample, TierCounts, Variant, dedup_ignitions,
+    sample_negatives,
 };
 
 use crate::utc;
@@ -65,7 +66,7 @@ fn dedup_drops_reports_off_the_gridmet_land_mask() {
     let reports = vec![
         report(1, 0.0, 40.0, -105.0),
         report(2, 10.0, 40.0 - 1.0 / 24.0, -105.0 + 1.0 / 24.0), // masked cell
-        report(3, 20.0, 45.0, -100.0),                         // outside the mask's grid
+        report(3, 20.0, 45.0, -100.0),                           // outside the mask's grid
     ];
     let out = dedup_ignitions(&reports, &IgnitionRules::default(), Some(&mask));
     assert_eq!(out.counts.kept, 1);
@@ -130,7 +131,12 @@ fn isolated_positives(n: usize) -> Vec<Sample> {
         .map(|k| {
             let lat = 30.0 + 3.0 * (k % 6) as f64;
             let lon = -120.0 + 3.0 * (k / 6) as f64;
-            positive(lat, lon, utc(2016, 1, 1, 0) + k as i64 * 100 * 86_400_000 / 10, k as u64)
+            positive(
+                lat,
+                lon,
+                utc(2016, 1, 1, 0) + k as i64 * 100 * 86_400_000 / 10,
+                k as u64,
+            )
         })
         .collect()
 }
@@ -157,7 +163,10 @@ fn code_variant_near_negatives_reject_almost_everything_unless_the_origin_is_exc
     cfg.exclude_origin = false;
     let quirk = sample_negatives(&positives, &cfg, None).unwrap();
     assert!(quirk.near.accepted <= 3, "{} accepted", quirk.near.accepted);
-    assert_eq!(quirk.near.rejected.get("fire_nearby").copied().unwrap_or(0) + quirk.near.accepted, 36);
+    assert_eq!(
+        quirk.near.rejected.get("fire_nearby").copied().unwrap_or(0) + quirk.near.accepted,
+        36
+    );
 }
 
 #[test]
@@ -179,7 +188,11 @@ fn paper_variant_scales_the_tiers_and_respects_every_distance_rule() {
     assert!(out.yearly.accepted <= 28 && out.yearly.accepted > 0);
     for s in &out.samples {
         match s.tier {
-            Tier::Far => assert!(positives.iter().all(|p| haversine_km(p.lat, p.lon, s.lat, s.lon) >= 100.0)),
+            Tier::Far => assert!(
+                positives
+                    .iter()
+                    .all(|p| haversine_km(p.lat, p.lon, s.lat, s.lon) >= 100.0)
+            ),
             Tier::Near => {
                 let close = positives.iter().any(|p| {
                     haversine_km(p.lat, p.lon, s.lat, s.lon) < 100.0

@@ -65,13 +65,19 @@ fn the_day_boundary_is_mountain_standard_time_unless_asked_otherwise() {
     let samples = vec![sample(0, 0, 0, utc(2019, 3, 10, 3))];
     let dir = fixtures().join("gridmet");
     let (mst, _) = extract(&samples, &dir, &config(), false, &|_, _| {}).unwrap();
-    assert_eq!(firecast_dataset::time::format_date(mst.samples[0].event_day), "2019-03-09");
+    assert_eq!(
+        firecast_dataset::time::format_date(mst.samples[0].event_day),
+        "2019-03-09"
+    );
     let utc_cfg = ExtractConfig {
         day_boundary: DayBoundary::Utc,
         ..config()
     };
     let (u, _) = extract(&samples, &dir, &utc_cfg, false, &|_, _| {}).unwrap();
-    assert_eq!(firecast_dataset::time::format_date(u.samples[0].event_day), "2019-03-10");
+    assert_eq!(
+        firecast_dataset::time::format_date(u.samples[0].event_day),
+        "2019-03-10"
+    );
     // Day 0 is day 68 (MST) or 69 (UTC) of 2019.
     assert!((mst.row(0, 60)[0] - expected(0.0, 68, 0, 0)).abs() < 1e-3);
     assert!((u.row(0, 60)[0] - expected(0.0, 69, 0, 0)).abs() < 1e-3);
@@ -81,13 +87,26 @@ fn the_day_boundary_is_mountain_standard_time_unless_asked_otherwise() {
 fn samples_off_the_grid_or_outside_the_years_are_dropped_and_counted() {
     let samples = vec![
         sample(0, 0, 0, utc(2018, 6, 1, 12)),
-        sample(1, 3, 4, utc(2018, 6, 1, 12)),           // the masked cell: kept, all missing
-        sample(2, 0, 0, utc(2018, 1, 20, 12)),          // needs 2017
-        sample(3, 0, 0, utc(2019, 12, 25, 12)),         // needs 2020
-        SampleIn { lat: 45.0, ..sample(4, 0, 0, utc(2018, 6, 1, 12)) }, // off the grid
+        sample(1, 3, 4, utc(2018, 6, 1, 12)), // the masked cell: kept, all missing
+        sample(2, 0, 0, utc(2018, 1, 20, 12)), // needs 2017
+        sample(3, 0, 0, utc(2019, 12, 25, 12)), // needs 2020
+        SampleIn {
+            lat: 45.0,
+            ..sample(4, 0, 0, utc(2018, 6, 1, 12))
+        }, // off the grid
     ];
-    let (t, report) = extract(&samples, &fixtures().join("gridmet"), &config(), false, &|_, _| {}).unwrap();
-    assert_eq!(t.samples.iter().map(|s| s.sample_id).collect::<Vec<_>>(), vec![0, 1]);
+    let (t, report) = extract(
+        &samples,
+        &fixtures().join("gridmet"),
+        &config(),
+        false,
+        &|_, _| {},
+    )
+    .unwrap();
+    assert_eq!(
+        t.samples.iter().map(|s| s.sample_id).collect::<Vec<_>>(),
+        vec![0, 1]
+    );
     assert_eq!(report.dropped.get("window_outside_gridmet_years"), Some(&2));
     assert_eq!(report.dropped.get("outside_gridmet_grid"), Some(&1));
     assert_eq!(report.missing_values.get("pr"), Some(&75));
@@ -111,5 +130,8 @@ fn a_missing_file_or_unknown_variable_is_an_error_that_names_it() {
         ..Default::default()
     };
     let err = extract(&samples, tmp.path(), &bad, false, &|_, _| {}).unwrap_err();
-    assert_eq!(err.to_string().split(" (known").next().unwrap(), "`variables[1]`: unknown GRIDMET variable `tmax`");
+    assert_eq!(
+        err.to_string().split(" (known").next().unwrap(),
+        "`variables[1]`: unknown GRIDMET variable `tmax`"
+    );
 }
