@@ -192,6 +192,14 @@ fn bucket(lat: f64, lon: f64) -> (i32, i32) {
     (lat.floor() as i32, lon.floor() as i32)
 }
 
+/// Index `(row from the north, column from the west)` of a GRIDMET cell centre on the full
+/// CONUS grid (data spec §2.3), so cells compare across files, subsets and imports.
+pub fn gridmet_cell_index(cell_lat: f64, cell_lon: f64) -> (u32, u32) {
+    let j = ((49.4 - cell_lat) * 24.0).round().clamp(0.0, 584.0);
+    let i = ((cell_lon + 124.766_666_633_3) * 24.0).round().clamp(0.0, 1385.0);
+    (j as u32, i as u32)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -241,12 +249,4 @@ mod tests {
         assert!(idx.nearest_within(42.0, -105.0, 100.0).is_some());
         assert!(idx.nearest_within(45.0, -105.0, 100.0).is_none());
     }
-}
-
-/// Index `(row from the north, column from the west)` of a GRIDMET cell centre on the full
-/// CONUS grid (data spec §2.3), so cells compare across files, subsets and imports.
-pub fn gridmet_cell_index(cell_lat: f64, cell_lon: f64) -> (u32, u32) {
-    let j = ((49.4 - cell_lat) * 24.0).round().clamp(0.0, 584.0);
-    let i = ((cell_lon + 124.766_666_633_3) * 24.0).round().clamp(0.0, 1385.0);
-    (j as u32, i as u32)
 }

@@ -106,10 +106,7 @@ pub fn run_ignitions(
     crate::write_atomically(reject_report, &csv_out)?;
 
     let mut kv = BTreeMap::new();
-    kv.insert(
-        "firecast.ignitions.source".into(),
-        incidents.display().to_string(),
-    );
+    kv.insert("firecast.ignitions.source".into(), file_name(incidents));
     kv.insert(
         "firecast.ignitions.source_blake3".into(),
         crate::hash_file(incidents)?,
@@ -178,6 +175,13 @@ pub fn run_negatives(
     })
 }
 
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
 /// `windows.json` of an extraction: settings, report and the grid for maps.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct WindowsManifest {
@@ -205,7 +209,9 @@ pub fn run_windows(
         config: cfg.clone(),
         report,
         grid,
-        source: format!("GRIDMET files in {}", gridmet.display()),
+        // Names, not absolute paths, so the same data built elsewhere is byte-identical;
+        // the files themselves are identified by their hashes in the report.
+        source: format!("GRIDMET files in `{}`", file_name(gridmet)),
     };
     write_windows(out_dir, &windows, &manifest)?;
     Ok(manifest)
@@ -261,7 +267,7 @@ pub fn run_import_kaggle(
             source_hashes,
         },
         grid: MapGrid::conus(),
-        source: format!("Kaggle CSV {}", csv.display()),
+        source: format!("Kaggle CSV `{}`", file_name(csv)),
     };
     write_windows(out_dir, &windows, &manifest)?;
     Ok((report, manifest))

@@ -233,9 +233,10 @@ fn column<'a, T: 'static>(batch: &'a RecordBatch, name: &str, path: &Path) -> Re
         })
 }
 
-fn read_batches(
-    path: &Path,
-) -> Result<(Vec<RecordBatch>, BTreeMap<String, String>, Vec<String>), DatasetError> {
+/// A Parquet file read whole: its batches, key-value metadata and column names.
+type ParquetContents = (Vec<RecordBatch>, BTreeMap<String, String>, Vec<String>);
+
+fn read_batches(path: &Path) -> Result<ParquetContents, DatasetError> {
     let err = pq_err(path);
     let file = File::open(path).map_err(DatasetError::io("opening", path))?;
     let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| err(e.to_string()))?;
