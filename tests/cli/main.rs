@@ -108,7 +108,11 @@ pub fn describe(out: &Output) -> String {
 
 /// The repository root (for the committed pipelines and dvc.yaml).
 pub fn repo_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    // `cargo test` sets it at run time; the compiled-in value may name another clone that
+    // shared the target directory.
+    std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")))
 }
 
 /// The project's Python (from `cargo xtask setup`).

@@ -64,7 +64,12 @@ struct Context {
 
 fn workspace_root() -> PathBuf {
     // xtask/Cargo.toml lives one level below the workspace root.
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+    // Cargo sets CARGO_MANIFEST_DIR when it runs us; prefer it to the compile-time value,
+    // because a build in a shared target dir may come from another clone of the repository.
+    let manifest_dir = env::var_os("CARGO_MANIFEST_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")));
+    manifest_dir
         .parent()
         .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
 }

@@ -9,9 +9,11 @@ use firecast_data::gridmet::{
 const NAN: f32 = f32::NAN;
 
 fn fixture(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures")
-        .join(rel)
+    std::path::PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("tests/fixtures")
+    .join(rel)
 }
 
 /// Expected vpd_2021.nc, [day][lat][lon], as printed by make_fixtures.py.

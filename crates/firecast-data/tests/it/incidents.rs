@@ -11,9 +11,11 @@ use firecast_data::incidents::{
 };
 
 fn fixture(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/incidents")
-        .join(name)
+    std::path::PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("tests/fixtures/incidents")
+    .join(name)
 }
 
 fn read(name: &str, filter: &IncidentFilter) -> IncidentTable {

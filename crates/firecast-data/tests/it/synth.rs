@@ -593,7 +593,10 @@ fn python_netcdf4_and_xarray_read_the_same_values() {
         serde_json::to_vec(&serde_json::json!({ "files": files })).unwrap(),
     )
     .unwrap();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/tools/check_synth.py");
+    let script = std::path::PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("tests/tools/check_synth.py");
     let out = Command::new(&python)
         .arg(&script)
         .arg(dir.path())

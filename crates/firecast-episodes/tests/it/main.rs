@@ -1,7 +1,7 @@
 //! Episodes end to end: numbers, GIF, Rerun recording, determinism, scenario strictness.
 #![allow(clippy::unwrap_used)]
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use firecast_episodes::{AgentKind, LandscapeSpec, Outputs, Scenario};
 
@@ -49,7 +49,10 @@ fn rule_agent_runs_with_gif_and_a_readable_recording() {
     let gif = std::fs::read(dir.path().join("fire.gif")).unwrap();
     assert_eq!(&gif[..6], b"GIF89a");
 
-    let rerun = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../.venv/bin/rerun");
+    let rerun = std::path::PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("../../.venv/bin/rerun");
     let out = std::process::Command::new(&rerun)
         .args(["rrd", "print"])
         .arg(dir.path().join("fire.rrd"))

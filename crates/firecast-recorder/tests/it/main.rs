@@ -8,7 +8,10 @@ use std::process::Command;
 use firecast_recorder::{RERUN_VERSION, Recording, rerun};
 
 fn rerun_cli() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../.venv/bin/rerun")
+    std::path::PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("../../.venv/bin/rerun")
 }
 
 #[test]
