@@ -328,7 +328,8 @@ impl StageKind for IgnitionsStage {
         "data.ignitions"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: provenance names files instead of absolute paths.
+        2
     }
     fn summary(&self) -> &'static str {
         "IRWIN/WFIGS incidents -> de-duplicated ignitions (5 km / 2 h rule, CONUS box, GRIDMET land mask)"
@@ -435,7 +436,8 @@ impl StageKind for WindowsStage {
         "data.windows"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: provenance names files instead of absolute paths.
+        2
     }
     fn summary(&self) -> &'static str {
         "samples + GRIDMET NetCDF -> weather windows (each file read once, in parallel)"
@@ -491,7 +493,8 @@ impl StageKind for ImportKaggleStage {
         "data.import_kaggle"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: provenance names files instead of absolute paths.
+        2
     }
     fn summary(&self) -> &'static str {
         "the published FireCastRL CSV -> a window table (fill values, overlaps, short windows reported)"
@@ -537,7 +540,8 @@ impl StageKind for DatasetStage {
         "data.dataset"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: provenance names files instead of absolute paths.
+        2
     }
     fn summary(&self) -> &'static str {
         "windows -> versioned Parquet dataset (paper or forecast framing, leak-free splits, card, map, normalisation)"
