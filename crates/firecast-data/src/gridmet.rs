@@ -291,7 +291,7 @@ pub type Result<T> = std::result::Result<T, GridmetError>;
 const EPOCH_1900: i64 = -25_567;
 
 /// Days since 1970-01-01 of a proleptic Gregorian date (Hinnant's `days_from_civil`).
-fn days_from_civil(year: i64, month: u32, day: u32) -> i64 {
+pub(crate) fn days_from_civil(year: i64, month: u32, day: u32) -> i64 {
     let y = if month <= 2 { year - 1 } else { year };
     let era = y.div_euclid(400);
     let yoe = y - era * 400;
@@ -324,7 +324,7 @@ pub fn ymd_to_day(year: i32, month: u32, day: u32) -> Option<i32> {
     i32::try_from(days_from_civil(i64::from(year), month, day) - EPOCH_1900).ok()
 }
 
-fn days_in_month(year: i32, month: u32) -> u32 {
+pub(crate) fn days_in_month(year: i32, month: u32) -> u32 {
     match month {
         1 | 3 | 5 | 7 | 8 | 10 | 12 => 31,
         4 | 6 | 9 | 11 => 30,

@@ -1760,36 +1760,16 @@ fn parse_us(c: &mut Cursor<'_>) -> Option<i64> {
 fn to_epoch_ms(year: u32, month: u32, day: u32, t: &Tod, offset_min: i64) -> Option<i64> {
     if !(1..=12).contains(&month)
         || day == 0
-        || day > days_in_month(year, month)
+        || day > crate::gridmet::days_in_month(year as i32, month)
         || t.h > 23
         || t.m > 59
         || t.s > 59
     {
         return None;
     }
-    let days = days_from_civil(i64::from(year), month, day);
+    let days = crate::gridmet::days_from_civil(i64::from(year), month, day);
     let secs = days * 86_400 + i64::from(t.h * 3600 + t.m * 60 + t.s) - offset_min * 60;
     Some(secs * 1000 + i64::from(t.ms))
-}
-
-fn days_in_month(year: u32, month: u32) -> u32 {
-    match month {
-        1 | 3 | 5 | 7 | 8 | 10 | 12 => 31,
-        4 | 6 | 9 | 11 => 30,
-        _ if (year.is_multiple_of(4) && !year.is_multiple_of(100)) || year.is_multiple_of(400) => 29,
-        _ => 28,
-    }
-}
-
-/// Days since 1970-01-01 of a proleptic Gregorian date (Hinnant's `days_from_civil`).
-fn days_from_civil(year: i64, month: u32, day: u32) -> i64 {
-    let y = if month <= 2 { year - 1 } else { year };
-    let era = y.div_euclid(400);
-    let yoe = y - era * 400;
-    let m = i64::from(month);
-    let doy = (153 * (if m > 2 { m - 3 } else { m + 9 }) + 2) / 5 + i64::from(day) - 1;
-    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    era * 146_097 + doe - 719_468
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
@@ -342,7 +342,7 @@ fn assign_splits(
         SplitMethod::StratifiedRandom => {
             for stratum in [true, false] {
                 let mut members: Vec<usize> = (0..n_groups).filter(|g| group_pos[*g] == stratum).collect();
-                shuffle(&mut members, &mut rng);
+                crate::shuffle(&mut members, &mut rng);
                 let n_test = (members.len() as f64 * cfg.test_fraction).round() as usize;
                 for g in &members[..n_test] {
                     of_group[*g] = TEST;
@@ -355,20 +355,13 @@ fn assign_splits(
         let mut members: Vec<usize> = (0..n_groups)
             .filter(|g| group_pos[*g] == stratum && of_group[*g] == TRAIN)
             .collect();
-        shuffle(&mut members, &mut rng);
+        crate::shuffle(&mut members, &mut rng);
         let n_val = (members.len() as f64 * cfg.val_fraction).round() as usize;
         for g in &members[..n_val] {
             of_group[*g] = VAL;
         }
     }
     Ok((group.iter().map(|g| of_group[*g]).collect(), test_from, n_groups))
-}
-
-fn shuffle<T>(items: &mut [T], rng: &mut ChaCha8Rng) {
-    for i in (1..items.len()).rev() {
-        let j = rng.random_range(0..=i);
-        items.swap(i, j);
-    }
 }
 
 /// `v` + 16 hex digits of BLAKE3 over the config and every value of the dataset.

@@ -456,21 +456,13 @@ pub fn sample_negatives(
         }
     }
     samples.extend_from_slice(positives);
-    shuffle(&mut samples, &mut rng_for(4));
+    crate::shuffle(&mut samples, &mut rng_for(4));
     Ok(Negatives {
         samples,
         far: far_report,
         near: near_report,
         yearly: yearly_report,
     })
-}
-
-fn shuffle<T>(items: &mut [T], rng: &mut ChaCha8Rng) {
-    // Fisher–Yates with our own draws, so the order never depends on a library's algorithm.
-    for i in (1..items.len()).rev() {
-        let j = rng.random_range(0..=i);
-        items.swap(i, j);
-    }
 }
 
 fn sample_far(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng) -> (Vec<Sample>, TierReport) {
@@ -618,7 +610,7 @@ fn sample_yearly_paper(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng) -> (Vec
     };
     let mut set = TierSet::new();
     let mut order: Vec<usize> = (0..ctx.positives.len()).collect();
-    shuffle(&mut order, rng);
+    crate::shuffle(&mut order, rng);
     // One year back first for every positive, then two years, and so on, until the count
     // is reached or no positive has an earlier year left in the period.
     let mut years_back = 1;
