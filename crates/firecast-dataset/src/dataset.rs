@@ -238,16 +238,7 @@ pub fn build(input: &WindowTable, cfg: &DatasetConfig) -> Result<BuiltDataset, D
         values,
         row_labels: Some(row_labels),
     };
-    // Drop the explicit row labels when they follow the layout rule (always, unless imported).
-    let derived = (0..table.samples.len()).all(|s| {
-        (0..n_days).all(|d| {
-            table.row_labels.as_ref().is_some_and(|l| l[s * n_days + d])
-                == (table.samples[s].label() && table.offset(d) >= 0)
-        })
-    });
-    if derived {
-        table.row_labels = None;
-    }
+    table.drop_derived_row_labels();
 
     let (splits, test_from, groups) = assign_splits(&table, &cfg.split)?;
     let version = version_id(&table, &splits, cfg)?;

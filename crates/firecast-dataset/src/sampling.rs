@@ -324,14 +324,16 @@ impl Ctx<'_> {
 
 /// Accepted samples of one tier, with the 5 km / 120 day de-duplication.
 struct TierSet {
+    tier: Tier,
     index: PointIndex,
     times: Vec<i64>,
     samples: Vec<Sample>,
 }
 
 impl TierSet {
-    fn new() -> Self {
+    fn new(tier: Tier) -> Self {
         Self {
+            tier,
             index: PointIndex::new(),
             times: Vec::new(),
             samples: Vec::new(),
@@ -344,10 +346,18 @@ impl TierSet {
         })
     }
 
-    fn accept(&mut self, s: Sample, dedup_time: i64) {
-        self.index.insert(s.lat, s.lon);
+    /// Accepts a sample at `time_ms`; `dedup_time` is the instant later candidates are
+    /// compared with (the code variant compares near negatives by their origin's time).
+    fn accept(&mut self, lat: f64, lon: f64, time_ms: i64, source_row: Option<u64>, dedup_time: i64) {
+        self.index.insert(lat, lon);
         self.times.push(dedup_time);
-        self.samples.push(s);
+        self.samples.push(Sample {
+            lat,
+            lon,
+            time_ms,
+            tier: self.tier,
+            source_row,
+        });
     }
 }
 
@@ -471,7 +481,7 @@ fn sample_far(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng) -> (Vec<Sample>,
         requested: Some(target),
         ..Default::default()
     };
-    let mut set = TierSet::new();
+    let mut set = TierSet::new(Tier::Far);
     let max = target.saturating_mul(cfg.max_attempts_per_sample);
     while (set.samples.len() as u64) < target && report.candidates < max {
         report.candidates += 1;
@@ -486,16 +496,7 @@ fn sample_far(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng) -> (Vec<Sample>,
         } else if set.clashes(lat, lon, t, cfg) {
             bump(&mut report.rejected, "duplicate_within_tier");
         } else {
-            set.accept(
-                Sample {
-                    lat,
-                    lon,
-                    time_ms: t,
-                    tier: Tier::Far,
-                    source_row: None,
-                },
-                t,
-            );
+            set.accept(lat, lon, t, None, t);
         }
     }
     report.accepted = set.samples.len() as u64;
@@ -526,7 +527,7 @@ fn sample_near_paper(
         requested: Some(target),
         ..Default::default()
     };
-    let mut set = TierSet::new();
+    let mut set = TierSet::new(Tier::Near);
     let max = target.saturating_mul(cfg.max_attempts_per_sample);
     while !ctx.positives.is_empty() && (set.samples.len() as u64) < target && report.candidates < max {
         report.candidates += 1;
@@ -543,16 +544,7 @@ fn sample_near_paper(
         } else if set.clashes(lat, lon, t, cfg) {
             bump(&mut report.rejected, "duplicate_within_tier");
         } else {
-            set.accept(
-                Sample {
-                    lat,
-                    lon,
-                    time_ms: t,
-                    tier: Tier::Near,
-                    source_row: origin.source_row,
-                },
-                t,
-            );
+            set.accept(lat, lon, t, origin.source_row, t);
         }
     }
     report.accepted = set.samples.len() as u64;
@@ -562,7 +554,7 @@ fn sample_near_paper(
 fn sample_near_code(ctx: &Ctx<'_>, offsets: (u32, u32), rng: &mut ChaCha8Rng) -> (Vec<Sample>, TierReport) {
     let cfg = ctx.cfg;
     let mut report = TierReport::default();
-    let mut set = TierSet::new();
+    let mut set = TierSet::new(Tier::Near);
     for (k, origin) in ctx.positives.iter().enumerate() {
         report.candidates += 1;
         let (lat, lon) = random_offset_place(ctx, origin, rng);
@@ -585,16 +577,7 @@ fn sample_near_code(ctx: &Ctx<'_>, offsets: (u32, u32), rng: &mut ChaCha8Rng) ->
             bump(&mut report.rejected, "outside_period");
             continue;
         }
-        set.accept(
-            Sample {
-                lat,
-                lon,
-                time_ms: t,
-                tier: Tier::Near,
-                source_row: origin.source_row,
-            },
-            origin.time_ms,
-        );
+        set.accept(lat, lon, t, origin.source_row, origin.time_ms);
     }
     report.accepted = set.samples.len() as u64;
     (set.samples, report)
@@ -608,7 +591,7 @@ fn sample_yearly_paper(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng) -> (Vec
         requested: Some(target),
         ..Default::default()
     };
-    let mut set = TierSet::new();
+    let mut set = TierSet::new(Tier::Yearly);
     let mut order: Vec<usize> = (0..ctx.positives.len()).collect();
     crate::shuffle(&mut order, rng);
     // One year back first for every positive, then two years, and so on, until the count
@@ -632,16 +615,7 @@ fn sample_yearly_paper(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng) -> (Vec
             } else if set.clashes(origin.lat, origin.lon, t, cfg) {
                 bump(&mut report.rejected, "duplicate_within_tier");
             } else {
-                set.accept(
-                    Sample {
-                        lat: origin.lat,
-                        lon: origin.lon,
-                        time_ms: t,
-                        tier: Tier::Yearly,
-                        source_row: origin.source_row,
-                    },
-                    t,
-                );
+                set.accept(origin.lat, origin.lon, t, origin.source_row, t);
             }
         }
         if !any_in_period {
@@ -656,7 +630,7 @@ fn sample_yearly_paper(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng) -> (Vec
 fn sample_yearly_code(ctx: &Ctx<'_>) -> (Vec<Sample>, TierReport) {
     let cfg = ctx.cfg;
     let mut report = TierReport::default();
-    let mut set = TierSet::new();
+    let mut set = TierSet::new(Tier::Yearly);
     let triples: HashSet<(u64, u64, i64)> = ctx
         .positives
         .iter()
@@ -672,16 +646,7 @@ fn sample_yearly_code(ctx: &Ctx<'_>) -> (Vec<Sample>, TierReport) {
             } else if set.clashes(origin.lat, origin.lon, t, cfg) {
                 bump(&mut report.rejected, "duplicate_within_tier");
             } else {
-                set.accept(
-                    Sample {
-                        lat: origin.lat,
-                        lon: origin.lon,
-                        time_ms: t,
-                        tier: Tier::Yearly,
-                        source_row: origin.source_row,
-                    },
-                    t,
-                );
+                set.accept(origin.lat, origin.lon, t, origin.source_row, t);
             }
         }
     }

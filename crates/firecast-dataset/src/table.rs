@@ -103,7 +103,7 @@ fn properties(kv: &BTreeMap<String, String>) -> WriterProperties {
 pub fn row_label(table: &WindowTable, s: usize, d: usize) -> bool {
     match &table.row_labels {
         Some(labels) => labels[s * table.n_days + d],
-        None => table.samples[s].label() && table.offset(d) >= 0,
+        None => table.layout_label(s, d),
     }
 }
 
@@ -370,17 +370,7 @@ pub fn read_window_table(dir: &Path) -> Result<StoredTable, DatasetError> {
         values,
         row_labels: Some(labels),
     };
-    // Keep explicit row labels only when they differ from the layout rule.
-    let derived = (0..table.samples.len()).all(|s| {
-        (0..n_days).all(|d| {
-            table.row_labels.as_ref().is_some_and(|l| l[s * n_days + d]) == {
-                table.samples[s].label() && table.offset(d) >= 0
-            }
-        })
-    });
-    if derived {
-        table.row_labels = None;
-    }
+    table.drop_derived_row_labels();
     Ok(StoredTable {
         table,
         splits,

@@ -195,6 +195,25 @@ impl WindowTable {
     pub fn offset(&self, d: usize) -> i32 {
         self.first_offset + d as i32
     }
+
+    /// The published layout's row label: a positive sample's rows are `Yes` from its event
+    /// day on.
+    pub fn layout_label(&self, s: usize, d: usize) -> bool {
+        self.samples[s].label() && self.offset(d) >= 0
+    }
+
+    /// Drops explicit row labels when they all follow [`Self::layout_label`], so only
+    /// imported tables that differ from the layout carry them.
+    pub fn drop_derived_row_labels(&mut self) {
+        let n_days = self.n_days;
+        let derived = self.row_labels.as_ref().is_some_and(|labels| {
+            (0..self.samples.len())
+                .all(|s| (0..n_days).all(|d| labels[s * n_days + d] == self.layout_label(s, d)))
+        });
+        if derived {
+            self.row_labels = None;
+        }
+    }
 }
 
 /// What extraction did.
