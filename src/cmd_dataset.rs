@@ -431,6 +431,20 @@ fn print_manifest(m: &firecast_dataset::dataset::DatasetManifest, dir: &Path) {
     );
 }
 
+/// `--region`: `conus`, or `LAT_MIN,LAT_MAX,LON_MIN,LON_MAX`, as the synthesize params.
+fn region_param(r: &str) -> anyhow::Result<Value> {
+    if r == "conus" {
+        return Ok(json!("conus"));
+    }
+    let v: Vec<f64> = r
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--region: `{r}` is not `conus` or LAT_MIN,LAT_MAX,LON_MIN,LON_MAX"))?;
+    anyhow::ensure!(v.len() == 4, "--region: expected 4 numbers, got {}", v.len());
+    Ok(json!({"lat_min": v[0], "lat_max": v[1], "lon_min": v[2], "lon_max": v[3]}))
+}
+
 fn synthesize(settings: &Settings, a: &SynthesizeArgs) -> anyhow::Result<ExitCode> {
     let years = match &a.years {
         Some(y) => {
@@ -444,21 +458,7 @@ fn synthesize(settings: &Settings, a: &SynthesizeArgs) -> anyhow::Result<ExitCod
         }
         None => None,
     };
-    let region = match &a.region {
-        Some(r) if r == "conus" => Some(json!("conus")),
-        Some(r) => {
-            let v: Vec<f64> = r
-                .split(',')
-                .map(|x| x.trim().parse::<f64>())
-                .collect::<Result<_, _>>()
-                .with_context(|| {
-                    format!("--region: `{r}` is not `conus` or LAT_MIN,LAT_MAX,LON_MIN,LON_MAX")
-                })?;
-            anyhow::ensure!(v.len() == 4, "--region: expected 4 numbers, got {}", v.len());
-            Some(json!({"lat_min": v[0], "lat_max": v[1], "lon_min": v[2], "lon_max": v[3]}))
-        }
-        None => None,
-    };
+    let region = a.region.as_deref().map(region_param).transpose()?;
     let p: stage::SynthParams = params(
         a.common.config.as_deref(),
         &[
@@ -560,18 +560,7 @@ pub fn bench_gridmet(settings: &Settings, a: &BenchGridmetArgs) -> anyhow::Resul
         .filter(|(v, y)| !gridmet.join(v.file_name(*y)).is_file())
         .collect();
     if !missing.is_empty() {
-        let region = if a.region == "conus" {
-            json!("conus")
-        } else {
-            let v: Vec<f64> = a
-                .region
-                .split(',')
-                .map(|x| x.trim().parse::<f64>())
-                .collect::<Result<_, _>>()
-                .with_context(|| format!("--region: `{}`", a.region))?;
-            anyhow::ensure!(v.len() == 4, "--region: expected 4 numbers");
-            json!({"lat_min": v[0], "lat_max": v[1], "lon_min": v[2], "lon_max": v[3]})
-        };
+        let region = region_param(&a.region)?;
         let p: stage::SynthParams = params(
             None,
             &[
