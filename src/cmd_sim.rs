@@ -85,6 +85,18 @@ pub struct BenchSimArgs {
     /// Landscape seed (procedural 240 x 160).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Also run the FireCastRL Python environment beside FireCast: DIR is a checkout of
+    /// aisystems-lab/wildfire-env (the folder holding `firecastrl_env`). Both engines play the
+    /// same episodes on its training map; the fires are compared and the times divided.
+    #[arg(long, value_name = "DIR")]
+    pub reference_env: Option<PathBuf>,
+    /// Python for the reference (with gymnasium, numpy, pillow, websockets, requests)
+    /// [default: $FIRECAST_VENV, ./.venv, python3].
+    #[arg(long, value_name = "PYTHON", requires = "reference_env")]
+    pub python: Option<PathBuf>,
+    /// Seeds (1..=N) per action script in the reference comparison.
+    #[arg(long, default_value_t = 5, value_name = "N", requires = "reference_env")]
+    pub reference_seeds: u64,
 }
 
 pub fn run(settings: &Settings, command: SimCommand) -> anyhow::Result<ExitCode> {
@@ -271,8 +283,12 @@ struct EnvBench {
     vec_env_steps_per_sec: f64,
 }
 
-/// `firecast bench sim`: environment steps per second and Rothermel evaluations per second.
+/// `firecast bench sim`: environment steps per second and Rothermel evaluations per second;
+/// with `--reference-env`, FireCast beside the FireCastRL Python environment.
 pub fn bench(settings: &Settings, args: &BenchSimArgs) -> anyhow::Result<ExitCode> {
+    if let Some(env_dir) = &args.reference_env {
+        return bench_reference(settings, args, &settings.root.join(env_dir));
+    }
     let landscape = LandscapeSpec::Procedural {
         seed: args.seed,
         width: 240,
@@ -416,4 +432,153 @@ fn bench_rothermel(n: usize) -> anyhow::Result<(f64, f64)> {
     let full = m as f64 / started.elapsed().as_secs_f64();
     std::hint::black_box(sink);
     Ok((prepared, full))
+}
+
+/// One action script's comparison.
+#[derive(Debug, serde::Serialize)]
+struct ScriptComparison {
+    script: &'static str,
+    firecast: Vec<firecast_sim::reference::EpisodeOutcome>,
+    reference: Vec<firecast_sim::reference::EpisodeOutcome>,
+    identical_fires: usize,
+    firecast_steps_per_sec: f64,
+    reference_steps_per_sec: f64,
+    ratio: f64,
+}
+
+fn steps_per_sec(outcomes: &[firecast_sim::reference::EpisodeOutcome]) -> f64 {
+    let steps: u64 = outcomes.iter().map(|o| u64::from(o.steps)).sum();
+    let seconds: f64 = outcomes.iter().map(|o| o.seconds).sum();
+    steps as f64 / seconds.max(1e-12)
+}
+
+fn bench_reference(settings: &Settings, args: &BenchSimArgs, env_dir: &Path) -> anyhow::Result<ExitCode> {
+    use firecast_sim::reference::{self, ParityEpisode};
+    let maps = env_dir.join("firecastrl_env/envs/training_environments");
+    let landscape = LandscapeSpec::Firecastrl {
+        land_cover: maps.join("landcover_1.png"),
+        heightmap: maps.join("heightmap_1.png"),
+    }
+    .load(&settings.root)
+    .with_context(|| format!("loading the FireCastRL training map from {}", maps.display()))?;
+    let cfg = reference::p2_parity_config();
+    let python = firecast_dataset::bench::find_python(args.python.as_deref(), &settings.root);
+    let work = std::env::temp_dir().join(format!("firecast-reference-{}", std::process::id()));
+    std::fs::create_dir_all(&work).with_context(|| format!("cannot create {}", work.display()))?;
+    let mut comparisons = Vec::new();
+    for (script, actions) in reference::parity_scripts() {
+        let episodes: Vec<ParityEpisode> = (1..=args.reference_seeds)
+            .map(|seed| ParityEpisode {
+                seed,
+                actions: actions.clone(),
+                max_steps: cfg.max_steps,
+            })
+            .collect();
+        eprintln!(
+            "{script}: {} episodes in the FireCastRL environment ({}) ...",
+            episodes.len(),
+            python.display()
+        );
+        let reference_run = reference::run_reference(&python, env_dir, &episodes, &work);
+        let reference_run = match reference_run {
+            Ok(r) => r,
+            Err(e) => {
+                let _ = std::fs::remove_dir_all(&work);
+                return Err(e.into());
+            }
+        };
+        eprintln!("{script}: the same episodes in FireCast ...");
+        let firecast = reference::run_firecast(&landscape, &cfg, &episodes)?;
+        let identical_fires = firecast
+            .iter()
+            .zip(&reference_run.episodes)
+            .filter(|(a, b)| a.same_fire(b))
+            .count();
+        let (ours, theirs) = (steps_per_sec(&firecast), steps_per_sec(&reference_run.episodes));
+        comparisons.push(ScriptComparison {
+            script,
+            firecast,
+            reference: reference_run.episodes,
+            identical_fires,
+            firecast_steps_per_sec: ours,
+            reference_steps_per_sec: theirs,
+            ratio: ours / theirs,
+        });
+    }
+    let _ = std::fs::remove_dir_all(&work);
+    if settings.json {
+        output::print_json(&serde_json::json!({
+            "map": maps,
+            "comparisons": comparisons,
+        }))?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!(
+        "FireCastRL training map ({}), P2 settings, seeds 1..={}; one thread each, observation included",
+        maps.display(),
+        args.reference_seeds
+    );
+    let mut table = output::table(&[
+        "actions",
+        "episodes",
+        "identical fires",
+        "burnt (FireCast / ref)",
+        "steps (FireCast / ref)",
+        "FireCastRL env",
+        "FireCast",
+        "ratio",
+    ]);
+    for c in &comparisons {
+        let mean = |v: &[firecast_sim::reference::EpisodeOutcome],
+                    f: fn(&firecast_sim::reference::EpisodeOutcome) -> u32| {
+            v.iter().map(|o| f64::from(f(o))).sum::<f64>() / v.len().max(1) as f64
+        };
+        table.add_row(vec![
+            c.script.to_string(),
+            c.firecast.len().to_string(),
+            format!("{}/{}", c.identical_fires, c.firecast.len()),
+            format!(
+                "{:.1} / {:.1}",
+                mean(&c.firecast, |o| o.burnt),
+                mean(&c.reference, |o| o.burnt)
+            ),
+            format!(
+                "{:.1} / {:.1}",
+                mean(&c.firecast, |o| o.steps),
+                mean(&c.reference, |o| o.steps)
+            ),
+            format!("{:.1} steps/s", c.reference_steps_per_sec),
+            format!("{:.0} steps/s", c.firecast_steps_per_sec),
+            format!("{:.0}x", c.ratio),
+        ]);
+    }
+    output::print_table(&table)?;
+    let mut table = output::table(&[
+        "actions",
+        "seed",
+        "engine",
+        "steps",
+        "burnt",
+        "burning",
+        "peak burning",
+        "checksum",
+    ]);
+    for c in &comparisons {
+        for (a, b) in c.firecast.iter().zip(&c.reference) {
+            for (engine, o) in [("FireCast", a), ("FireCastRL", b)] {
+                table.add_row(vec![
+                    c.script.to_string(),
+                    o.seed.to_string(),
+                    engine.to_string(),
+                    o.steps.to_string(),
+                    o.burnt.to_string(),
+                    o.burning.to_string(),
+                    o.peak_burning.to_string(),
+                    o.checksum.to_string(),
+                ]);
+            }
+        }
+    }
+    output::print_table(&table)?;
+    Ok(ExitCode::SUCCESS)
 }

@@ -9,18 +9,18 @@
 //!
 //! State is struct-of-arrays over row-major cells (index `y * width + x`, row 0 south). Only
 //! cells that burn or are scheduled to ignite are visited per update (active lists); all
-//! scratch buffers are reused, so an update does not allocate once warm. The only random
-//! draw (the latch, once per new day) comes from a seeded ChaCha8 generator.
+//! scratch buffers are reused, so an update does not allocate once warm. Random draws (the
+//! latch, once per new day; the cosmetic fire-survivor flag of eligible cells burning out, in
+//! row-major order as P2 draws them) come from one seeded generator per automaton.
 
 use firecast_landscape::{LandCoverScheme, Landscape};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 use crate::concord::{
     ConcordSpread, ConcordWind, FIRECASTRL_ZONES, LandCover, MoistureTable, NON_BURNABLE_MOISTURE,
     SpreadVariant,
 };
 use crate::fuel::FuelModel;
+use crate::random::{RandomSource, Uniform};
 use crate::rothermel::{FuelMoisture, RothermelError, SpreadInputs, SurfaceFuelBed};
 
 /// Fixed simulated time per environment step (§A7): 4 × 2.9916 min.
@@ -31,6 +31,8 @@ pub const FIRECASTRL_LATCH: [f64; 8] = [0.0, 0.1, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0];
 pub const CONCORD_LATCH: [f64; 6] = [0.0, 0.6, 0.6, 0.7, 0.8, 1.0];
 /// FireCastRL's non-burnable ("river") MODIS classes (§A3.1; the code's 18 does not exist).
 pub const FIRECASTRL_RIVER_CLASSES: [u16; 4] = [12, 14, 16, 17];
+/// FireCastRL's fire-survivor classes: permanent wetlands (Concord used forests).
+pub const FIRECASTRL_SURVIVOR_CLASSES: [u16; 1] = [11];
 /// Minutes per simulated day.
 const MIN_PER_DAY: f64 = 1440.0;
 
@@ -166,6 +168,13 @@ pub struct SimConfig {
     pub helitack_drop_cap: u8,
     pub fire_line_depth_ft: f64,
     pub max_fire_line_length_ft: f64,
+    /// Probability that an eligible cell (MODIS class in `fire_survivor_classes`, BI Low)
+    /// burning out is flagged a survivor. Cosmetic, but each eligible burnout consumes a
+    /// draw, as in the originals, so the latch days match theirs under `random: python_mt`.
+    pub fire_survival_probability: f64,
+    pub fire_survivor_classes: Vec<u16>,
+    /// The generator behind every draw.
+    pub random: RandomSource,
 }
 
 impl Default for SimConfig {
@@ -184,6 +193,9 @@ impl Default for SimConfig {
             helitack_drop_cap: 3,
             fire_line_depth_ft: 2000.0,
             max_fire_line_length_ft: 15_000.0,
+            fire_survival_probability: 0.1,
+            fire_survivor_classes: FIRECASTRL_SURVIVOR_CLASSES.to_vec(),
+            random: RandomSource::default(),
         }
     }
 }
@@ -324,6 +336,9 @@ pub struct Automaton {
     spread_rate: Vec<f64>,
     bi: Vec<u8>,
     drops: Vec<u8>,
+    /// Static: the cell's class may be flagged a fire survivor.
+    survivor_eligible: Vec<bool>,
+    survivor: Vec<bool>,
     in_sched: Vec<bool>,
     new_ign: Vec<f64>,
     /// Memoised spread rate from source cell `c` along offset `k` (index `c * offsets + k`, so
@@ -346,7 +361,7 @@ pub struct Automaton {
     fire_did_stop: bool,
     n_burning: u32,
     n_burnt: u32,
-    rng: ChaCha8Rng,
+    rng: Uniform,
 }
 
 impl Automaton {
@@ -539,6 +554,14 @@ impl Automaton {
             spread_rate: vec![0.0; n],
             bi: vec![0; n],
             drops: vec![0; n],
+            survivor_eligible: landscape
+                .land_cover
+                .iter()
+                .map(|c| {
+                    landscape.scheme == LandCoverScheme::ModisIgbp && cfg.fire_survivor_classes.contains(c)
+                })
+                .collect(),
+            survivor: vec![false; n],
             in_sched: vec![false; n],
             new_ign: vec![f64::INFINITY; n],
             rate_cache,
@@ -554,7 +577,7 @@ impl Automaton {
             fire_did_stop: true,
             n_burning: 0,
             n_burnt: 0,
-            rng: ChaCha8Rng::seed_from_u64(0),
+            rng: Uniform::new(cfg.random, 0),
         };
         a.reset(0);
         Ok(a)
@@ -570,6 +593,7 @@ impl Automaton {
         self.spread_rate.fill(0.0);
         self.bi.fill(0);
         self.drops.fill(0);
+        self.survivor.fill(false);
         self.in_sched.fill(false);
         self.new_ign.fill(f64::INFINITY);
         for v in [
@@ -588,7 +612,7 @@ impl Automaton {
         self.fire_did_stop = true;
         self.n_burning = 0;
         self.n_burnt = 0;
-        self.rng = ChaCha8Rng::seed_from_u64(seed);
+        self.rng = Uniform::new(self.cfg.random, seed);
     }
 
     fn check(&self, x: i64, y: i64) -> Result<usize, SimError> {
@@ -705,7 +729,7 @@ impl Automaton {
         let day = (time / MIN_PER_DAY).floor().max(0.0) as u64;
         if day != self.day {
             self.day = day;
-            let r: f64 = self.rng.random();
+            let r = self.rng.next_f64();
             let p = usize::try_from(day)
                 .ok()
                 .and_then(|d| self.cfg.latch_daily_probability.get(d))
@@ -752,11 +776,19 @@ impl Automaton {
             self.spread_from(c);
         }
 
-        // Apply the buffers: states, then ignition times.
+        // Apply the buffers: states, then ignition times. Survivor draws go in row-major
+        // order, as the originals' per-cell pass makes them.
+        self.burnouts.sort_unstable();
         for j in 0..self.burnouts.len() {
             let c = self.burnouts[j] as usize;
             self.state[c] = FireState::Burnt as u8;
             self.dirty.push(c as u32);
+            if self.survivor_eligible[c]
+                && self.bi[c] == BurnIndex::Low as u8
+                && self.rng.next_f64() < self.cfg.fire_survival_probability
+            {
+                self.survivor[c] = true;
+            }
         }
         self.n_burning -= self.burnouts.len() as u32;
         self.n_burnt += self.burnouts.len() as u32;
@@ -942,11 +974,18 @@ impl Automaton {
     }
     /// Nothing burns and no ignition is scheduled.
     pub fn fire_out(&self) -> bool {
+        self.fire_out_before(f64::INFINITY)
+    }
+    /// Nothing burns and no scheduled ignition comes before `time` (minutes): with `time` the
+    /// end of the episode, the fire is out for as long as anyone watches. A cell rescheduled
+    /// by a very slow spread rate (say 0.01 ft/min: 35 days per cell) then no longer keeps an
+    /// episode alive until truncation.
+    pub fn fire_out_before(&self, time: f64) -> bool {
         self.n_burning == 0
             && self
                 .scheduled
                 .iter()
-                .all(|&c| self.state[c as usize] != 0 || self.ign[c as usize] == f64::INFINITY)
+                .all(|&c| self.state[c as usize] != 0 || self.ign[c as usize] >= time)
     }
     pub fn cells_burning(&self) -> u32 {
         self.n_burning
@@ -979,6 +1018,10 @@ impl Automaton {
     /// Max incoming spread rate per cell, ft/min.
     pub fn spread_rates(&self) -> &[f64] {
         &self.spread_rate
+    }
+    /// Whether the cell survived the fire (cosmetic, §A6.3 a).
+    pub fn is_fire_survivor(&self, i: usize) -> bool {
+        self.survivor[i]
     }
     pub fn helitack_drops(&self, i: usize) -> u8 {
         self.drops[i]

@@ -55,7 +55,8 @@ impl TryFrom<u8> for Action {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Termination {
-    /// Nothing burns and no ignition is scheduled (the fire is out).
+    /// Nothing burns and no ignition is scheduled before the truncation time (the fire is
+    /// out for the rest of the episode).
     #[default]
     FireOut,
     /// No cell is Burning (the originals' test; a fully quenched front ends the episode even
@@ -496,7 +497,9 @@ impl EnvCore {
 
         self.update_frames(frames);
         let terminated = match self.cfg.termination {
-            Termination::FireOut => self.sim.fire_out(),
+            Termination::FireOut => self
+                .sim
+                .fire_out_before(f64::from(self.cfg.max_steps) * self.sim.config().dt_min),
             Termination::NoBurningCells => burning == 0,
         };
         let truncated = !terminated && self.steps >= self.cfg.max_steps;

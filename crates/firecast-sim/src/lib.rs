@@ -16,6 +16,8 @@ pub mod bench;
 pub mod concord;
 pub mod env;
 pub mod fuel;
+pub mod random;
+pub mod reference;
 pub mod rothermel;
 pub mod spread_csv;
 
@@ -33,6 +35,7 @@ pub use concord::{
 };
 pub use env::{Action, EnvConfig, Observation, RewardWeights, StepInfo, Termination, VecEnv, WildfireEnv};
 pub use fuel::{FuelModel, UnknownFuelModel};
+pub use random::{PythonRandom, RandomSource};
 pub use rothermel::{
     FuelBedIntermediates, FuelMoisture, RothermelError, SpreadInputs, SurfaceFireBehavior, SurfaceFuelBed,
     WindLimit,
