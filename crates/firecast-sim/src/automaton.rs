@@ -126,13 +126,53 @@ impl KernelConfig {
     }
 }
 
-/// Wind: midflame speed (mi/h) and the direction it comes FROM (degrees, 0 = north, 90 = east,
-/// as GRIDMET `th`).
+/// Wind: speed (mi/h) at a stated height and the direction it comes FROM (degrees, 0 = north,
+/// 90 = east, as GRIDMET `th`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Wind {
     pub speed_mph: f64,
     pub from_direction_deg: f64,
+    /// Where `speed_mph` was measured. Midflame (the default, and FireCastRL's) is used as
+    /// given; a 20-ft or 10-m wind is brought to midflame per fuel with the unsheltered wind
+    /// adjustment factor of that fuel's bed depth.
+    #[serde(default)]
+    pub measured_at: WindHeight,
+}
+
+/// Height of a wind speed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WindHeight {
+    #[default]
+    Midflame,
+    /// 20 ft above the vegetation (US fire-weather convention).
+    TwentyFoot,
+    /// 10 m above ground (GRIDMET `vs`, METAR): 20-ft = 10-m / 1.15 (behave's convention).
+    TenMetre,
+}
+
+impl Wind {
+    /// Midflame speed over a fuel bed `depth_ft` deep (spec B7, data.md §wind).
+    pub fn midflame_mph(&self, depth_ft: f64) -> f64 {
+        let speed = self.speed_mph.max(0.0);
+        match self.measured_at {
+            WindHeight::Midflame => speed,
+            WindHeight::TwentyFoot => unsheltered_waf(depth_ft) * speed,
+            WindHeight::TenMetre => unsheltered_waf(depth_ft) * speed / 1.15,
+        }
+    }
+}
+
+/// Albini & Baughman (1979) unsheltered wind adjustment factor, 1.83 / ln((20 + 0.36 δ) /
+/// (0.13 δ)) for a bed δ ft deep, as behave computes it (0.362 for GR2's 1-ft bed); 0 for an
+/// empty bed.
+pub fn unsheltered_waf(depth_ft: f64) -> f64 {
+    if depth_ft > 0.0 {
+        1.83 / ((20.0 + 0.36 * depth_ft) / (0.13 * depth_ft)).ln()
+    } else {
+        0.0
+    }
 }
 
 /// Helitack footprint shape (§A8).
@@ -289,14 +329,15 @@ pub fn bresenham(a: (i64, i64), b: (i64, i64)) -> Vec<(i64, i64)> {
     out
 }
 
+/// The kernel's tables, indexed by fuel slot (winds) and slot × drop level (fuels).
 enum Kernel {
     Concord {
         spreads: Vec<ConcordSpread>,
-        wind: ConcordWind,
+        winds: Vec<ConcordWind>,
     },
     Rothermel {
         beds: Vec<SurfaceFuelBed>,
-        wind_mph: f64,
+        wind_mph: Vec<f64>,
         wind_toward_deg: f64,
     },
 }
@@ -430,13 +471,19 @@ impl Automaton {
                         base_flags[i] |= FLAG_RIVER;
                     }
                 }
-                kernel = Kernel::Concord {
-                    spreads,
-                    wind: ConcordWind {
-                        speed_mph: cfg.wind.speed_mph,
+                let winds = (0..18u8)
+                    .map(|class| ConcordWind {
+                        speed_mph: match cfg.wind.measured_at {
+                            // As given, bit for bit (FireCastRL parity).
+                            WindHeight::Midflame => cfg.wind.speed_mph,
+                            _ => cfg.wind.midflame_mph(
+                                LandCover::from_modis_class(class).map_or(0.0, |lc| lc.fuel().depth_ft),
+                            ),
+                        },
                         from_direction_deg: cfg.wind.from_direction_deg,
-                    },
-                };
+                    })
+                    .collect();
+                kernel = Kernel::Concord { spreads, winds };
             }
             KernelConfig::Rothermel {
                 moisture,
@@ -466,8 +513,10 @@ impl Automaton {
                     }
                 }
                 let mut beds = Vec::with_capacity(models.len() * levels);
+                let mut wind_mph = Vec::with_capacity(models.len());
                 for &m in &models {
                     let model = FuelModel::by_number(m).ok_or(SimError::UnknownFuelModel(m))?;
+                    wind_mph.push(cfg.wind.midflame_mph(model.depth_ft));
                     for d in 0..levels {
                         let add = drop_moisture_increment * d as f64;
                         let mst = FuelMoisture {
@@ -482,7 +531,7 @@ impl Automaton {
                 }
                 kernel = Kernel::Rothermel {
                     beds,
-                    wind_mph: cfg.wind.speed_mph.max(0.0),
+                    wind_mph,
                     wind_toward_deg: cfg.wind.from_direction_deg + 180.0,
                 };
             }
@@ -693,11 +742,11 @@ impl Automaton {
     }
 
     fn rate(&self, target: usize, off: &Offset, rise_ft: f64) -> f64 {
-        let entry = usize::from(self.slot[target]) * self.levels
-            + usize::from(self.drops[target]).min(self.levels - 1);
+        let slot = usize::from(self.slot[target]);
+        let entry = slot * self.levels + usize::from(self.drops[target]).min(self.levels - 1);
         match &self.kernel {
-            Kernel::Concord { spreads, wind } => {
-                spreads[entry].rate_ftmin(off.dx, off.dy, rise_ft, wind, self.cell_size_ft)
+            Kernel::Concord { spreads, winds } => {
+                spreads[entry].rate_ftmin(off.dx, off.dy, rise_ft, &winds[slot], self.cell_size_ft)
             }
             Kernel::Rothermel {
                 beds,
@@ -714,7 +763,7 @@ impl Automaton {
                     off.azimuth_deg + 180.0
                 };
                 let inputs = SpreadInputs {
-                    midflame_wind_mph: *wind_mph,
+                    midflame_wind_mph: wind_mph[slot],
                     slope_percent: 100.0 * rise_ft.abs() / off.dist_ft,
                     wind_dir_from_upslope_deg: wind_toward_deg - upslope,
                 };

@@ -27,6 +27,7 @@ pub fn firecastrl_config() -> EnvConfig {
     cfg.sim.wind = Wind {
         speed_mph: 10.0,
         from_direction_deg: 225.0,
+        ..Wind::default()
     };
     cfg
 }

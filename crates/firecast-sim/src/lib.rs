@@ -27,7 +27,7 @@ pub use agents::{
 };
 pub use automaton::{
     Automaton, BurnIndex, DEFAULT_DT_MIN, FireState, HelitackFootprint, KernelConfig, SimConfig, SimError,
-    Wind,
+    Wind, WindHeight, unsheltered_waf,
 };
 pub use concord::{
     ConcordCell, ConcordFuel, ConcordFuelConstants, ConcordSpread, ConcordWind, DroughtLevel, EdgeCasePolicy,

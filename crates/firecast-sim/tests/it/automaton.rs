@@ -4,7 +4,7 @@ use firecast_landscape::LandCoverScheme;
 use firecast_sim::automaton::{FIRECASTRL_RIVER_CLASSES, HelitackFootprint};
 use firecast_sim::{
     Automaton, FireState, FuelModel, FuelMoisture, KernelConfig, SimConfig, SpreadInputs, SpreadVariant,
-    SurfaceFuelBed, Wind,
+    SurfaceFuelBed, Wind, WindHeight, unsheltered_waf,
 };
 
 use crate::scenes::{landscape, modis_rough, noise, rough};
@@ -183,6 +183,7 @@ fn burned_beyond_fire_line(wind_mph: f64) -> (usize, usize, f64) {
         wind: Wind {
             speed_mph: wind_mph,
             from_direction_deg: 270.0,
+            ..Wind::default()
         },
         latch_daily_probability: vec![],
         dt_min: 2.0,
@@ -251,6 +252,7 @@ fn grass_fire(wind_mph: f64, ignition: (usize, usize)) -> (Automaton, f64) {
         wind: Wind {
             speed_mph: wind_mph,
             from_direction_deg: 270.0,
+            ..Wind::default()
         },
         latch_daily_probability: vec![],
         dt_min: 1.0,
@@ -354,4 +356,62 @@ fn unburnt_islands_block_until_a_spark_lands_inside() {
             .count()
             > 80
     );
+}
+
+/// Unsheltered WAF as behave computes it: 0.362 for a 1-ft bed (GR2, FM1), growing with depth.
+#[test]
+fn wind_adjustment_factor_matches_behave() {
+    assert!(
+        (unsheltered_waf(1.0) - 0.3623).abs() < 5e-4,
+        "{}",
+        unsheltered_waf(1.0)
+    );
+    assert!(unsheltered_waf(6.0) > unsheltered_waf(1.0));
+    assert_eq!(unsheltered_waf(0.0), 0.0);
+}
+
+/// A 10-m wind burns exactly like the midflame wind it implies: FM1's 1-ft bed gives
+/// midflame = WAF(1 ft) × U10 / 1.15, so both automata must ignite the same cells.
+#[test]
+fn ten_metre_wind_is_brought_to_midflame_per_fuel() {
+    let land = landscape(
+        80,
+        60,
+        LandCoverScheme::Fbfm13,
+        |_, _| 1,
+        |x, y| 500.0 + 3.0 * (x + y) as f32,
+    );
+    let run = |wind: Wind| {
+        let cfg = SimConfig {
+            kernel: KernelConfig::rothermel_default(),
+            wind,
+            latch_daily_probability: vec![],
+            dt_min: 1.0,
+            ..SimConfig::default()
+        };
+        let mut a = Automaton::new(&land, &cfg).unwrap();
+        a.ignite(20, 30, 0.0).unwrap();
+        for _ in 0..120 {
+            a.step();
+        }
+        a.fire_states().to_vec()
+    };
+    let ten_metre = Wind {
+        speed_mph: 20.0,
+        from_direction_deg: 250.0,
+        measured_at: WindHeight::TenMetre,
+    };
+    let midflame = Wind {
+        speed_mph: unsheltered_waf(1.0) * 20.0 / 1.15,
+        from_direction_deg: 250.0,
+        measured_at: WindHeight::Midflame,
+    };
+    let as_midflame = Wind {
+        speed_mph: 20.0,
+        ..midflame
+    };
+    let burnt = |s: &[u8]| s.iter().filter(|&&v| v != 0).count();
+    assert_eq!(run(ten_metre), run(midflame));
+    // And it is weaker than the same number taken as midflame.
+    assert!(burnt(&run(ten_metre)) < burnt(&run(as_midflame)));
 }
