@@ -57,6 +57,13 @@ pub struct RunArgs {
     /// Direction the wind comes from, degrees clockwise from north (as GRIDMET `th`).
     #[arg(long, value_name = "DEG")]
     pub wind_from_deg: Option<f64>,
+    /// Take the wind from GRIDMET on this day (YYYY-MM-DD): 10-m `vs` and `th` at the
+    /// landscape's centre, brought to midflame per fuel. Needs --gridmet.
+    #[arg(long, value_name = "DATE", requires = "gridmet")]
+    pub weather_date: Option<String>,
+    /// Folder of GRIDMET files (vs_YYYY.nc, th_YYYY.nc) for --weather-date.
+    #[arg(long, value_name = "DIR")]
+    pub gridmet: Option<PathBuf>,
     /// Write PNG frames of the first episode into DIR (one subfolder per agent).
     #[arg(long, value_name = "DIR")]
     pub frames: Option<PathBuf>,
@@ -133,21 +140,35 @@ fn with_agent_suffix(path: &Path, agent: &str, many: bool) -> PathBuf {
 fn sim_run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
     let mut scenario = match (&args.scenario, &args.landscape) {
         (Some(file), _) => Scenario::from_file(&settings.root.join(file))?,
-        (None, Some(spec)) => Scenario {
-            landscape: spec.parse::<LandscapeSpec>()?,
-            env: firecast_sim::EnvConfig::default(),
-        },
-        (None, None) => Scenario {
-            landscape: LandscapeSpec::Procedural {
+        (None, Some(spec)) => {
+            Scenario::new(spec.parse::<LandscapeSpec>()?, firecast_sim::EnvConfig::default())
+        }
+        (None, None) => Scenario::new(
+            LandscapeSpec::Procedural {
                 seed: 1,
                 width: 240,
                 height: 160,
             },
-            env: firecast_sim::EnvConfig::default(),
-        },
+            firecast_sim::EnvConfig::default(),
+        ),
     };
+    if let Some(date) = &args.weather_date {
+        let dir = args
+            .gridmet
+            .clone()
+            .context("--weather-date needs --gridmet DIR (the folder of vs_YYYY.nc and th_YYYY.nc)")?;
+        scenario.weather = Some(firecast_episodes::WeatherSpec::Gridmet {
+            dir,
+            date: date.clone(),
+        });
+    }
+    if args.wind_mph.is_some() || args.wind_from_deg.is_some() {
+        // Flags win over the scenario, weather included.
+        scenario.weather = None;
+    }
     if let Some(speed) = args.wind_mph {
         scenario.env.sim.wind.speed_mph = speed;
+        scenario.env.sim.wind.measured_at = firecast_sim::WindHeight::Midflame;
     }
     if let Some(from) = args.wind_from_deg {
         scenario.env.sim.wind.from_direction_deg = from;
@@ -157,10 +178,9 @@ fn sim_run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|a| a.parse::<AgentKind>())
         .collect::<Result<Vec<_>, _>>()?;
-    let landscape = scenario
-        .landscape
-        .load(&settings.root)
-        .context("cannot build the landscape")?;
+    let (landscape, weather) = scenario
+        .prepare(&settings.root)
+        .context("cannot prepare the scenario")?;
     let many = agents.len() > 1;
     let mut summaries: Vec<EpisodesSummary> = Vec::new();
     for agent in agents {
@@ -219,13 +239,23 @@ fn sim_run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
             ms(&r.water_used_gal, 0),
         ]);
     }
+    let wind = &scenario.env.sim.wind;
+    let height = match wind.measured_at {
+        firecast_sim::WindHeight::Midflame => "midflame",
+        firecast_sim::WindHeight::TwentyFoot => "20-ft",
+        firecast_sim::WindHeight::TenMetre => "10-m",
+    };
+    let source = match &weather {
+        Some(w) => format!(" (GRIDMET vs/th on {} at {:.4}, {:.4})", w.date, w.lat, w.lon),
+        None => String::new(),
+    };
     println!(
-        "{} x {} cells of {} ft, wind {} mi/h from {}°, seeds {}..{}",
+        "{} x {} cells of {} ft, {height} wind {:.1} mi/h from {:.0}°{source}, seeds {}..{}",
         landscape.width,
         landscape.height,
         landscape.cell_size_ft,
-        scenario.env.sim.wind.speed_mph,
-        scenario.env.sim.wind.from_direction_deg,
+        wind.speed_mph,
+        wind.from_direction_deg,
         args.seed,
         args.seed + args.episodes as u64 - 1
     );

@@ -8,6 +8,7 @@
 //! `sim.episodes` pipeline stage.
 
 mod stage;
+mod weather;
 
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
@@ -19,6 +20,7 @@ use firecast_sim::{
 use serde::{Deserialize, Serialize};
 
 pub use stage::EpisodesStage;
+pub use weather::{ResolvedWeather, WeatherSpec};
 
 /// Errors of scenario loading and episode runs. Paths come last.
 #[derive(Debug, thiserror::Error)]
@@ -29,6 +31,10 @@ pub enum EpisodeError {
     Agent(String),
     #[error(transparent)]
     Landscape(#[from] firecast_landscape::LandscapeError),
+    #[error(transparent)]
+    Gridmet(#[from] firecast_data::gridmet::GridmetError),
+    #[error("weather from {path}: {message}")]
+    Weather { path: PathBuf, message: String },
     #[error(transparent)]
     Sim(#[from] firecast_sim::SimError),
     #[error(transparent)]
@@ -196,11 +202,38 @@ impl LandscapeSpec {
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
     pub landscape: LandscapeSpec,
+    /// Where the wind comes from; when set it replaces `env.sim.wind`.
+    #[serde(default)]
+    pub weather: Option<WeatherSpec>,
     #[serde(default)]
     pub env: EnvConfig,
 }
 
 impl Scenario {
+    /// A scenario on `landscape` with default settings.
+    pub fn new(landscape: LandscapeSpec, env: EnvConfig) -> Self {
+        Self {
+            landscape,
+            weather: None,
+            env,
+        }
+    }
+
+    /// Builds the landscape and, when the scenario has `weather`, reads it and sets the wind.
+    /// Relative paths resolve against `root`.
+    pub fn prepare(&mut self, root: &Path) -> Result<(Landscape, Option<ResolvedWeather>), EpisodeError> {
+        let landscape = self.landscape.load(root)?;
+        let weather = match &self.weather {
+            Some(spec) => {
+                let w = spec.resolve(&landscape, root)?;
+                self.env.sim.wind = w.wind;
+                Some(w)
+            }
+            None => None,
+        };
+        Ok((landscape, weather))
+    }
+
     /// Read a scenario YAML file strictly (unknown keys are errors with file:line and key path).
     pub fn from_file(path: &Path) -> Result<Self, EpisodeError> {
         let text = std::fs::read_to_string(path).map_err(|source| EpisodeError::Read {
@@ -276,6 +309,7 @@ pub struct EpisodesSummary {
     pub seed: u64,
     pub wind_speed_mph: f64,
     pub wind_from_deg: f64,
+    pub wind_measured_at: firecast_sim::WindHeight,
     pub report: EvalReport,
 }
 
@@ -331,6 +365,7 @@ pub fn run(
         seed,
         wind_speed_mph: scenario.env.sim.wind.speed_mph,
         wind_from_deg: scenario.env.sim.wind.from_direction_deg,
+        wind_measured_at: scenario.env.sim.wind.measured_at,
         report,
     })
 }

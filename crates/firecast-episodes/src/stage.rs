@@ -26,6 +26,10 @@ pub struct EpisodesParams {
     /// Environment and simulator settings (wind, kernel, rewards, max steps, …).
     #[serde(default)]
     pub env: serde_json::Value,
+    /// Take the wind of this day (YYYY-MM-DD) from the GRIDMET files of the `gridmet` input
+    /// (`vs`, `th` at the landscape's centre), instead of `env.sim.wind`.
+    #[serde(default)]
+    pub weather_date: Option<String>,
 }
 
 fn default_episodes() -> usize {
@@ -76,6 +80,12 @@ const INPUTS: &[Port] = &[
         many: false,
         description: "elevation raster (FireCastRL 16-bit height PNG or GeoTIFF)",
     },
+    Port {
+        name: "gridmet",
+        required: false,
+        many: false,
+        description: "folder of GRIDMET files vs_YYYY.nc and th_YYYY.nc (with `weather_date`)",
+    },
 ];
 const OUTPUTS: &[Port] = &[
     Port {
@@ -104,7 +114,8 @@ impl StageKind for EpisodesStage {
     }
 
     fn version(&self) -> u32 {
-        1
+        // 2: wind heights and GRIDMET weather; fire-survivor draws change ChaCha streams.
+        2
     }
 
     fn summary(&self) -> &'static str {
@@ -173,8 +184,25 @@ impl StageKind for EpisodesStage {
                 cell_size_ft: *cell_size_ft,
             },
         };
-        let scenario = Scenario { landscape, env };
-        let land = scenario.landscape.load(ctx.root())?;
+        let weather = match &params.weather_date {
+            Some(date) => Some(crate::WeatherSpec::Gridmet {
+                dir: input("gridmet")?,
+                date: date.clone(),
+            }),
+            None => None,
+        };
+        let mut scenario = Scenario {
+            landscape,
+            weather,
+            env,
+        };
+        let (land, weather) = scenario.prepare(ctx.root())?;
+        if let Some(w) = &weather {
+            ctx.log(format!(
+                "wind from GRIDMET on {}: vs {:.2} m/s from {:.0}° at ({:.4}, {:.4})",
+                w.date, w.vs_m_s, w.th_deg, w.lat, w.lon
+            ));
+        }
         let outputs = Outputs {
             frames_dir: None,
             gif: ctx.output("animation").ok().map(std::path::Path::to_path_buf),

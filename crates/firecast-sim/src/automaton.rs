@@ -3,7 +3,8 @@
 //!
 //! Semantics (P2 defaults, §A6.3): a cell spreads only at the instant it ignites, scheduling
 //! the ignition times of its 20 neighbours (radius 2.5 cells, line of sight through
-//! non-burnable cells, §A6.4 "P2 scheme"); it burns for at most 500 min, shortened to
+//! non-burnable cells, §A6.4 "P2 scheme"; the original BFS search is an option, see
+//! [`Neighbourhood`]); it burns for at most 500 min, shortened to
 //! travel time + 200 min; its burn index (BI) is fixed by the fastest rate that reached it;
 //! once the daily low-intensity latch fires, Low-BI cells no longer spread.
 //!
@@ -39,6 +40,10 @@ const MIN_PER_DAY: f64 = 1440.0;
 const FLAG_RIVER: u8 = 1;
 const FLAG_FIRE_LINE: u8 = 2;
 const FLAG_ISLAND: u8 = 4;
+/// [`Automaton::bfs_window`] entry of a window cell outside the radius (or the source).
+const BFS_OUTSIDE: u16 = u16::MAX;
+/// The original BFS's 4-connected steps, in its order: west, east, south, north (grid y).
+const BFS_STEPS: [(i32, i32); 4] = [(-1, 0), (1, 0), (0, -1), (0, 1)];
 /// Bit pattern of a [`Automaton::rate_cache`] entry not yet computed (a NaN payload that no
 /// arithmetic produces).
 const RATE_UNSET: u64 = 0x7ff8_dead_beef_0001;
@@ -128,7 +133,7 @@ impl KernelConfig {
 
 /// Wind: speed (mi/h) at a stated height and the direction it comes FROM (degrees, 0 = north,
 /// 90 = east, as GRIDMET `th`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Wind {
     pub speed_mph: f64,
@@ -186,6 +191,26 @@ pub enum HelitackFootprint {
     FullDisc,
 }
 
+/// How a spreading cell finds its neighbours (§A6.4). Both reach the same cells (the offsets
+/// within the radius); they differ in which are blocked by non-burnable cells and in the
+/// order they are offered, which decides ties of ignition time.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Neighbourhood {
+    /// P2 (`aisystems-lab/wildfire-env` HEAD, FireCast's default): the offsets in row-major
+    /// order, each skipped when it, or any intermediate point of the line from the source to
+    /// it, is outside the grid or not burnable for the source's BI.
+    #[default]
+    LineOfSight,
+    /// The original search of Concord, the FireCastRL TypeScript engine (T), P1 and 7a1edf8: a
+    /// breadth-first search over 4-connected steps (west, east, south, north) from the source,
+    /// within the radius. A reached cell not burnable for the source's BI blocks (it is not
+    /// offered or expanded) and, from then on, a cell is offered and expanded only if the
+    /// Bresenham line from it to the source (endpoints included, ties not stepped) is clear.
+    /// Cells are offered in BFS order. Slower: the search runs per spreading cell.
+    Bfs,
+}
+
 /// Automaton configuration. Defaults reproduce the P2 engine with zero wind.
 #[derive(Debug, Clone, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -200,6 +225,8 @@ pub struct SimConfig {
     pub river_classes: Vec<u16>,
     /// Neighbourhood radius in cells (2.5 → 20 neighbours).
     pub neighbour_radius_cells: f64,
+    /// Neighbour search: `line_of_sight` (P2, the default) or `bfs` (Concord, T, P1, 7a1edf8).
+    pub neighbourhood: Neighbourhood,
     pub max_burn_time_min: f64,
     pub min_cell_burn_time_min: f64,
     pub helitack_radius_ft: f64,
@@ -226,6 +253,7 @@ impl Default for SimConfig {
             latch_daily_probability: FIRECASTRL_LATCH.to_vec(),
             river_classes: FIRECASTRL_RIVER_CLASSES.to_vec(),
             neighbour_radius_cells: 2.5,
+            neighbourhood: Neighbourhood::LineOfSight,
             max_burn_time_min: 500.0,
             min_cell_burn_time_min: 200.0,
             helitack_radius_ft: 2640.0,
@@ -329,6 +357,32 @@ pub fn bresenham(a: (i64, i64), b: (i64, i64)) -> Vec<(i64, i64)> {
     out
 }
 
+/// Integer points of the line from a to b, both included, stepping on strict error tests (the
+/// original engines' `forEachPointBetween`): ties go to a single-axis step, so the line is
+/// not symmetric and its direction matters.
+fn strict_line(a: (i32, i32), b: (i32, i32)) -> Vec<(i32, i32)> {
+    let (mut x, mut y) = a;
+    let dx = (b.0 - a.0).abs();
+    let dy = (b.1 - a.1).abs();
+    let sx = if a.0 < b.0 { 1 } else { -1 };
+    let sy = if a.1 < b.1 { 1 } else { -1 };
+    let mut err = dx - dy;
+    let mut out = vec![(x, y)];
+    while (x, y) != b {
+        let e2 = 2 * err;
+        if e2 > -dy {
+            err -= dy;
+            x += sx;
+        }
+        if e2 < dx {
+            err += dx;
+            y += sy;
+        }
+        out.push((x, y));
+    }
+    out
+}
+
 /// The kernel's tables, indexed by fuel slot (winds) and slot × drop level (fuels).
 enum Kernel {
     Concord {
@@ -362,6 +416,19 @@ pub struct Automaton {
     offsets: Vec<Offset>,
     intermediates: Vec<(i32, i32)>,
     footprint: Vec<(i32, i32)>,
+    // BFS neighbourhood: a (2r+1)² window around the source (index (dy+r)·side + dx+r) mapping
+    // to offset indices, per offset the line points from it to the source (candidate
+    // excluded, source included), and scratch.
+    bfs_radius: i32,
+    bfs_window: Vec<u16>,
+    bfs_lines: Vec<(i32, i32)>,
+    bfs_line_range: Vec<(u32, u32)>,
+    /// Window cells reached in the current search carry the current stamp.
+    bfs_seen: Vec<u32>,
+    bfs_stamp: u32,
+    bfs_queue: Vec<u16>,
+    /// Offset indices offered by the current search, in BFS order.
+    bfs_found: Vec<u16>,
     // Static per cell.
     slot: Vec<u16>,
     base_flags: Vec<u8>,
@@ -548,11 +615,11 @@ impl Automaton {
                 if (dx, dy) == (0, 0) || d2 > r * r {
                     continue;
                 }
-                let line = bresenham((0, 0), (i64::from(dx), i64::from(dy)));
+                // P2 walks source → target with strict error tests; the symmetric Bresenham
+                // picks the other cell on the 8 knight's-move offsets.
+                let line = strict_line((0, 0), (dx, dy));
                 let start = intermediates.len();
-                for &(px, py) in &line[1..line.len() - 1] {
-                    intermediates.push((px as i32, py as i32));
-                }
+                intermediates.extend_from_slice(&line[1..line.len() - 1]);
                 offsets.push(Offset {
                     dx,
                     dy,
@@ -562,6 +629,19 @@ impl Automaton {
                     inter_end: intermediates.len(),
                 });
             }
+        }
+
+        // BFS neighbourhood tables (§A6.4, original scheme).
+        let side = (2 * ri + 1) as usize;
+        let mut bfs_window = vec![BFS_OUTSIDE; side * side];
+        let mut bfs_lines = Vec::new();
+        let mut bfs_line_range = Vec::with_capacity(offsets.len());
+        for (k, off) in offsets.iter().enumerate() {
+            bfs_window[(off.dy + ri) as usize * side + (off.dx + ri) as usize] = k as u16;
+            let start = bfs_lines.len() as u32;
+            // The candidate is known burnable when its line is checked; the source is checked.
+            bfs_lines.extend(strict_line((off.dx, off.dy), (0, 0)).into_iter().skip(1));
+            bfs_line_range.push((start, bfs_lines.len() as u32));
         }
 
         // Helitack footprint (§A8).
@@ -591,6 +671,14 @@ impl Automaton {
             offsets,
             intermediates,
             footprint,
+            bfs_radius: ri,
+            bfs_window,
+            bfs_lines,
+            bfs_line_range,
+            bfs_seen: vec![0; side * side],
+            bfs_stamp: 0,
+            bfs_queue: Vec::with_capacity(side * side),
+            bfs_found: Vec::with_capacity(side * side),
             slot,
             flags: base_flags.clone(),
             base_flags,
@@ -772,7 +860,7 @@ impl Automaton {
         }
     }
 
-    /// `updateFire(time)` (§A6.3), P2 neighbourhood.
+    /// `updateFire(time)` (§A6.3), with the configured [`Neighbourhood`].
     pub fn update_fire(&mut self, time: f64) {
         self.time = time;
         let day = (time / MIN_PER_DAY).floor().max(0.0) as u64;
@@ -865,11 +953,18 @@ impl Automaton {
     }
 
     fn spread_from(&mut self, c: usize) {
+        match self.cfg.neighbourhood {
+            Neighbourhood::LineOfSight => self.spread_line_of_sight(c),
+            Neighbourhood::Bfs => self.spread_bfs(c),
+        }
+    }
+
+    /// P2 scheme: the offsets in order, skipping blocked lines (the hot loop).
+    fn spread_line_of_sight(&mut self, c: usize) {
         let (x, y) = ((c % self.width) as i32, (c / self.width) as i32);
         let (w, h) = (self.width as i32, self.height as i32);
         let src_high = self.bi[c] == BurnIndex::High as u8;
         let t_src = self.ign[c];
-        let min_burn = self.cfg.min_cell_burn_time_min;
         for k in 0..self.offsets.len() {
             let off = self.offsets[k];
             let (nx, ny) = (x + off.dx, y + off.dy);
@@ -886,37 +981,121 @@ impl Automaton {
             if blocked {
                 continue;
             }
-            let cacheable = self.drops[n] == 0 && (self.flags[n] | self.flags[c]) & FLAG_FIRE_LINE == 0;
-            let r = if cacheable {
-                let e = c * self.offsets.len() + k;
-                let v = self.rate_cache[e];
-                if v.to_bits() == RATE_UNSET {
-                    let r = self.rate(n, &off, self.elev[n] - self.elev[c]);
-                    self.rate_cache[e] = r;
-                    r
-                } else {
-                    v
+            self.offer(c, k, n, t_src);
+        }
+    }
+
+    /// Original scheme: the neighbours the BFS offers, in its order. Burning and burnt cells
+    /// are searched through but not updated.
+    fn spread_bfs(&mut self, c: usize) {
+        let src_high = self.bi[c] == BurnIndex::High as u8;
+        self.bfs_neighbours(c, src_high);
+        let (x, y) = ((c % self.width) as i32, (c / self.width) as i32);
+        let w = self.width as i32;
+        let t_src = self.ign[c];
+        for j in 0..self.bfs_found.len() {
+            let k = usize::from(self.bfs_found[j]);
+            let off = self.offsets[k];
+            let n = ((y + off.dy) * w + x + off.dx) as usize;
+            if self.state[n] == FireState::Unburnt as u8 {
+                self.offer(c, k, n, t_src);
+            }
+        }
+    }
+
+    /// Fills `bfs_found` with the offsets the original BFS offers from source `c`, in order.
+    fn bfs_neighbours(&mut self, c: usize, src_high: bool) {
+        let (x0, y0) = ((c % self.width) as i32, (c / self.width) as i32);
+        let (w, h) = (self.width as i32, self.height as i32);
+        let r = self.bfs_radius;
+        let side = 2 * r + 1;
+        self.bfs_stamp = self.bfs_stamp.wrapping_add(1);
+        if self.bfs_stamp == 0 {
+            // Wrapped: old stamps could alias the new one.
+            self.bfs_seen.fill(0);
+            self.bfs_stamp = 1;
+        }
+        let stamp = self.bfs_stamp;
+        let centre = (r * side + r) as usize;
+        self.bfs_seen[centre] = stamp;
+        self.bfs_queue.clear();
+        self.bfs_queue.push(centre as u16);
+        self.bfs_found.clear();
+        // As in the original, lines are checked only once a blocking cell has been met.
+        let mut any_non_burnable = false;
+        let mut head = 0;
+        while head < self.bfs_queue.len() {
+            let q = i32::from(self.bfs_queue[head]);
+            head += 1;
+            let (qx, qy) = (q % side - r, q / side - r);
+            for (sx, sy) in BFS_STEPS {
+                let (dx, dy) = (qx + sx, qy + sy);
+                let (nx, ny) = (x0 + dx, y0 + dy);
+                // Outside the window is outside the radius.
+                if nx < 0 || ny < 0 || nx >= w || ny >= h || dx.abs() > r || dy.abs() > r {
+                    continue;
                 }
+                let wi = ((dy + r) * side + dx + r) as usize;
+                let k = self.bfs_window[wi];
+                if k == BFS_OUTSIDE || self.bfs_seen[wi] == stamp {
+                    continue;
+                }
+                self.bfs_seen[wi] = stamp;
+                if !self.burnable_for((ny * w + nx) as usize, src_high) {
+                    any_non_burnable = true;
+                } else if !any_non_burnable || self.bfs_line_clear(x0, y0, usize::from(k), src_high) {
+                    self.bfs_found.push(k);
+                    self.bfs_queue.push(wi as u16);
+                }
+            }
+        }
+    }
+
+    /// The line from offset `k` to the source `(x0, y0)` has no cell non-burnable for the
+    /// source's BI (the line lies inside the grid, between two cells in it).
+    fn bfs_line_clear(&self, x0: i32, y0: i32, k: usize, src_high: bool) -> bool {
+        let (start, end) = self.bfs_line_range[k];
+        let w = self.width as i32;
+        self.bfs_lines[start as usize..end as usize]
+            .iter()
+            .all(|&(px, py)| self.burnable_for(((y0 + py) * w + x0 + px) as usize, src_high))
+    }
+
+    /// Offers neighbour `n` (offset `k` from the burning source `c`, which ignited at
+    /// `t_src`): schedules its ignition, shortens its burn time and raises its spread rate.
+    #[inline(always)]
+    fn offer(&mut self, c: usize, k: usize, n: usize, t_src: f64) {
+        let off = self.offsets[k];
+        let cacheable = self.drops[n] == 0 && (self.flags[n] | self.flags[c]) & FLAG_FIRE_LINE == 0;
+        let r = if cacheable {
+            let e = c * self.offsets.len() + k;
+            let v = self.rate_cache[e];
+            if v.to_bits() == RATE_UNSET {
+                let r = self.rate(n, &off, self.elev[n] - self.elev[c]);
+                self.rate_cache[e] = r;
+                r
             } else {
-                self.rate(n, &off, self.elev[n] - self.elev[c])
-            };
-            if r.is_nan() || r <= 0.0 {
-                continue;
+                v
             }
-            let cand = t_src + off.dist_ft / r;
-            if self.new_ign[n] == f64::INFINITY {
-                self.touched.push(n as u32);
-            }
-            let v = cand.min(self.new_ign[n]).min(self.ign[n]);
-            self.new_ign[n] = v;
-            self.burn_time[n] = self.burn_time[n].min(v - t_src + min_burn);
-            if r > self.spread_rate[n] {
-                self.spread_rate[n] = r;
-                let b = self.bi_for(n, r);
-                if b != self.bi[n] {
-                    self.bi[n] = b;
-                    self.dirty.push(n as u32);
-                }
+        } else {
+            self.rate(n, &off, self.elev[n] - self.elev[c])
+        };
+        if r.is_nan() || r <= 0.0 {
+            return;
+        }
+        let cand = t_src + off.dist_ft / r;
+        if self.new_ign[n] == f64::INFINITY {
+            self.touched.push(n as u32);
+        }
+        let v = cand.min(self.new_ign[n]).min(self.ign[n]);
+        self.new_ign[n] = v;
+        self.burn_time[n] = self.burn_time[n].min(v - t_src + self.cfg.min_cell_burn_time_min);
+        if r > self.spread_rate[n] {
+            self.spread_rate[n] = r;
+            let b = self.bi_for(n, r);
+            if b != self.bi[n] {
+                self.bi[n] = b;
+                self.dirty.push(n as u32);
             }
         }
     }

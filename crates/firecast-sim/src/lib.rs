@@ -26,8 +26,8 @@ pub use agents::{
     RuleBasedAgent, RuleNavigation, record_frames, run_episode, run_episodes,
 };
 pub use automaton::{
-    Automaton, BurnIndex, DEFAULT_DT_MIN, FireState, HelitackFootprint, KernelConfig, SimConfig, SimError,
-    Wind, WindHeight, unsheltered_waf,
+    Automaton, BurnIndex, DEFAULT_DT_MIN, FireState, HelitackFootprint, KernelConfig, Neighbourhood,
+    SimConfig, SimError, Wind, WindHeight, unsheltered_waf,
 };
 pub use concord::{
     ConcordCell, ConcordFuel, ConcordFuelConstants, ConcordSpread, ConcordWind, DroughtLevel, EdgeCasePolicy,

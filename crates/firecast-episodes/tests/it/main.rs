@@ -3,21 +3,21 @@
 
 use std::path::Path;
 
-use firecast_episodes::{AgentKind, LandscapeSpec, Outputs, Scenario};
+use firecast_episodes::{AgentKind, EpisodeError, LandscapeSpec, Outputs, Scenario, WeatherSpec};
 
 fn scenario() -> Scenario {
     let mut env = firecast_sim::EnvConfig::default();
     env.sim.wind.speed_mph = 10.0;
     env.sim.wind.from_direction_deg = 250.0;
     env.max_steps = 400;
-    Scenario {
-        landscape: LandscapeSpec::Procedural {
+    Scenario::new(
+        LandscapeSpec::Procedural {
             seed: 3,
             width: 120,
             height: 80,
         },
         env,
-    }
+    )
 }
 
 #[test]
@@ -119,4 +119,62 @@ fn scenario_files_are_strict() {
     assert!("procedural:x".parse::<LandscapeSpec>().is_err());
     assert!("firecastrl:a.png".parse::<LandscapeSpec>().is_err());
     let _ = Path::new(".");
+}
+
+fn wind_fixtures() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/gridmet")
+}
+
+fn with_weather(date: &str) -> Scenario {
+    let mut s = scenario();
+    s.weather = Some(WeatherSpec::Gridmet {
+        dir: wind_fixtures(),
+        date: date.into(),
+    });
+    s
+}
+
+/// The day's 10-m wind at the GRIDMET cell nearest the landscape's centre (37.5N 119.5W →
+/// lat index 1, lon index 0 of the netCDF4-written fixture), in mi/h, as a 10-m wind.
+#[test]
+fn weather_from_gridmet_sets_a_ten_metre_wind() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut s = with_weather("2020-07-04");
+    let (land, weather) = s.prepare(dir.path()).unwrap();
+    let w = weather.unwrap();
+    // Day of year 186: vs = 1 + (186 % 50) / 10 + 1 + 0 = 5.6 m/s; th = (7·186 + 10) % 360 = 232.
+    assert!((w.vs_m_s - 5.6).abs() < 1e-5, "{}", w.vs_m_s);
+    assert_eq!(w.th_deg, 232.0);
+    assert!((w.lat - 37.483_333).abs() < 1e-5 && (w.lon + 119.516_667).abs() < 1e-5);
+    assert_eq!(s.env.sim.wind.measured_at, firecast_sim::WindHeight::TenMetre);
+    assert!((s.env.sim.wind.speed_mph - 5.6 * 2.236_936).abs() < 1e-4);
+    assert_eq!(s.env.sim.wind.from_direction_deg, 232.0);
+    // And the episode runs under it, reporting the wind it used.
+    let summary =
+        firecast_episodes::run(&s, &land, AgentKind::None, 1, 0, &Outputs::default(), |_| {}).unwrap();
+    assert_eq!(summary.wind_from_deg, 232.0);
+}
+
+#[test]
+fn weather_errors_name_the_file_and_the_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    let err = with_weather("2021-06-01").prepare(dir.path()).unwrap_err();
+    assert!(matches!(err, EpisodeError::Gridmet(_)), "{err}");
+    assert!(err.to_string().contains("vs_2021.nc"), "{err}");
+    let err = with_weather("2020-12-31")
+        .prepare(dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("th_2020.nc") && err.contains("missing on 2020-12-31"),
+        "{err}"
+    );
+    let err = with_weather("2020-02-30")
+        .prepare(dir.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("2020-02-30") && err.contains("does not exist"),
+        "{err}"
+    );
 }

@@ -3,8 +3,8 @@
 use firecast_landscape::LandCoverScheme;
 use firecast_sim::automaton::{FIRECASTRL_RIVER_CLASSES, HelitackFootprint};
 use firecast_sim::{
-    Automaton, FireState, FuelModel, FuelMoisture, KernelConfig, SimConfig, SpreadInputs, SpreadVariant,
-    SurfaceFuelBed, Wind, WindHeight, unsheltered_waf,
+    Automaton, EdgeCasePolicy, FireState, FuelModel, FuelMoisture, KernelConfig, Neighbourhood, SimConfig,
+    SpreadInputs, SpreadVariant, SurfaceFuelBed, Wind, WindHeight, unsheltered_waf,
 };
 
 use crate::scenes::{landscape, modis_rough, noise, rough};
@@ -414,4 +414,153 @@ fn ten_metre_wind_is_brought_to_midflame_per_fuel() {
     assert_eq!(run(ten_metre), run(midflame));
     // And it is weaker than the same number taken as midflame.
     assert!(burnt(&run(ten_metre)) < burnt(&run(as_midflame)));
+}
+
+/// Offsets from the source (4, 4) of a flat 9×9 closed-shrub grid, with water at `water`
+/// (offsets too), that the source's single spread schedules. Calm air with the JS edge case
+/// gives every burnable neighbour the rate R₀ > 0, so exactly the offered cells get an
+/// ignition time (all later than the first step).
+fn offered(water: &[(i32, i32)], neighbourhood: Neighbourhood, radius: f64) -> Vec<(i32, i32)> {
+    let class = |x: usize, y: usize| {
+        let d = (x as i32 - 4, y as i32 - 4);
+        if water.contains(&d) { 17 } else { 6 }
+    };
+    let land = landscape(9, 9, LandCoverScheme::ModisIgbp, class, |_, _| 1000.0);
+    let cfg = SimConfig {
+        kernel: KernelConfig::Concord {
+            variant: SpreadVariant::Compat(EdgeCasePolicy::Js),
+            moisture_table: Default::default(),
+        },
+        latch_daily_probability: vec![],
+        neighbour_radius_cells: radius,
+        neighbourhood,
+        ..SimConfig::default()
+    };
+    let mut a = Automaton::new(&land, &cfg).unwrap();
+    a.ignite(4, 4, 0.0).unwrap();
+    a.step();
+    assert_eq!(a.fire_state(4 * 9 + 4), FireState::Burning);
+    let mut out: Vec<(i32, i32)> = (0..81)
+        .filter(|&i| a.fire_state(i) == FireState::Unburnt && a.ignition_times()[i].is_finite())
+        .map(|i| ((i % 9) as i32 - 4, (i / 9) as i32 - 4))
+        .collect();
+    out.sort_unstable();
+    out
+}
+
+#[test]
+fn bfs_does_not_reach_around_non_burnable_cells_that_line_of_sight_sees_past() {
+    const W: (i32, i32) = (-1, 0);
+    const E: (i32, i32) = (1, 0);
+    const S: (i32, i32) = (0, -1);
+    const N: (i32, i32) = (0, 1);
+    let diagonals = vec![(-1, -1), (-1, 1), (1, -1), (1, 1)];
+    // Radius 1.5 (8 neighbours, no intermediate points). Water west and south: the south-west
+    // diagonal is in sight, but every 4-connected path to it crosses water.
+    let water = [W, S];
+    assert_eq!(
+        offered(&water, Neighbourhood::LineOfSight, 1.5),
+        vec![(-1, -1), (-1, 1), (0, 1), (1, -1), (1, 0), (1, 1)]
+    );
+    assert_eq!(
+        offered(&water, Neighbourhood::Bfs, 1.5),
+        vec![(-1, 1), (0, 1), (1, -1), (1, 0), (1, 1)]
+    );
+    // Water on all four sides: line of sight still reaches the four diagonals, BFS nothing.
+    let walled = [W, E, S, N];
+    assert_eq!(offered(&walled, Neighbourhood::LineOfSight, 1.5), diagonals);
+    assert_eq!(offered(&walled, Neighbourhood::Bfs, 1.5), vec![]);
+    // The same at the default radius 2.5: BFS offers nothing; line of sight offers the
+    // diagonals but not the cells two steps out along the axes (their line crosses water).
+    assert_eq!(offered(&walled, Neighbourhood::Bfs, 2.5), vec![]);
+    let los = offered(&walled, Neighbourhood::LineOfSight, 2.5);
+    assert!(diagonals.iter().all(|d| los.contains(d)), "{los:?}");
+    assert!(
+        [(-2, 0), (2, 0), (0, -2), (0, 2)]
+            .iter()
+            .all(|d| !los.contains(d)),
+        "{los:?}"
+    );
+}
+
+#[test]
+fn bfs_checks_the_line_from_the_candidate_to_the_source() {
+    // One water cell west of the source, radius 2.5 (20 offsets). Once BFS has met it, a cell
+    // is offered only if the line from it to the source is clear: (-2, 0) is hidden behind
+    // the water, but (-2, ±1) are offered, as their line from the candidate passes the
+    // diagonal (-1, ±1) (drawn from the source instead, it would pass the water).
+    let got = offered(&[(-1, 0)], Neighbourhood::Bfs, 2.5);
+    assert_eq!(got.len(), 18, "{got:?}");
+    for d in [(-1, 0), (-2, 0)] {
+        assert!(!got.contains(&d), "{d:?} offered: {got:?}");
+    }
+    for d in [(-2, -1), (-2, 1), (-1, -2), (-1, 2), (2, 0), (0, 2), (0, -2)] {
+        assert!(got.contains(&d), "{d:?} not offered: {got:?}");
+    }
+    // Without water both schemes offer all 20.
+    assert_eq!(offered(&[], Neighbourhood::Bfs, 2.5).len(), 20);
+    assert_eq!(offered(&[], Neighbourhood::LineOfSight, 2.5).len(), 20);
+}
+
+/// Per step, the cells that changed state; and the final ignition times' bits. Shrubland
+/// with scattered non-burnable and urban cells on rough terrain, P2 kernel and latch.
+fn scattered_river_burn(neighbourhood: Neighbourhood, seed: u64) -> (Vec<Vec<u32>>, Vec<u64>) {
+    let class = |x: usize, y: usize| {
+        if noise(x, y, 3) < 0.15 {
+            FIRECASTRL_RIVER_CLASSES[(noise(x, y, 4) * 4.0) as usize % 4]
+        } else if noise(x, y, 5) < 0.03 {
+            13
+        } else {
+            6
+        }
+    };
+    let land = landscape(120, 80, LandCoverScheme::ModisIgbp, class, rough);
+    let cfg = SimConfig {
+        neighbourhood,
+        ..SimConfig::default()
+    };
+    let mut a = Automaton::new(&land, &cfg).unwrap();
+    a.reset(seed);
+    a.ignite(60, 40, 0.0).unwrap();
+    let mut seq = Vec::new();
+    let mut prev = a.fire_states().to_vec();
+    for _ in 0..3000 {
+        a.step();
+        let changed: Vec<u32> = (0..prev.len())
+            .filter(|&i| prev[i] != a.fire_states()[i])
+            .map(|i| i as u32)
+            .collect();
+        prev.copy_from_slice(a.fire_states());
+        seq.push(changed);
+        if a.fire_out() {
+            break;
+        }
+    }
+    for (i, &s) in a.fire_states().iter().enumerate() {
+        assert!(s == 0 || !a.is_non_burnable(i), "non-burnable cell {i} burned");
+    }
+    (seq, a.ignition_times().iter().map(|t| t.to_bits()).collect())
+}
+
+#[test]
+fn bfs_mode_is_deterministic_and_differs_from_line_of_sight() {
+    let bfs = scattered_river_burn(Neighbourhood::Bfs, 3);
+    assert_eq!(
+        bfs,
+        scattered_river_burn(Neighbourhood::Bfs, 3),
+        "BFS runs differ"
+    );
+    let burnt = bfs.0.iter().map(Vec::len).sum::<usize>();
+    assert!(burnt > 1000, "the fire must spread, {burnt} state changes");
+    let los = scattered_river_burn(Neighbourhood::LineOfSight, 3);
+    assert_ne!(bfs.0, los.0, "the neighbourhood option has no effect");
+}
+
+#[test]
+fn neighbourhood_is_configured_in_snake_case_and_defaults_to_line_of_sight() {
+    let cfg: SimConfig = serde_json::from_str(r#"{"neighbourhood": "bfs"}"#).unwrap();
+    assert_eq!(cfg.neighbourhood, Neighbourhood::Bfs);
+    let cfg: SimConfig = serde_json::from_str("{}").unwrap();
+    assert_eq!(cfg.neighbourhood, Neighbourhood::LineOfSight);
+    assert!(serde_json::from_str::<SimConfig>(r#"{"neighbourhood": "moore"}"#).is_err());
 }
