@@ -1,6 +1,6 @@
 //! The simulator through the CLI: spread rates, episodes, the sim.episodes stage.
 
-use crate::{Project, describe};
+use crate::{Project, describe, venv_bin};
 
 #[test]
 fn sim_run_compares_agents_and_writes_outputs() {
@@ -90,5 +90,137 @@ stages:
     assert!(
         stderr.contains("stages.helitack.params.env.max_stesp: unknown field `max_stesp`"),
         "{stderr}"
+    );
+}
+
+/// A stand-in for the FireCastRL package: same import path and step contract, but its "fire"
+/// ends after one step with nothing burnt. FireCast's real fire on the same (uniform grass)
+/// map lasts longer, so the comparison must report no identical fire — proof that the bench
+/// compares what the reference returns rather than trusting it.
+const FAKE_ENV: &str = r#"
+import numpy as np
+
+class _State:
+    def __init__(self):
+        self.fire_state = np.zeros((160, 240), dtype=np.int8)
+
+class WildfireEnv:
+    def __init__(self, render_mode=None):
+        self.cell_state = _State()
+    def reset(self, seed=None):
+        return {}, {}
+    def step(self, action):
+        return {}, 0.0, True, False, {"cells_burning": 0, "cells_burnt": 0}
+"#;
+
+/// Writes the training-map PNGs (uniform grassland, flat) with a minimal PNG encoder.
+const WRITE_MAPS: &str = r#"
+import os, struct, sys, zlib
+def png(path, w, h, channels, pixel):
+    raw = b"".join(b"\x00" + bytes(pixel) * w for _ in range(h))
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
+    color = {3: 2, 4: 6}[channels]
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, color, 0, 0, 0))
+                + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+d = sys.argv[1]
+png(os.path.join(d, "landcover_1.png"), 240, 160, 3, (144, 238, 144))
+png(os.path.join(d, "heightmap_1.png"), 240, 160, 4, (0, 0, 0, 255))
+"#;
+
+#[test]
+fn bench_sim_reference_compares_what_the_reference_returns() {
+    let p = Project::new();
+    p.write("wildfire-env/firecastrl_env/__init__.py", "");
+    p.write("wildfire-env/firecastrl_env/envs/__init__.py", "");
+    p.write("wildfire-env/firecastrl_env/envs/wildfire_env.py", FAKE_ENV);
+    p.write("write_maps.py", WRITE_MAPS);
+    let maps = p.path("wildfire-env/firecastrl_env/envs/training_environments");
+    std::fs::create_dir_all(&maps).unwrap();
+    let python = venv_bin("python");
+    let status = std::process::Command::new(&python)
+        .arg(p.path("write_maps.py"))
+        .arg(&maps)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let v = p.json(&[
+        "bench",
+        "sim",
+        "--reference-env",
+        "wildfire-env",
+        "--python",
+        python.to_str().unwrap(),
+        "--reference-seeds",
+        "2",
+    ]);
+    let comparisons = v["comparisons"].as_array().unwrap();
+    assert_eq!(comparisons.len(), 2, "{v}");
+    for c in comparisons {
+        let reference = c["reference"].as_array().unwrap();
+        let firecast = c["firecast"].as_array().unwrap();
+        assert_eq!((reference.len(), firecast.len()), (2, 2));
+        assert_eq!(reference[0]["steps"], 1, "the stand-in ends after one step");
+        assert!(
+            firecast[0]["steps"].as_u64().unwrap() > 1,
+            "a grass fire outlives one step"
+        );
+        assert_eq!(c["identical_fires"], 0);
+        assert!(c["ratio"].as_f64().unwrap() > 0.0);
+    }
+
+    // A folder without the package is refused with a clear message.
+    let out = p
+        .firecast()
+        .args(["bench", "sim", "--reference-env", "nowhere", "--python"])
+        .arg(&python)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("training map") || err.contains("firecastrl_env"),
+        "{err}"
+    );
+}
+
+#[test]
+fn sim_run_takes_its_wind_from_gridmet() {
+    let p = Project::new();
+    let gridmet = crate::repo_root().join("crates/firecast-episodes/tests/fixtures/gridmet");
+    let v = p.json(&[
+        "sim",
+        "run",
+        "--landscape",
+        "procedural:2",
+        "--agent",
+        "none",
+        "--episodes",
+        "1",
+        "--weather-date",
+        "2020-07-04",
+        "--gridmet",
+        gridmet.to_str().unwrap(),
+    ]);
+    let s = &v[0];
+    // The netCDF4-written fixture's th on day 186 at the cell nearest the centre.
+    assert_eq!(s["wind_from_deg"], 232.0, "{v}");
+    assert_eq!(s["wind_measured_at"], "ten_metre");
+    assert!((s["wind_speed_mph"].as_f64().unwrap() - 5.6 * 2.236_936).abs() < 1e-3);
+
+    // A day outside the files names the file it looked for.
+    let out = p
+        .firecast()
+        .args(["sim", "run", "--landscape", "procedural:2", "--episodes", "1"])
+        .args(["--weather-date", "2019-07-04", "--gridmet"])
+        .arg(&gridmet)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("vs_2019.nc"),
+        "{}",
+        describe(&out)
     );
 }
