@@ -14,6 +14,9 @@
 //! latch, once per new day; the cosmetic fire-survivor flag of eligible cells burning out, in
 //! row-major order as P2 draws them) come from one seeded generator per automaton.
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use firecast_landscape::{LandCoverScheme, Landscape};
 
 use crate::concord::{
@@ -384,6 +387,7 @@ fn strict_line(a: (i32, i32), b: (i32, i32)) -> Vec<(i32, i32)> {
 }
 
 /// The kernel's tables, indexed by fuel slot (winds) and slot × drop level (fuels).
+#[derive(Clone)]
 enum Kernel {
     Concord {
         spreads: Vec<ConcordSpread>,
@@ -406,6 +410,11 @@ pub struct DropOutcome {
 }
 
 /// The cellular automaton.
+///
+/// A clone shares the spread-rate cache with its original (the cache is a pure function of
+/// landscape and configuration), so the environments of a `VecEnv` fill and read one cache
+/// instead of one 6 MB cache each.
+#[derive(Clone)]
 pub struct Automaton {
     width: usize,
     height: usize,
@@ -453,8 +462,9 @@ pub struct Automaton {
     /// one source's entries are contiguous) for the unmodified landscape: no helitack drop on
     /// the target, no fire line on the target or the source. The rate is then a pure function
     /// of (fuel entry, offset, rise), so entries stay valid across resets; `RATE_UNSET` marks
-    /// an entry not yet computed.
-    rate_cache: Vec<f64>,
+    /// an entry not yet computed. Shared by clones: two threads filling the same entry store
+    /// the same bits, so relaxed atomics suffice and results do not depend on the schedule.
+    rate_cache: Arc<[AtomicU64]>,
     // Active lists and scratch.
     burning: Vec<u32>,
     scheduled: Vec<u32>,
@@ -659,7 +669,9 @@ impl Automaton {
             }
         }
 
-        let rate_cache = vec![f64::from_bits(RATE_UNSET); n * offsets.len()];
+        let rate_cache: Arc<[AtomicU64]> = (0..n * offsets.len())
+            .map(|_| AtomicU64::new(RATE_UNSET))
+            .collect();
         let base_elev: Vec<f64> = landscape.elevation_ft.iter().map(|&e| f64::from(e)).collect();
         let mut a = Self {
             width: w,
@@ -1069,13 +1081,13 @@ impl Automaton {
         let cacheable = self.drops[n] == 0 && (self.flags[n] | self.flags[c]) & FLAG_FIRE_LINE == 0;
         let r = if cacheable {
             let e = c * self.offsets.len() + k;
-            let v = self.rate_cache[e];
-            if v.to_bits() == RATE_UNSET {
+            let v = self.rate_cache[e].load(Ordering::Relaxed);
+            if v == RATE_UNSET {
                 let r = self.rate(n, &off, self.elev[n] - self.elev[c]);
-                self.rate_cache[e] = r;
+                self.rate_cache[e].store(r.to_bits(), Ordering::Relaxed);
                 r
             } else {
-                v
+                f64::from_bits(v)
             }
         } else {
             self.rate(n, &off, self.elev[n] - self.elev[c])

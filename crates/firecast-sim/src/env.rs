@@ -270,6 +270,8 @@ impl Observation<'_> {
 }
 
 /// The environment without its frame buffer (the caller owns the frames; see [`VecEnv`]).
+/// Clones share the automaton's spread-rate cache.
+#[derive(Clone)]
 pub struct EnvCore {
     sim: Automaton,
     cfg: EnvConfig,
@@ -644,9 +646,8 @@ impl VecEnv {
         if n == 0 {
             return Err(SimError::Config("VecEnv needs at least one environment".into()));
         }
-        let envs = (0..n)
-            .map(|_| EnvCore::new(landscape, cfg))
-            .collect::<Result<Vec<_>, _>>()?;
+        // Clones of one environment: they share its spread-rate cache.
+        let envs = vec![EnvCore::new(landscape, cfg)?; n];
         let obs_len = envs[0].frames_len();
         let mut v = Self {
             envs,
@@ -700,26 +701,34 @@ impl VecEnv {
             )));
         }
         let (obs_len, seed) = (self.obs_len, self.seed);
+        // One task per thread (a contiguous run of environments each), not one per
+        // environment: a step takes microseconds, so task overhead would dominate.
+        let per_task = self.envs.len().div_ceil(rayon::current_num_threads().max(1));
+        let frames = &mut self.frames;
         self.envs
-            .par_iter_mut()
-            .zip(self.frames.par_chunks_mut(obs_len))
-            .zip(self.rewards.par_iter_mut())
-            .zip(self.terminated.par_iter_mut())
-            .zip(self.truncated.par_iter_mut())
-            .zip(self.infos.par_iter_mut())
-            .zip(self.episodes.par_iter_mut())
-            .zip(actions.par_iter())
+            .par_chunks_mut(per_task)
+            .zip(frames.par_chunks_mut(obs_len * per_task))
+            .zip(self.rewards.par_chunks_mut(per_task))
+            .zip(self.terminated.par_chunks_mut(per_task))
+            .zip(self.truncated.par_chunks_mut(per_task))
+            .zip(self.infos.par_chunks_mut(per_task))
+            .zip(self.episodes.par_chunks_mut(per_task))
+            .zip(actions.par_chunks(per_task))
             .enumerate()
             .for_each(
-                |(i, (((((((env, frames), rew), term), trunc), info), ep), &action))| {
-                    let (r, te, tr, inf) = env.step_into(action, None, frames);
-                    *rew = r;
-                    *term = te;
-                    *trunc = tr;
-                    *info = inf;
-                    if te || tr {
-                        *ep += 1;
-                        env.reset_into(mix_seed(seed, i as u64, *ep), frames);
+                |(t, (((((((envs, frames), rews), terms), truncs), infos), eps), acts))| {
+                    for (j, env) in envs.iter_mut().enumerate() {
+                        let i = t * per_task + j;
+                        let frames = &mut frames[j * obs_len..(j + 1) * obs_len];
+                        let (r, te, tr, inf) = env.step_into(acts[j], None, frames);
+                        rews[j] = r;
+                        terms[j] = te;
+                        truncs[j] = tr;
+                        infos[j] = inf;
+                        if te || tr {
+                            eps[j] += 1;
+                            env.reset_into(mix_seed(seed, i as u64, eps[j]), frames);
+                        }
                     }
                 },
             );

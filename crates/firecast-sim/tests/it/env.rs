@@ -249,3 +249,37 @@ fn vec_env_matches_single_envs_and_auto_resets() {
         );
     }
 }
+
+/// The environments of a VecEnv share one spread-rate cache, filled concurrently; the fires
+/// must not depend on how many threads fill it, or in what order.
+#[test]
+fn vec_env_fires_do_not_depend_on_the_thread_count() {
+    let land = modis_rough(11);
+    let cfg = firecast_sim::bench::large_fire_config();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut v = VecEnv::new(&land, &cfg, 5, 3).unwrap();
+            for k in 0..150 {
+                let actions: Vec<Action> = (0..5)
+                    .map(|i| firecast_sim::bench::ACTIONS[(k + i) % 8])
+                    .collect();
+                v.step(&actions).unwrap();
+            }
+            v.envs()
+                .iter()
+                .map(|e| e.automaton().fire_states().to_vec())
+                .collect::<Vec<_>>()
+        })
+    };
+    let one = run(1);
+    assert!(
+        one.iter().any(|s| s.iter().filter(|&&c| c != 0).count() > 50),
+        "fires grew"
+    );
+    assert_eq!(one, run(2));
+    assert_eq!(one, run(3));
+}
