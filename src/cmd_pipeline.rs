@@ -75,6 +75,7 @@ pub fn stage_kinds() -> StageKinds {
     let mut kinds = firecast_pipeline::builtin_kinds();
     kinds.register(firecast_registry::SqlStage);
     kinds.register(firecast_episodes::EpisodesStage);
+    kinds.register(firecast_episodes::RenderStage);
     firecast_dataset::stage::register(&mut kinds);
     kinds
 }

@@ -59,11 +59,67 @@ stages:
       env: {max_steps: 300, sim: {wind: {speed_mph: 6, from_direction_deg: 200}}}
     outputs:
       summary: "build/${item}.json"
+      trace: "build/${item}.trace.json"
+  film:
+    uses: sim.render
+    foreach: [rule, none]
+    params: {frame_every: 10}
+    inputs:
+      trace: {from: "helitack@${item}.trace"}
+    outputs:
       animation: "build/${item}.gif"
+      frames: "build/${item}-frames"
+      recording: "build/${item}.rrd"
 "#,
     );
     let outcomes = p.run_pipeline("pipelines/fire.yaml", &[]);
     assert_eq!(outcomes["helitack@rule"], "ran");
+    assert_eq!(outcomes["film@rule"], "ran");
+    for agent in ["rule", "none"] {
+        let gif = std::fs::read(p.path(&format!("build/{agent}.gif"))).unwrap();
+        assert_eq!(&gif[..6], b"GIF89a");
+        let frames = std::fs::read_dir(p.path(&format!("build/{agent}-frames")))
+            .unwrap()
+            .count();
+        assert!(frames > 3, "{agent}: {frames} frames");
+        assert!(
+            std::fs::metadata(p.path(&format!("build/{agent}.rrd")))
+                .unwrap()
+                .len()
+                > 1000
+        );
+    }
+    // Drawing differently re-runs only the drawing.
+    p.write(
+        "pipelines/fire.yaml",
+        &p.read("pipelines/fire.yaml")
+            .replace("frame_every: 10", "frame_every: 20"),
+    );
+    let outcomes = p.run_pipeline("pipelines/fire.yaml", &[]);
+    assert_eq!(
+        (outcomes["helitack@rule"].as_str(), outcomes["film@rule"].as_str()),
+        ("up_to_date", "ran")
+    );
+    // A trace that the simulator does not reproduce is refused.
+    let trace = p.read("build/rule.trace.json");
+    let tampered = trace.replacen("\"cells_burned\":", "\"cells_burned\":1", 1);
+    assert_ne!(trace, tampered);
+    p.write("traces/tampered.json", &tampered);
+    p.write(
+        "pipelines/replay.yaml",
+        "stages:\n  film:\n    uses: sim.render\n    inputs: {trace: traces/tampered.json}\n    outputs: {animation: build/t.gif}\n",
+    );
+    let out = p
+        .firecast()
+        .args(["pipeline", "run", "pipelines/replay.yaml"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("replaying the trace diverged"),
+        "{}",
+        describe(&out)
+    );
     let summary: serde_json::Value = serde_json::from_str(&p.read("build/rule.json")).unwrap();
     assert_eq!(summary["report"]["episodes"].as_array().unwrap().len(), 2);
     let runs = p.json(&["runs", "list", "--stage", "helitack"]);

@@ -15,11 +15,12 @@ use std::str::FromStr;
 
 use firecast_landscape::{LandCoverScheme, Landscape, procedural};
 use firecast_sim::{
-    EnvConfig, EvalReport, MeanStd, NoSuppression, Policy, RuleBasedAgent, StepInfo, WildfireEnv, run_episode,
+    Action, Decision, EnvConfig, EpisodeStats, EvalReport, MeanStd, NoSuppression, Observation, Policy,
+    RuleBasedAgent, StepInfo, WildfireEnv, run_episode,
 };
 use serde::{Deserialize, Serialize};
 
-pub use stage::EpisodesStage;
+pub use stage::{EpisodesStage, RenderStage};
 pub use weather::{ResolvedWeather, WeatherSpec};
 
 /// Errors of scenario loading and episode runs. Paths come last.
@@ -35,6 +36,11 @@ pub enum EpisodeError {
     Gridmet(#[from] firecast_data::gridmet::GridmetError),
     #[error("weather from {path}: {message}")]
     Weather { path: PathBuf, message: String },
+    #[error(
+        "replaying the trace diverged: it recorded {recorded}, the replay gave {replayed} (the trace \
+         was made with other code, settings or inputs)"
+    )]
+    ReplayDiverged { recorded: String, replayed: String },
     #[error(transparent)]
     Sim(#[from] firecast_sim::SimError),
     #[error(transparent)]
@@ -301,6 +307,103 @@ pub struct Outputs {
     pub frame_every: usize,
 }
 
+/// One episode as a replayable record: the seed and every decision, with the numbers it
+/// produced. The simulator is deterministic, so replaying the decisions on the same scenario
+/// gives the same fire, bit for bit ([`replay`] checks the numbers).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeTrace {
+    pub agent: AgentKind,
+    pub seed: u64,
+    pub stats: EpisodeStats,
+    /// Per step: FireCastRL action number and, for the rule-based agent, the teleport target.
+    pub decisions: Vec<(u8, Option<[i32; 2]>)>,
+}
+
+/// Wraps a policy and keeps its decisions.
+struct Recorder<'a> {
+    inner: &'a mut dyn Policy,
+    decisions: Vec<(u8, Option<[i32; 2]>)>,
+}
+
+impl Policy for Recorder<'_> {
+    fn reset(&mut self, ctx: &firecast_sim::EpisodeContext) {
+        self.decisions.clear();
+        self.inner.reset(ctx);
+    }
+    fn act(&mut self, obs: &Observation<'_>) -> Decision {
+        let d = self.inner.act(obs);
+        self.decisions.push((d.action as u8, d.teleport));
+        d
+    }
+}
+
+/// Plays recorded decisions back.
+struct Replay<'a> {
+    decisions: &'a [(u8, Option<[i32; 2]>)],
+    next: usize,
+}
+
+impl Policy for Replay<'_> {
+    fn act(&mut self, _obs: &Observation<'_>) -> Decision {
+        // Past the end (only if the replay outlives the recording, which `replay` reports as a
+        // divergence) the helicopter just moves.
+        let (a, teleport) = self.decisions.get(self.next).copied().unwrap_or((0, None));
+        self.next += 1;
+        Decision {
+            action: Action::try_from(a).unwrap_or(Action::Down),
+            teleport,
+        }
+    }
+}
+
+/// Replays a trace on its scenario and draws it (GIF, PNG frames, Rerun recording); fails if
+/// the replay's numbers differ from the recorded ones.
+pub fn replay(
+    scenario: &Scenario,
+    landscape: &Landscape,
+    trace: &EpisodeTrace,
+    outputs: &Outputs,
+) -> Result<EpisodeStats, EpisodeError> {
+    let mut env = WildfireEnv::new(landscape, &scenario.env)?;
+    let mut policy = Replay {
+        decisions: &trace.decisions,
+        next: 0,
+    };
+    let stats = draw_episode(&mut env, &mut policy, landscape, trace.agent, trace.seed, outputs)?;
+    if stats != trace.stats {
+        return Err(EpisodeError::ReplayDiverged {
+            recorded: format!("{:?}", trace.stats),
+            replayed: format!("{stats:?}"),
+        });
+    }
+    Ok(stats)
+}
+
+/// Runs one episode into the requested outputs.
+fn draw_episode(
+    env: &mut WildfireEnv,
+    policy: &mut dyn Policy,
+    landscape: &Landscape,
+    agent: AgentKind,
+    seed: u64,
+    outputs: &Outputs,
+) -> Result<EpisodeStats, EpisodeError> {
+    let mut sink = FrameSink::new(landscape, agent, seed, outputs)?;
+    let mut failure = None;
+    let stat = run_episode(env, policy, seed, |e, info| {
+        if failure.is_none()
+            && let Err(err) = sink.push(e, info)
+        {
+            failure = Some(err);
+        }
+    });
+    if let Some(err) = failure {
+        return Err(err);
+    }
+    sink.finish()?;
+    Ok(stat)
+}
+
 /// The result of a run: the Table IV columns per episode and as mean ± std.
 #[derive(Debug, Clone, Serialize)]
 pub struct EpisodesSummary {
@@ -311,6 +414,9 @@ pub struct EpisodesSummary {
     pub wind_from_deg: f64,
     pub wind_measured_at: firecast_sim::WindHeight,
     pub report: EvalReport,
+    /// The first episode, replayable.
+    #[serde(skip)]
+    pub first_episode: Option<EpisodeTrace>,
 }
 
 /// Run `episodes` episodes (seeds `seed`, `seed + 1`, …) and produce the requested outputs
@@ -327,24 +433,26 @@ pub fn run(
     let mut env = WildfireEnv::new(landscape, &scenario.env)?;
     let mut policy = agent.policy();
     let mut stats = Vec::with_capacity(episodes);
+    let mut first_episode = None;
     for k in 0..episodes {
         let episode_seed = seed.wrapping_add(k as u64);
-        let stat = if k == 0
-            && (outputs.frames_dir.is_some() || outputs.gif.is_some() || outputs.recording.is_some())
-        {
-            let mut sink = FrameSink::new(landscape, agent, episode_seed, outputs)?;
-            let mut failure = None;
-            let stat = run_episode(&mut env, policy.as_mut(), episode_seed, |e, info| {
-                if failure.is_none()
-                    && let Err(err) = sink.push(e, info)
-                {
-                    failure = Some(err);
-                }
+        let stat = if k == 0 {
+            let mut recorder = Recorder {
+                inner: policy.as_mut(),
+                decisions: Vec::new(),
+            };
+            let stat = if outputs.frames_dir.is_some() || outputs.gif.is_some() || outputs.recording.is_some()
+            {
+                draw_episode(&mut env, &mut recorder, landscape, agent, episode_seed, outputs)?
+            } else {
+                run_episode(&mut env, &mut recorder, episode_seed, |_, _| {})
+            };
+            first_episode = Some(EpisodeTrace {
+                agent,
+                seed: episode_seed,
+                stats: stat,
+                decisions: recorder.decisions,
             });
-            if let Some(err) = failure {
-                return Err(err);
-            }
-            sink.finish()?;
             stat
         } else {
             run_episode(&mut env, policy.as_mut(), episode_seed, |_, _| {})
@@ -367,6 +475,7 @@ pub fn run(
         wind_from_deg: scenario.env.sim.wind.from_direction_deg,
         wind_measured_at: scenario.env.sim.wind.measured_at,
         report,
+        first_episode,
     })
 }
 

@@ -1,13 +1,19 @@
-//! `uses: sim.episodes`: run an agent for N episodes on a landscape; write the Table IV
-//! summary (JSON), and optionally an animated GIF and a Rerun recording of the first
-//! episode. Landscape files (FireCastRL PNGs, GeoTIFFs) are declared as the stage's inputs
-//! `land_cover` and `elevation`, so they are part of the cache key.
+//! Two stage kinds:
+//! - `sim.episodes`: run an agent for N episodes on a landscape; write the Table IV summary
+//!   (JSON) and, optionally, a replayable trace of the first episode (its scenario, seed and
+//!   every decision).
+//! - `sim.render`: replay a trace and draw it: an animated GIF, PNG frames, a Rerun recording.
+//!   Changing how a fire is drawn then never re-runs the episodes, and a replay that does not
+//!   reproduce the recorded numbers is an error.
+//!
+//! Landscape and weather files (FireCastRL PNGs, GeoTIFFs, GRIDMET) are declared as the stages'
+//! inputs `land_cover`, `elevation` and `gridmet`, so they are part of the cache key.
 
 use firecast_pipeline::{ParamsError, Port, Ports, StageContext, StageError, StageKind, typed_params};
 use firecast_sim::EnvConfig;
 use serde::{Deserialize, Serialize};
 
-use crate::{AgentKind, LandscapeSpec, Outputs, Scenario};
+use crate::{AgentKind, EpisodeTrace, LandscapeSpec, Outputs, Scenario};
 
 /// Params of a `sim.episodes` stage.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -20,9 +26,6 @@ pub struct EpisodesParams {
     pub episodes: usize,
     #[serde(default)]
     pub seed: u64,
-    /// Keep every k-th step in the GIF.
-    #[serde(default = "default_frame_every")]
-    pub frame_every: usize,
     /// Environment and simulator settings (wind, kernel, rewards, max steps, …).
     #[serde(default)]
     pub env: serde_json::Value,
@@ -95,16 +98,10 @@ const OUTPUTS: &[Port] = &[
         description: "Table IV numbers per episode and mean ± std (JSON)",
     },
     Port {
-        name: "animation",
+        name: "trace",
         required: false,
         many: false,
-        description: "animated GIF of the first episode",
-    },
-    Port {
-        name: "recording",
-        required: false,
-        many: false,
-        description: "Rerun recording (.rrd) of the first episode",
+        description: "the first episode, replayable by sim.render (JSON)",
     },
 ];
 
@@ -151,51 +148,7 @@ impl StageKind for EpisodesStage {
     fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
         let params: EpisodesParams = ctx.params()?;
         let env = serde_path_to_error_env(&params.env).map_err(|e| StageError::msg(e.message))?;
-        let input = |name: &str| -> Result<std::path::PathBuf, StageError> {
-            ctx.input(name)
-                .map(std::path::Path::to_path_buf)
-                .map_err(|_| StageError::msg(format!("this landscape needs the input `{name}`")))
-        };
-        let landscape = match &params.landscape {
-            LandscapeParams::Procedural { seed, width, height } => LandscapeSpec::Procedural {
-                seed: *seed,
-                width: *width,
-                height: *height,
-            },
-            LandscapeParams::Firecastrl => LandscapeSpec::Firecastrl {
-                land_cover: input("land_cover")?,
-                heightmap: input("elevation")?,
-            },
-            LandscapeParams::Geotiff {
-                scheme,
-                center_lat,
-                center_lon,
-                width,
-                height,
-                cell_size_ft,
-            } => LandscapeSpec::Geotiff {
-                land_cover: input("land_cover")?,
-                elevation: input("elevation")?,
-                scheme: *scheme,
-                center_lat: *center_lat,
-                center_lon: *center_lon,
-                width: *width,
-                height: *height,
-                cell_size_ft: *cell_size_ft,
-            },
-        };
-        let weather = match &params.weather_date {
-            Some(date) => Some(crate::WeatherSpec::Gridmet {
-                dir: input("gridmet")?,
-                date: date.clone(),
-            }),
-            None => None,
-        };
-        let mut scenario = Scenario {
-            landscape,
-            weather,
-            env,
-        };
+        let mut scenario = scenario_of(ctx, &params.landscape, env, params.weather_date.as_deref())?;
         let (land, weather) = scenario.prepare(ctx.root())?;
         if let Some(w) = &weather {
             ctx.log(format!(
@@ -203,12 +156,7 @@ impl StageKind for EpisodesStage {
                 w.date, w.vs_m_s, w.th_deg, w.lat, w.lon
             ));
         }
-        let outputs = Outputs {
-            frames_dir: None,
-            gif: ctx.output("animation").ok().map(std::path::Path::to_path_buf),
-            recording: ctx.output("recording").ok().map(std::path::Path::to_path_buf),
-            frame_every: params.frame_every,
-        };
+        let outputs = Outputs::default();
         let bar = ctx.progress_bar(params.episodes as u64, &format!("{} agent", params.agent.name()));
         let summary = crate::run(
             &scenario,
@@ -230,6 +178,18 @@ impl StageKind for EpisodesStage {
         }
         let json = serde_json::to_vec_pretty(&summary)?;
         std::fs::write(ctx.output("summary")?, json)?;
+        if let Ok(path) = ctx.output("trace") {
+            let trace = TraceFile {
+                landscape: params.landscape.clone(),
+                env: params.env.clone(),
+                weather_date: params.weather_date.clone(),
+                episode: summary
+                    .first_episode
+                    .clone()
+                    .ok_or_else(|| StageError::msg("no episode was run"))?,
+            };
+            std::fs::write(path, serde_json::to_vec(&trace)?)?;
+        }
         ctx.log(format!(
             "cells burned {:.1} ± {:.1} over {} episodes",
             summary.report.cells_burned.mean, summary.report.cells_burned.std, params.episodes
@@ -251,4 +211,181 @@ fn serde_path_to_error_env(value: &serde_json::Value) -> Result<EnvConfig, Param
         },
         message: e.message,
     })
+}
+
+/// Builds the scenario of a stage from its params and inputs.
+fn scenario_of(
+    ctx: &StageContext<'_>,
+    landscape: &LandscapeParams,
+    env: EnvConfig,
+    weather_date: Option<&str>,
+) -> Result<Scenario, StageError> {
+    let input = |name: &str| -> Result<std::path::PathBuf, StageError> {
+        ctx.input(name)
+            .map(std::path::Path::to_path_buf)
+            .map_err(|_| StageError::msg(format!("this scenario needs the input `{name}`")))
+    };
+    let landscape = match landscape {
+        LandscapeParams::Procedural { seed, width, height } => LandscapeSpec::Procedural {
+            seed: *seed,
+            width: *width,
+            height: *height,
+        },
+        LandscapeParams::Firecastrl => LandscapeSpec::Firecastrl {
+            land_cover: input("land_cover")?,
+            heightmap: input("elevation")?,
+        },
+        LandscapeParams::Geotiff {
+            scheme,
+            center_lat,
+            center_lon,
+            width,
+            height,
+            cell_size_ft,
+        } => LandscapeSpec::Geotiff {
+            land_cover: input("land_cover")?,
+            elevation: input("elevation")?,
+            scheme: *scheme,
+            center_lat: *center_lat,
+            center_lon: *center_lon,
+            width: *width,
+            height: *height,
+            cell_size_ft: *cell_size_ft,
+        },
+    };
+    let weather = match weather_date {
+        Some(date) => Some(crate::WeatherSpec::Gridmet {
+            dir: input("gridmet")?,
+            date: date.to_string(),
+        }),
+        None => None,
+    };
+    Ok(Scenario {
+        landscape,
+        weather,
+        env,
+    })
+}
+
+/// What `sim.episodes` writes to `trace` and `sim.render` reads: the scenario as the stage's
+/// params gave it (files come from the render stage's own inputs) and the episode.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TraceFile {
+    landscape: LandscapeParams,
+    #[serde(default)]
+    env: serde_json::Value,
+    #[serde(default)]
+    weather_date: Option<String>,
+    episode: EpisodeTrace,
+}
+
+/// Params of a `sim.render` stage.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderParams {
+    /// Keep every k-th step in the GIF and the PNG frames (drops and the last step are always
+    /// kept; the Rerun recording keeps every step).
+    #[serde(default = "default_frame_every")]
+    pub frame_every: usize,
+}
+
+#[derive(Debug, Default)]
+pub struct RenderStage;
+
+const RENDER_INPUTS: &[Port] = &[
+    Port {
+        name: "trace",
+        required: true,
+        many: false,
+        description: "an episode trace written by sim.episodes",
+    },
+    INPUTS[0],
+    INPUTS[1],
+    INPUTS[2],
+];
+const RENDER_OUTPUTS: &[Port] = &[
+    Port {
+        name: "animation",
+        required: false,
+        many: false,
+        description: "animated GIF: fire over hill-shaded terrain, drops, the helicopter",
+    },
+    Port {
+        name: "frames",
+        required: false,
+        many: false,
+        description: "folder of PNG frames (frame_NNNNN.png)",
+    },
+    Port {
+        name: "recording",
+        required: false,
+        many: false,
+        description: "Rerun recording (.rrd): terrain, fire state per step, helicopter, drops, counts",
+    },
+];
+
+impl StageKind for RenderStage {
+    fn name(&self) -> &'static str {
+        "sim.render"
+    }
+
+    fn version(&self) -> u32 {
+        1
+    }
+
+    fn summary(&self) -> &'static str {
+        "replay an episode trace and draw it (GIF, PNG frames, Rerun recording)"
+    }
+
+    fn ports(&self) -> Ports {
+        Ports {
+            inputs: RENDER_INPUTS,
+            outputs: RENDER_OUTPUTS,
+            open: false,
+        }
+    }
+
+    fn resolve_params(&self, raw: &serde_json::Value) -> Result<serde_json::Value, ParamsError> {
+        let (params, resolved): (RenderParams, serde_json::Value) = typed_params(raw)?;
+        if params.frame_every == 0 {
+            return Err(ParamsError {
+                path: "frame_every".into(),
+                message: "must be at least 1".into(),
+            });
+        }
+        Ok(resolved)
+    }
+
+    fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
+        let params: RenderParams = ctx.params()?;
+        let trace_path = ctx.input("trace")?.to_path_buf();
+        let text = std::fs::read_to_string(&trace_path)?;
+        let trace: TraceFile = serde_json::from_str(&text)
+            .map_err(|e| StageError::msg(format!("{}: not an episode trace: {e}", trace_path.display())))?;
+        let env = serde_path_to_error_env(&trace.env).map_err(|e| StageError::msg(e.message))?;
+        let mut scenario = scenario_of(ctx, &trace.landscape, env, trace.weather_date.as_deref())?;
+        let (land, _) = scenario.prepare(ctx.root())?;
+        let outputs = Outputs {
+            frames_dir: ctx.output("frames").ok().map(std::path::Path::to_path_buf),
+            gif: ctx.output("animation").ok().map(std::path::Path::to_path_buf),
+            recording: ctx.output("recording").ok().map(std::path::Path::to_path_buf),
+            frame_every: params.frame_every,
+        };
+        if outputs.frames_dir.is_none() && outputs.gif.is_none() && outputs.recording.is_none() {
+            return Err(StageError::msg(
+                "sim.render needs at least one of the outputs animation, frames, recording",
+            ));
+        }
+        let stats = crate::replay(&scenario, &land, &trace.episode, &outputs)?;
+        ctx.log(format!(
+            "replayed {} agent, seed {}: {} steps, {} cells burned, {} drops",
+            trace.episode.agent.name(),
+            stats.seed,
+            stats.timesteps,
+            stats.cells_burned,
+            stats.helitacks
+        ));
+        Ok(())
+    }
 }

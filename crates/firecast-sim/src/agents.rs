@@ -164,7 +164,7 @@ impl Policy for RuleBasedAgent {
 }
 
 /// One episode's Table IV numbers.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EpisodeStats {
     pub seed: u64,
     /// Cells that burned (Burnt + still Burning at the end).
