@@ -30,7 +30,7 @@ pub enum SimCommand {
         output: PathBuf,
     },
     /// Simulate fires with a helitack agent; print the paper's Table IV columns.
-    Run(RunArgs),
+    Run(Box<RunArgs>),
 }
 
 #[derive(Debug, Args)]
