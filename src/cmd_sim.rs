@@ -148,6 +148,7 @@ fn sim_run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
                 seed: 1,
                 width: 240,
                 height: 160,
+                center: None,
             },
             firecast_sim::EnvConfig::default(),
         ),
@@ -323,6 +324,7 @@ pub fn bench(settings: &Settings, args: &BenchSimArgs) -> anyhow::Result<ExitCod
         seed: args.seed,
         width: 240,
         height: 160,
+        center: None,
     }
     .load(&settings.root)?;
     let firecastrl = firecast_sim::bench::firecastrl_config();

@@ -75,6 +75,10 @@ pub enum LandscapeSpec {
         width: usize,
         #[serde(default = "default_height")]
         height: usize,
+        /// Where on Earth the grid lies, [lat, lon] (default 37.5, −119.5): it places the
+        /// GRIDMET cell a scenario's weather is read from.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        center: Option<[f64; 2]>,
     },
     /// FireCastRL's map format: land-cover palette PNG and 16-bit height-map PNG.
     Firecastrl { land_cover: PathBuf, heightmap: PathBuf },
@@ -129,6 +133,7 @@ impl FromStr for LandscapeSpec {
                 seed: seed.parse().map_err(|_| bad("the seed must be a whole number"))?,
                 width: default_width(),
                 height: default_height(),
+                center: None,
             }),
             Some(("firecastrl", files)) => {
                 let (land_cover, heightmap) = files
@@ -153,11 +158,20 @@ impl LandscapeSpec {
     /// Build the landscape; relative paths resolve against `root`.
     pub fn load(&self, root: &Path) -> Result<Landscape, EpisodeError> {
         Ok(match self {
-            Self::Procedural { seed, width, height } => {
+            Self::Procedural {
+                seed,
+                width,
+                height,
+                center,
+            } => {
+                let base = procedural::ProceduralOptions::with_seed(*seed);
+                let [center_lat, center_lon] = center.unwrap_or([base.center_lat, base.center_lon]);
                 let opts = procedural::ProceduralOptions {
                     width: *width,
                     height: *height,
-                    ..procedural::ProceduralOptions::with_seed(*seed)
+                    center_lat,
+                    center_lon,
+                    ..base
                 };
                 procedural::generate(&opts)?
             }

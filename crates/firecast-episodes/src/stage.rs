@@ -52,6 +52,9 @@ pub enum LandscapeParams {
         width: usize,
         #[serde(default = "super::default_height")]
         height: usize,
+        /// [lat, lon] of the grid's centre.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        center: Option<[f64; 2]>,
     },
     Firecastrl,
     Geotiff {
@@ -226,10 +229,16 @@ fn scenario_of(
             .map_err(|_| StageError::msg(format!("this scenario needs the input `{name}`")))
     };
     let landscape = match landscape {
-        LandscapeParams::Procedural { seed, width, height } => LandscapeSpec::Procedural {
+        LandscapeParams::Procedural {
+            seed,
+            width,
+            height,
+            center,
+        } => LandscapeSpec::Procedural {
             seed: *seed,
             width: *width,
             height: *height,
+            center: *center,
         },
         LandscapeParams::Firecastrl => LandscapeSpec::Firecastrl {
             land_cover: input("land_cover")?,

@@ -15,6 +15,7 @@ fn scenario() -> Scenario {
             seed: 3,
             width: 120,
             height: 80,
+            center: None,
         },
         env,
     )
