@@ -102,10 +102,19 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
         card.contains("## Samples per tier") && card.contains("How the sources were made"),
         "{card}"
     );
-    assert!(
-        p.read("work/ignitions.rejects.csv")
-            .starts_with("row,reason,detail")
-    );
+    // Every dropped row with its physical line: rows count from 1 after the header line and
+    // the synthetic CSV has no multi-line records, so line = row + 1.
+    let rejects = p.read("work/ignitions.rejects.csv");
+    let mut lines = rejects.lines();
+    assert_eq!(lines.next(), Some("row,line,reason,detail"));
+    let mut n = 0;
+    for l in lines {
+        let f: Vec<&str> = l.split(',').collect();
+        let (row, line): (u64, u64) = (f[0].parse().unwrap(), f[1].parse().unwrap());
+        assert_eq!(line, row + 1, "{l}");
+        n += 1;
+    }
+    assert!(n > 0, "the synthetic sources have duplicate reports to drop");
 
     // Same sources, config and seeds: the same version, byte-identical tables.
     std::fs::remove_dir_all(p.path("work/windows")).unwrap();

@@ -338,16 +338,36 @@ impl IncidentTable {
 
     /// Writes the rejects as CSV with the header `row,line,reason,detail` (RFC 4180 quoting).
     pub fn write_reject_report(&self, path: impl AsRef<Path>) -> io::Result<()> {
-        let mut w = csv::Writer::from_path(path.as_ref())?;
+        std::fs::write(path, self.reject_report_csv(&[])?)
+    }
+
+    /// The reject report as CSV bytes (`row,line,reason,detail`, in row order): the reader's
+    /// rejects plus `later`, rows a later stage dropped, given as `(row, reason)` (their line
+    /// comes from the kept incidents; 0 if the row is not one of them).
+    pub fn reject_report_csv(&self, later: &[(u64, &str)]) -> io::Result<Vec<u8>> {
+        let line_of: BTreeMap<u64, u64> = self.incidents.iter().map(|i| (i.row, i.line)).collect();
+        let mut rows: Vec<(u64, u64, &str, &str)> = self
+            .rejects
+            .iter()
+            .map(|r| (r.row, r.line, r.reason.slug(), r.detail.as_str()))
+            .collect();
+        rows.extend(
+            later
+                .iter()
+                .map(|&(row, why)| (row, line_of.get(&row).copied().unwrap_or(0), why, "")),
+        );
+        rows.sort();
+        let mut w = csv::Writer::from_writer(Vec::new());
         w.write_record(["row", "line", "reason", "detail"])?;
-        for r in &self.rejects {
-            w.write_field(r.row.to_string())?;
-            w.write_field(r.line.to_string())?;
-            w.write_field(r.reason.slug())?;
-            w.write_field(&r.detail)?;
-            w.write_record(None::<&[u8]>)?;
+        for (row, line, reason, detail) in rows {
+            w.write_record([
+                row.to_string().as_str(),
+                line.to_string().as_str(),
+                reason,
+                detail,
+            ])?;
         }
-        w.flush()
+        w.into_inner().map_err(|e| e.into_error())
     }
 }
 

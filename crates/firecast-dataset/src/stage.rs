@@ -46,7 +46,7 @@ pub struct IgnitionsReport {
     pub land_mask: Option<String>,
 }
 
-/// Incidents → de-duplicated ignitions (`out`, Parquet) and a reject report (CSV: row,
+/// Incidents → de-duplicated ignitions (`out`, Parquet) and a reject report (CSV: row, line,
 /// reason, detail) listing every row that did not become an ignition.
 pub fn run_ignitions(
     incidents: &Path,
@@ -77,32 +77,10 @@ pub fn run_ignitions(
         .collect();
     let kept = crate::sampling::dedup_ignitions(&points, &params.rules, mask.as_ref());
 
-    // One report for every row that did not become an ignition, in row order.
-    let mut rows: Vec<(u64, String, String)> = table
-        .rejects
-        .iter()
-        .map(|r| (r.row, r.reason.slug().to_string(), r.detail.clone()))
-        .collect();
-    rows.extend(
-        kept.dropped
-            .iter()
-            .map(|(row, why)| (*row, why.to_string(), String::new())),
-    );
-    rows.sort();
-    let mut csv_out = Vec::new();
-    {
-        let mut w = csv::Writer::from_writer(&mut csv_out);
-        let werr = |e: csv::Error| DatasetError::Input {
-            path: reject_report.to_path_buf(),
-            message: e.to_string(),
-        };
-        w.write_record(["row", "reason", "detail"]).map_err(werr)?;
-        for (row, reason, detail) in &rows {
-            w.write_record([row.to_string().as_str(), reason, detail])
-                .map_err(werr)?;
-        }
-        w.flush().map_err(DatasetError::io("writing", reject_report))?;
-    }
+    // One report for every row that did not become an ignition, in row order, with its line.
+    let csv_out = table
+        .reject_report_csv(&kept.dropped)
+        .map_err(DatasetError::io("writing", reject_report))?;
     crate::write_atomically(reject_report, &csv_out)?;
 
     let mut kv = BTreeMap::new();
@@ -328,8 +306,9 @@ impl StageKind for IgnitionsStage {
         "data.ignitions"
     }
     fn version(&self) -> u32 {
-        // 2: provenance names files instead of absolute paths.
-        2
+        // 2: provenance names files instead of absolute paths. 3: the reject report gains
+        // the physical line of each row.
+        3
     }
     fn summary(&self) -> &'static str {
         "IRWIN/WFIGS incidents -> de-duplicated ignitions (5 km / 2 h rule, CONUS box, GRIDMET land mask)"
