@@ -11,5 +11,6 @@ mod env;
 mod identities;
 mod perf;
 mod properties;
+mod python_random;
 mod scenes;
 mod spread_csv;
