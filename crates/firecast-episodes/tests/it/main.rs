@@ -123,7 +123,11 @@ fn scenario_files_are_strict() {
 }
 
 fn wind_fixtures() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/gridmet")
+    // Run-time value first: the compiled-in one may name another clone sharing the target dir.
+    std::path::PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("tests/fixtures/gridmet")
 }
 
 fn with_weather(date: &str) -> Scenario {
