@@ -88,6 +88,8 @@ pub enum DatasetError {
     #[error(transparent)]
     Gridmet(#[from] firecast_data::gridmet::GridmetError),
     #[error(transparent)]
+    Store(#[from] firecast_store::StoreError),
+    #[error(transparent)]
     Incidents(#[from] firecast_data::incidents::IncidentError),
     #[error("{}: {message}", path.display())]
     Input { path: PathBuf, message: String },
@@ -129,20 +131,15 @@ pub fn hash_file(path: &Path) -> Result<String, DatasetError> {
 }
 
 /// Writes `bytes` to `path` through a temporary sibling and a rename, so a reader never
-/// sees a half-written file.
+/// sees a half-written file (the artifact store's writer, shared by every crate).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
-    let tmp = tmp_sibling(path);
-    std::fs::write(&tmp, bytes).map_err(DatasetError::io("writing", &tmp))?;
-    std::fs::rename(&tmp, path).map_err(DatasetError::io("renaming into place", path))
+    Ok(firecast_store::write_atomically(path, bytes)?)
 }
 
-/// `.<name>.tmp-<pid>` next to `path`.
+/// A hidden temporary sibling of `path` for this process, named like the pipeline's
+/// in-progress outputs so its leftover-cleanup recognises an interrupted one.
 pub fn tmp_sibling(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+    firecast_pipeline::fsutil::temp_sibling(path, &std::process::id().to_string())
 }
 
 /// Fisher–Yates with our own draws, so an order never depends on a library's algorithm.
