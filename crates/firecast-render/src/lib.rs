@@ -1,5 +1,6 @@
 //! Scientific visualisation for FireCast: shaded-relief basemaps, fire frames, PNG stills
-//! and animated GIFs.
+//! and animated GIFs, and charts for model evaluation and fire reports ([`chart`]: x–y
+//! charts, heatmaps, bar charts with error bars; text from the embedded bitmap [`font`]).
 //!
 //! The pipeline is
 //!
@@ -18,11 +19,21 @@
 use std::path::PathBuf;
 
 pub mod basemap;
+pub mod chart;
+pub mod font;
 pub mod frame;
 pub mod output;
 pub mod palette;
 
 pub use basemap::{Basemap, hillshade};
+pub use chart::{
+    Bar, BarChart, CellPercent, Chart, Heatmap, LegendPosition, Marker, OKABE_ITO, PlotArea, Series,
+    format_ticks, nice_ticks, viridis,
+};
+pub use font::{
+    Align, TextBox, TextStyle, draw_text, draw_text_aligned, draw_text_styled, draw_text_vertical,
+    text_height, text_width,
+};
 pub use frame::{FireFrame, render_frame, render_frame_into};
 pub use output::{GifWriter, write_png};
 

@@ -1,6 +1,8 @@
 //! Integration tests for firecast-render.
 #![allow(clippy::unwrap_used)]
 
+mod chart;
+
 use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
