@@ -104,6 +104,10 @@ pub struct WindowsArgs {
     pub samples: PathBuf,
     #[arg(long, value_name = "DIR")]
     pub gridmet: PathBuf,
+    /// Synthetic truth directory (`truth/` of `dataset synthesize`): each sample's true
+    /// ignition probability, stored as `true_ignition_probability` (never a feature).
+    #[arg(long, value_name = "DIR")]
+    pub truth: Option<PathBuf>,
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     #[command(flatten)]
@@ -331,7 +335,14 @@ pub fn run(settings: &Settings, command: DatasetCommand) -> anyhow::Result<ExitC
                     bar.set_length(total);
                     bar.set_position(done);
                 };
-                Ok(stage::run_windows(&a.samples, &a.gridmet, &cfg, dir, &progress)?)
+                Ok(stage::run_windows_with_truth(
+                    &a.samples,
+                    &a.gridmet,
+                    a.truth.as_deref(),
+                    &cfg,
+                    dir,
+                    &progress,
+                )?)
             })?;
             bar.finish_and_clear();
             print(settings, &m.report, || {
@@ -345,6 +356,12 @@ pub fn run(settings: &Settings, command: DatasetCommand) -> anyhow::Result<ExitC
                 );
                 for (reason, n) in &m.report.dropped {
                     println!("  dropped, {reason}: {n}");
+                }
+                if let Some(t) = &m.truth {
+                    println!(
+                        "true ignition probability for {} samples ({} on masked cells) from {} file(s)",
+                        t.samples_with_value, t.samples_masked, t.files_read
+                    );
                 }
                 println!("-> {}", a.out.display());
             })

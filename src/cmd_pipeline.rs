@@ -77,6 +77,7 @@ pub fn stage_kinds() -> StageKinds {
     kinds.register(firecast_episodes::EpisodesStage);
     kinds.register(firecast_episodes::RenderStage);
     firecast_dataset::stage::register(&mut kinds);
+    kinds.register(firecast_forecast::stage::ExperimentStage);
     kinds
 }
 
@@ -94,7 +95,7 @@ fn load(settings: &Settings, args: &PlanArgs) -> anyhow::Result<Plan> {
     )?)
 }
 
-fn engine(settings: &Settings, observer: Arc<dyn RunObserver>) -> anyhow::Result<Engine> {
+pub(crate) fn engine(settings: &Settings, observer: Arc<dyn RunObserver>) -> anyhow::Result<Engine> {
     let store = firecast_store::ArtifactStore::open(&settings.store, &settings.root)?;
     Ok(Engine {
         root: settings.root.clone(),

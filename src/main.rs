@@ -3,6 +3,7 @@
 
 mod cmd_artifacts;
 mod cmd_dataset;
+mod cmd_forecast;
 mod cmd_pipeline;
 mod cmd_runs;
 mod cmd_sim;
@@ -48,6 +49,12 @@ enum Command {
     /// versioned datasets, Kaggle import and publish.
     #[command(subcommand)]
     Dataset(cmd_dataset::DatasetCommand),
+    /// Forecasting experiments: Table III with intervals, plots and saved models.
+    #[command(subcommand)]
+    Experiment(cmd_forecast::ExperimentCommand),
+    /// Ignition forecasts from trained models.
+    #[command(subcommand)]
+    Forecast(cmd_forecast::ForecastCommand),
     /// Fire simulation: spread rates, suppression episodes with helitack agents.
     #[command(subcommand)]
     Sim(cmd_sim::SimCommand),
@@ -99,6 +106,8 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Artifacts(command) => cmd_artifacts::run(&settings, command),
         Command::Query { sql } => cmd_runs::query(&settings, &sql),
         Command::Dataset(command) => cmd_dataset::run(&settings, command),
+        Command::Experiment(command) => cmd_forecast::run_experiment_command(&settings, command),
+        Command::Forecast(command) => cmd_forecast::run_forecast_command(&settings, command),
         Command::Sim(command) => cmd_sim::run(&settings, command),
         Command::Bench(BenchCommand::Sim(args)) => cmd_sim::bench(&settings, &args),
         Command::Bench(BenchCommand::Gridmet(args)) => cmd_dataset::bench_gridmet(&settings, &args),

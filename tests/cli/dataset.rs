@@ -42,6 +42,8 @@ fn build_paper_dataset(p: &Project, out: &str) -> serde_json::Value {
             "work/samples.parquet",
             "--gridmet",
             gridmet.to_str().unwrap(),
+            "--truth",
+            p.path("src/truth").to_str().unwrap(),
             "--out",
             "work/windows",
         ]);
@@ -79,6 +81,7 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
     ]);
     assert!(synth["ignitions"].as_u64().unwrap() > 10, "{synth}");
     assert!(p.path("src/gridmet/vpd_2019.nc").is_file());
+    assert!(p.path("src/truth/ignition_probability_2019.nc").is_file());
     assert!(
         p.read("src/incidents/wfigs_incidents.csv")
             .starts_with("X,Y,OBJECTID,")
@@ -97,6 +100,12 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
     ] {
         assert!(p.path("data/a").join(f).is_file(), "{f} missing");
     }
+    // The generator's truth rides along per sample, not as a feature.
+    let truth = &first["true_probability"];
+    assert_eq!(truth["column"], "true_ignition_probability", "{first}");
+    assert_eq!(truth["samples_with_value"], first["samples"]);
+    assert!(truth["mean_positive"].as_f64().unwrap() > truth["mean_negative"].as_f64().unwrap());
+    assert!(!first["features"].as_array().unwrap().iter().any(|f| f == "true_ignition_probability"));
     let card = p.read("data/a/card.md");
     assert!(
         card.contains("## Samples per tier") && card.contains("How the sources were made"),

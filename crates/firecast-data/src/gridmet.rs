@@ -384,11 +384,13 @@ pub enum DimOrder {
     Other,
 }
 
-/// An open GRIDMET yearly file for one variable.
+/// An open GRIDMET yearly file for one variable (or for a companion grid in the same layout,
+/// such as the synthetic generator's true ignition probability; see [`GridmetFile::open_named`]).
 pub struct GridmetFile {
     nc: NcFile,
     path: PathBuf,
-    variable: GridmetVariable,
+    /// `None` for a file opened by variable name.
+    variable: Option<GridmetVariable>,
     var_name: String,
     /// Positions of the day, lat and lon axes among the variable's dimensions.
     axis_pos: [usize; 3],
@@ -414,7 +416,28 @@ impl fmt::Debug for GridmetFile {
 impl GridmetFile {
     /// Opens `path` (NetCDF-3 classic or NetCDF-4) and validates the variable and its grid.
     pub fn open(path: impl AsRef<Path>, variable: GridmetVariable) -> Result<Self> {
-        let path = path.as_ref().to_path_buf();
+        Self::open_impl(
+            path.as_ref(),
+            variable.netcdf_names(),
+            variable.short_name(),
+            Some(variable),
+        )
+    }
+
+    /// Opens the data variable `var_name` of a file laid out like a GRIDMET yearly file (the
+    /// same axes, dimension names and CF decoding), for grids that are not GRIDMET variables,
+    /// e.g. `ignition_probability` in the synthetic generator's `truth/` files.
+    pub fn open_named(path: impl AsRef<Path>, var_name: &str) -> Result<Self> {
+        Self::open_impl(path.as_ref(), &[var_name], var_name, None)
+    }
+
+    fn open_impl(
+        path: &Path,
+        names: &[&str],
+        short: &str,
+        variable: Option<GridmetVariable>,
+    ) -> Result<Self> {
+        let path = path.to_path_buf();
         if !path.is_file() {
             return Err(GridmetError::MissingFile { path });
         }
@@ -434,14 +457,13 @@ impl GridmetFile {
             .collect();
         let available = || all_vars.iter().map(|v| v.name().to_string()).collect::<Vec<_>>();
 
-        let var = variable
-            .netcdf_names()
+        let var = names
             .iter()
             .find_map(|n| all_vars.iter().find(|v| v.name() == *n))
             .ok_or_else(|| GridmetError::MissingVariable {
                 path: path.clone(),
-                short: variable.short_name().to_string(),
-                expected: variable.netcdf_names().iter().map(|s| s.to_string()).collect(),
+                short: short.to_string(),
+                expected: names.iter().map(|s| s.to_string()).collect(),
                 available: available(),
             })?;
         let var_name = var.name().to_string();
@@ -556,8 +578,9 @@ impl GridmetFile {
         &self.path
     }
 
-    /// The variable this file was opened for.
-    pub fn variable(&self) -> GridmetVariable {
+    /// The variable this file was opened for (`None` when opened by name with
+    /// [`GridmetFile::open_named`]).
+    pub fn variable(&self) -> Option<GridmetVariable> {
         self.variable
     }
 
@@ -706,7 +729,7 @@ impl GridmetFile {
             file_stride[self.axis_pos[1]],
             file_stride[self.axis_pos[2]],
         ];
-        let clamp_negative = self.variable == GridmetVariable::Pr;
+        let clamp_negative = self.variable == Some(GridmetVariable::Pr);
         let mut out = Vec::with_capacity(flat.len());
         for t in 0..lens[0] {
             for j in 0..lens[1] {

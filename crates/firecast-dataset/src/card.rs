@@ -224,6 +224,20 @@ pub fn render_card(ds: &BuiltDataset, ctx: &CardContext<'_>) -> String {
         t.n_features(),
         ds.version
     );
+    if let Some(truth) = crate::truth::summarize(t) {
+        let fmt = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.4}"));
+        let _ = writeln!(
+            md,
+            "`samples.parquet` has a column `{}`: the synthetic generator's true probability of at \
+             least one ignition at the sample's GRIDMET cell on its date, 1 − exp(−λ) ({} samples; \
+             mean {} on positives, {} on negatives) — the oracle that bounds any model's skill, \
+             **not a feature**: never use it as a model input.\n",
+            truth.column,
+            truth.samples_with_value,
+            fmt(truth.mean_positive),
+            fmt(truth.mean_negative)
+        );
+    }
     let _ = writeln!(md, "## Framing\n");
     match cfg.framing.kind {
         FramingKind::Paper => {

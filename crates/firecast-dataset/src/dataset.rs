@@ -381,6 +381,11 @@ fn version_id(table: &WindowTable, splits: &[&str], cfg: &DatasetConfig) -> Resu
         h.update(&s.cell.0.to_le_bytes());
         h.update(&s.cell.1.to_le_bytes());
         h.update(split.as_bytes());
+        // Hashed only when present, so datasets without truth keep their versions.
+        if let Some(p) = s.true_probability {
+            h.update(b"\x01true_probability");
+            h.update(&p.to_bits().to_le_bytes());
+        }
         h.update(b"\0");
     }
     for v in &table.values {
@@ -413,6 +418,10 @@ pub struct DatasetManifest {
     pub provenance: BTreeMap<String, String>,
     /// BLAKE3 of each file of the dataset.
     pub files: BTreeMap<String, String>,
+    /// The generator's true ignition probability column of `samples.parquet` (synthetic
+    /// sources built with their truth only; never a feature).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub true_probability: Option<crate::truth::TruthSummary>,
 }
 
 pub const MANIFEST_FILE: &str = "dataset.json";
@@ -455,6 +464,7 @@ pub fn write(
         config: cfg.clone(),
         provenance: provenance.clone(),
         files: BTreeMap::new(),
+        true_probability: crate::truth::summarize(&ds.table),
     };
     let json = |v: &dyn erased::Json| v.to_json();
     let mut kv = BTreeMap::new();

@@ -303,6 +303,8 @@ pub fn import(
             cell: (j, i),
             cell_lat: 49.4 - f64::from(j) / 24.0,
             cell_lon: -124.766_666_633_3 + f64::from(i) / 24.0,
+            // The published CSV is real data: there is no generator truth.
+            true_probability: None,
         });
         values.extend_from_slice(&w.values);
         labels.extend_from_slice(&w.labels);

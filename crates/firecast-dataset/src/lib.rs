@@ -6,7 +6,9 @@
 //! 3. [`windows::extract`]: GRIDMET weather windows, one pass per file;
 //! 4. [`dataset::build`]: a framing (`paper` or `forecast`), leak-free splits, normalisation
 //!    statistics from the training split, a version id, a dataset card and a map;
-//! 5. [`kaggle`]: the published FireCastRL CSV in and out.
+//! 5. [`kaggle`]: the published FireCastRL CSV in and out;
+//! 6. [`truth`]: for synthetic sources, the generator's true ignition probability per
+//!    sample (the oracle of a forecasting experiment; never a feature).
 //!
 //! Tables are Parquet (arrow-rs); the card's statistics are computed with polars.
 
@@ -24,6 +26,7 @@ pub mod sampling;
 pub mod stage;
 pub mod table;
 pub mod time;
+pub mod truth;
 pub mod windows;
 
 /// What kind of sample a row is.

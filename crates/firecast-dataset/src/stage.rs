@@ -16,6 +16,7 @@ use crate::dataset::{DatasetConfig, DatasetManifest};
 use crate::kaggle::{ImportConfig, ImportReport};
 use crate::land::LandMask;
 use crate::sampling::{IgnitionCounts, IgnitionRules, IncidentPoint, NegativeConfig, TierReport};
+use crate::truth::TruthReport;
 use crate::windows::{ExtractConfig, ExtractReport};
 use crate::{DatasetError, table};
 
@@ -168,6 +169,9 @@ pub struct WindowsManifest {
     pub grid: MapGrid,
     /// Where the windows came from (GRIDMET extraction or a Kaggle import).
     pub source: String,
+    /// The synthetic generator's truth looked up per sample, when it was given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth: Option<TruthReport>,
 }
 
 pub const WINDOWS_MANIFEST: &str = "windows.json";
@@ -180,8 +184,25 @@ pub fn run_windows(
     out_dir: &Path,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<WindowsManifest, DatasetError> {
+    run_windows_with_truth(samples, gridmet, None, cfg, out_dir, progress)
+}
+
+/// [`run_windows`], plus, with `truth` (a synthetic source's `truth/` folder), each sample's
+/// true ignition probability at its cell and event day ([`crate::truth::attach_truth`]).
+pub fn run_windows_with_truth(
+    samples: &Path,
+    gridmet: &Path,
+    truth: Option<&Path>,
+    cfg: &ExtractConfig,
+    out_dir: &Path,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<WindowsManifest, DatasetError> {
     let input = table::read_sample_list(samples)?;
-    let (windows, report) = crate::windows::extract(&input, gridmet, cfg, true, progress)?;
+    let (mut windows, report) = crate::windows::extract(&input, gridmet, cfg, true, progress)?;
+    let truth = match truth {
+        Some(dir) => Some(crate::truth::attach_truth(&mut windows.samples, dir, true)?),
+        None => None,
+    };
     let grid = MapGrid::from_mask(&LandMask::from_gridmet_dir(gridmet)?);
     let manifest = WindowsManifest {
         config: cfg.clone(),
@@ -190,6 +211,7 @@ pub fn run_windows(
         // Names, not absolute paths, so the same data built elsewhere is byte-identical;
         // the files themselves are identified by their hashes in the report.
         source: format!("GRIDMET files in `{}`", file_name(gridmet)),
+        truth,
     };
     write_windows(out_dir, &windows, &manifest)?;
     Ok(manifest)
@@ -246,6 +268,7 @@ pub fn run_import_kaggle(
         },
         grid: MapGrid::conus(),
         source: format!("Kaggle CSV `{}`", file_name(csv)),
+        truth: None,
     };
     write_windows(out_dir, &windows, &manifest)?;
     Ok((report, manifest))
@@ -268,6 +291,11 @@ pub fn run_dataset(
     }
     for (reason, n) in &wm.report.dropped {
         provenance.insert(format!("dropped at extraction: {reason}"), n.to_string());
+    }
+    if let Some(truth) = &wm.truth {
+        for (name, hash) in &truth.source_hashes {
+            provenance.insert(format!("truth {name}"), format!("blake3 {hash}"));
+        }
     }
     let model = match source_model {
         Some(p) => Some(std::fs::read_to_string(p).map_err(DatasetError::io("reading", p))?),
@@ -415,8 +443,8 @@ impl StageKind for WindowsStage {
         "data.windows"
     }
     fn version(&self) -> u32 {
-        // 2: provenance names files instead of absolute paths.
-        2
+        // 2: provenance names files instead of absolute paths. 3: the optional `truth` input.
+        3
     }
     fn summary(&self) -> &'static str {
         "samples + GRIDMET NetCDF -> weather windows (each file read once, in parallel)"
@@ -425,6 +453,12 @@ impl StageKind for WindowsStage {
         const IN: &[Port] = &[
             port("samples", true, "samples (Parquet)"),
             port("gridmet", true, "GRIDMET directory (<short>_<YYYY>.nc)"),
+            port(
+                "truth",
+                false,
+                "synthetic truth directory (ignition_probability_<YYYY>.nc): each sample's true \
+                 ignition probability, stored beside the features, never as one",
+            ),
         ];
         const OUT: &[Port] = &[port("windows", true, "window table (directory)")];
         Ports {
@@ -445,13 +479,18 @@ impl StageKind for WindowsStage {
         let cfg: ExtractConfig = ctx.params()?;
         let samples = ctx.input("samples")?.to_path_buf();
         let gridmet = ctx.input("gridmet")?.to_path_buf();
+        let truth = ctx.input_list("truth").first().cloned();
         let out = ctx.output("windows")?.to_path_buf();
         let bar = ctx.progress_bar(0, "GRIDMET files");
         let progress = |done: u64, total: u64| {
             bar.set_length(total);
             bar.set_position(done);
         };
-        let m = run_windows(&samples, &gridmet, &cfg, &out, &progress).map_err(stage_err)?;
+        let m = run_windows_with_truth(&samples, &gridmet, truth.as_deref(), &cfg, &out, &progress)
+            .map_err(stage_err)?;
+        if let Some(t) = &m.truth {
+            ctx.metric("samples_with_true_probability", 0, t.samples_with_value as f64);
+        }
         bar.finish_and_clear();
         ctx.metric("windows", 0, m.report.samples_out as f64);
         ctx.metric("gridmet_files_read", 0, m.report.files_read as f64);
@@ -519,8 +558,9 @@ impl StageKind for DatasetStage {
         "data.dataset"
     }
     fn version(&self) -> u32 {
-        // 2: provenance names files instead of absolute paths.
-        2
+        // 2: provenance names files instead of absolute paths. 3: carries the synthetic
+        // truth column of the windows (`true_ignition_probability`).
+        3
     }
     fn summary(&self) -> &'static str {
         "windows -> versioned Parquet dataset (paper or forecast framing, leak-free splits, card, map, normalisation)"
@@ -580,7 +620,10 @@ impl StageKind for DatasetStage {
         ctx.dataset(&DatasetRecord {
             name: format!("{}_samples", m.name),
             version: m.version.clone(),
-            schema_json: serde_json::to_string(&crate::table::sample_columns()).unwrap_or_default(),
+            schema_json: serde_json::to_string(&crate::table::sample_columns_with(
+                m.true_probability.is_some(),
+            ))
+            .unwrap_or_default(),
             rows: m.samples,
             location: dir.join(crate::table::SAMPLES_FILE).display().to_string(),
             metadata,
@@ -722,19 +765,33 @@ pub struct SynthReport {
     pub ignitions: u64,
     pub reported_records: u64,
     pub model_version: String,
+    /// Truth files written (`truth/ignition_probability_<YYYY>.nc`).
+    #[serde(default)]
+    pub truth_files: usize,
 }
 
 /// The file inside a synthetic source directory that documents the generative model.
 pub const SOURCE_MODEL_FILE: &str = "MODEL.md";
 
 /// Writes synthetic WFIGS + GRIDMET sources into `out_dir` (`gridmet/`, `incidents/`,
-/// `MODEL.md`).
+/// `truth/`, `MODEL.md`).
 pub fn run_synthesize(
     params: &SynthParams,
     out_dir: &Path,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<SynthReport, DatasetError> {
-    let cfg = params.to_config()?;
+    run_synthesize_with(params, out_dir, true, progress)
+}
+
+/// [`run_synthesize`], writing the `truth/` files only when `write_truth`.
+pub fn run_synthesize_with(
+    params: &SynthParams,
+    out_dir: &Path,
+    write_truth: bool,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<SynthReport, DatasetError> {
+    let mut cfg = params.to_config()?;
+    cfg.write_truth = write_truth;
     let summary =
         firecast_data::synth::generate(&cfg, out_dir, progress).map_err(|e| DatasetError::Input {
             path: out_dir.to_path_buf(),
@@ -754,6 +811,7 @@ pub fn run_synthesize(
         ignitions: summary.ignitions,
         reported_records: summary.reported_records,
         model_version: summary.model_version.to_string(),
+        truth_files: summary.truth_files.len(),
     })
 }
 
@@ -766,7 +824,8 @@ impl StageKind for SynthesizeStage {
         "data.synthesize"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: the optional `truth` output.
+        2
     }
     fn summary(&self) -> &'static str {
         "seeded synthetic sources in the real formats: WFIGS CSV + GRIDMET NetCDF (a test bed)"
@@ -776,6 +835,12 @@ impl StageKind for SynthesizeStage {
             port("gridmet", true, "GRIDMET files <short>_<YYYY>.nc (directory)"),
             port("incidents", true, "WFIGS-style incidents (CSV)"),
             port("model", true, "the generative model (Markdown)"),
+            port(
+                "truth",
+                false,
+                "true ignition probability per cell-day, ignition_probability_<YYYY>.nc \
+                 (directory; the oracle, not a weather variable)",
+            ),
         ];
         Ports {
             inputs: &[],
@@ -796,18 +861,20 @@ impl StageKind for SynthesizeStage {
         let gridmet = ctx.output("gridmet")?.to_path_buf();
         let incidents = ctx.output("incidents")?.to_path_buf();
         let model = ctx.output("model")?.to_path_buf();
+        // Optional: only a declared output is worth the generator's time and disk.
+        let truth = ctx.output("truth").ok().map(Path::to_path_buf);
         // Generate into a scratch directory beside the outputs, then move each part to its
         // declared (temporary) output path; the runner renames those into place.
         let scratch = crate::tmp_sibling(&gridmet.with_extension("synth"));
         let _ = std::fs::remove_dir_all(&scratch);
         let bar = ctx.progress_bar(0, "simulated days");
-        let report = run_synthesize(&params, &scratch, &mut |done, total| {
+        let report = run_synthesize_with(&params, &scratch, truth.is_some(), &mut |done, total| {
             bar.set_length(total);
             bar.set_position(done);
         })
         .map_err(stage_err)?;
         bar.finish_and_clear();
-        let moves = [
+        let mut moves = vec![
             (scratch.join("gridmet"), &gridmet),
             (
                 scratch
@@ -817,6 +884,9 @@ impl StageKind for SynthesizeStage {
             ),
             (scratch.join(SOURCE_MODEL_FILE), &model),
         ];
+        if let Some(truth) = &truth {
+            moves.push((scratch.join(firecast_data::synth::TRUTH_DIR), truth));
+        }
         for (from, to) in moves {
             std::fs::rename(&from, to)
                 .map_err(|e| StageError::msg(format!("moving {}: {e}", from.display())))?;

@@ -1,7 +1,8 @@
 //! The on-disk form of a window table: two Parquet files.
 //!
 //! - `samples.parquet`: one row per sample (place, instant, date, tier, label, GRIDMET cell,
-//!   and in a finished dataset its split);
+//!   in a finished dataset its split, and for synthetic sources built with their truth the
+//!   generator's `true_ignition_probability`, which is not a feature);
 //! - `days.parquet`: one row per (sample, day) — the long table, with the row's `wildfire`
 //!   label in the published CSV's sense and one column per weather variable.
 //!
@@ -28,10 +29,15 @@ use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
 
 use crate::time;
+use crate::truth::TRUE_PROBABILITY_COLUMN;
 use crate::windows::{WindowSample, WindowTable};
 use crate::{DatasetError, Tier, tmp_sibling};
 
-/// Version of the two-table layout; bump on any column change.
+/// Version of the two-table layout; bump on any column change that a reader of the previous
+/// version would misread. The optional trailing `true_ignition_probability` column of
+/// `samples.parquet` did not bump it: it is written only when some sample has a value (so
+/// every other file is byte-identical to before), columns are read by name (so a reader that
+/// predates it skips it), and a file without it reads back as `None`.
 pub const SCHEMA_VERSION: &str = "1";
 pub const SAMPLES_FILE: &str = "samples.parquet";
 pub const DAYS_FILE: &str = "days.parquet";
@@ -46,7 +52,7 @@ fn pq_err(path: &Path) -> impl Fn(String) -> DatasetError + '_ {
     }
 }
 
-fn samples_schema(with_split: bool) -> Schema {
+fn samples_schema(with_split: bool, with_truth: bool) -> Schema {
     let mut fields = vec![
         Field::new("sample_id", DataType::UInt32, false),
         Field::new("latitude", DataType::Float64, false),
@@ -67,6 +73,9 @@ fn samples_schema(with_split: bool) -> Schema {
     ];
     if with_split {
         fields.push(Field::new("split", DataType::Utf8, false));
+    }
+    if with_truth {
+        fields.push(Field::new(TRUE_PROBABILITY_COLUMN, DataType::Float32, true));
     }
     Schema::new(fields)
 }
@@ -119,8 +128,9 @@ pub fn write_window_table(
     let props = properties(kv);
 
     let path = dir.join(SAMPLES_FILE);
-    let schema = Arc::new(samples_schema(splits.is_some()));
     let s = &table.samples;
+    let with_truth = has_true_probability(table);
+    let schema = Arc::new(samples_schema(splits.is_some(), with_truth));
     let mut columns: Vec<ArrayRef> = vec![
         Arc::new(UInt32Array::from_iter_values(s.iter().map(|x| x.sample_id))),
         Arc::new(Float64Array::from_iter_values(s.iter().map(|x| x.lat))),
@@ -145,6 +155,11 @@ pub fn write_window_table(
     ];
     if let Some(splits) = splits {
         columns.push(Arc::new(StringArray::from_iter_values(splits.iter().copied())));
+    }
+    if with_truth {
+        columns.push(Arc::new(Float32Array::from(
+            s.iter().map(|x| x.true_probability).collect::<Vec<_>>(),
+        )));
     }
     let batch = RecordBatch::try_new(schema.clone(), columns).map_err(|e| pq_err(&path)(e.to_string()))?;
     write_batches(&path, schema, &props, std::iter::once(Ok(batch)))?;
@@ -277,6 +292,7 @@ pub fn read_window_table(dir: &Path) -> Result<StoredTable, DatasetError> {
         }
     }
     let has_split = names.iter().any(|n| n == "split");
+    let has_truth = names.iter().any(|n| n == TRUE_PROBABILITY_COLUMN);
     let mut samples = Vec::new();
     let mut splits = has_split.then(Vec::new);
     for b in &batches {
@@ -291,6 +307,11 @@ pub fn read_window_table(dir: &Path) -> Result<StoredTable, DatasetError> {
         let cc = column::<UInt32Array>(b, "cell_col", &path)?;
         let clat = column::<Float64Array>(b, "cell_latitude", &path)?;
         let clon = column::<Float64Array>(b, "cell_longitude", &path)?;
+        let truth = if has_truth {
+            Some(column::<Float32Array>(b, TRUE_PROBABILITY_COLUMN, &path)?)
+        } else {
+            None
+        };
         for k in 0..b.num_rows() {
             let tier = Tier::parse(tier.value(k)).ok_or_else(|| DatasetError::Parquet {
                 path: path.clone(),
@@ -307,6 +328,7 @@ pub fn read_window_table(dir: &Path) -> Result<StoredTable, DatasetError> {
                 cell: (cr.value(k), cc.value(k)),
                 cell_lat: clat.value(k),
                 cell_lon: clon.value(k),
+                true_probability: truth.and_then(|c| (!c.is_null(k)).then(|| c.value(k))),
             });
         }
         if let Some(splits) = splits.as_mut() {
@@ -449,9 +471,21 @@ pub fn read_sample_list(path: &Path) -> Result<Vec<crate::windows::SampleIn>, Da
     Ok(out)
 }
 
-/// Column names of `samples.parquet` in a finished dataset.
+/// Whether `samples.parquet` of `table` gets the [`TRUE_PROBABILITY_COLUMN`] (some sample
+/// has a value).
+pub fn has_true_probability(table: &WindowTable) -> bool {
+    table.samples.iter().any(|s| s.true_probability.is_some())
+}
+
+/// Column names of `samples.parquet` in a finished dataset without truth.
 pub fn sample_columns() -> Vec<String> {
-    samples_schema(true)
+    sample_columns_with(false)
+}
+
+/// Column names of `samples.parquet` in a finished dataset, with or without the
+/// [`TRUE_PROBABILITY_COLUMN`].
+pub fn sample_columns_with(truth: bool) -> Vec<String> {
+    samples_schema(true, truth)
         .fields()
         .iter()
         .map(|f| f.name().clone())

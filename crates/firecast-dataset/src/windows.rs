@@ -157,6 +157,10 @@ pub struct WindowSample {
     pub cell: (u32, u32),
     pub cell_lat: f64,
     pub cell_lon: f64,
+    /// The synthetic generator's true probability of at least one ignition at `cell` on
+    /// `event_day` (`1 − exp(−λ)`, see [`crate::truth`]): the oracle's score. `None` for real
+    /// data, Kaggle imports, and windows extracted without truth. Never a feature.
+    pub true_probability: Option<f32>,
 }
 
 impl WindowSample {
@@ -327,6 +331,7 @@ pub fn extract(
             cell: crate::geo::gridmet_cell_index(grid.lats()[j], grid.lons()[i]),
             cell_lat: grid.lats()[j],
             cell_lon: grid.lons()[i],
+            true_probability: None,
         });
     }
 

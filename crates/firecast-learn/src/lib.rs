@@ -63,3 +63,19 @@ pub fn torch_info() -> TorchInfo {
         threads: tch::get_num_threads(),
     }
 }
+
+/// Intra-op threads of libtorch (at least 1). Set once per command so a 2-core machine is not
+/// oversubscribed and the same settings give the same numbers.
+pub fn set_threads(n: usize) {
+    tch::set_num_threads(n.max(1) as i32);
+}
+
+/// Seeds libtorch's generators (CPU and every CUDA device) and turns off cuDNN's
+/// benchmark mode, whose algorithm choice is not reproducible.
+pub fn seed_everything(seed: u64) {
+    tch::manual_seed(seed as i64);
+    if tch::Cuda::is_available() {
+        tch::Cuda::manual_seed_all(seed);
+        tch::Cuda::cudnn_set_benchmark(false);
+    }
+}

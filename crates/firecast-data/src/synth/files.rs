@@ -1,4 +1,5 @@
-//! GRIDMET-style yearly files (`<short>_<YYYY>.nc`): schema, packing, atomic writing.
+//! GRIDMET-style yearly files (`<short>_<YYYY>.nc`, and the true ignition probability
+//! `truth/ignition_probability_<YYYY>.nc` in the same layout): schema, packing, atomic writing.
 
 use std::fs::{self, File};
 use std::io::BufWriter;
@@ -8,8 +9,30 @@ use rayon::prelude::*;
 
 use super::grid::{GRID_STEP, GridWindow};
 use super::netcdf3::{Attr, ClassicWriter, NcType, Schema, Version};
-use super::{MODEL_VERSION, SynthError};
+use super::{MODEL_VERSION, SynthError, TRUTH_VARIABLE, truth_file_name};
 use crate::gridmet::GridmetVariable;
+
+/// What a yearly file holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Content {
+    /// A GRIDMET variable (`gridmet/<short>_<YYYY>.nc`).
+    Weather(GridmetVariable),
+    /// The generator's probability of at least one ignition per cell-day,
+    /// `1 − exp(−λ)` (`truth/ignition_probability_<YYYY>.nc`, always float32).
+    Truth,
+}
+
+impl Content {
+    pub fn file_name(self, year: i32) -> String {
+        match self {
+            Self::Weather(v) => v.file_name(year),
+            Self::Truth => truth_file_name(year),
+        }
+    }
+}
+
+/// The fill of float32 data variables (GRIDMET's old `missing_value`).
+const FLOAT_FILL: f32 = -32767.0;
 
 /// How a year's file is stored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -148,7 +171,7 @@ fn describe(v: GridmetVariable) -> (&'static str, Option<&'static str>, &'static
 
 /// Builds the header of one yearly file.
 pub(crate) fn schema(
-    var: GridmetVariable,
+    content: Content,
     vintage: Vintage,
     window: &GridWindow,
     n_days: usize,
@@ -165,9 +188,15 @@ pub(crate) fn schema(
     let packed = vintage == Vintage::PackedLatLon;
 
     let g = &mut s.attrs;
+    let truth = content == Content::Truth;
     g.push(Attr::text(
         "title",
-        "FireCast SYNTHETIC daily weather in GRIDMET format (not observations)",
+        if truth {
+            "FireCast SYNTHETIC true ignition probability on the GRIDMET grid (generator truth, \
+             not a weather variable)"
+        } else {
+            "FireCast SYNTHETIC daily weather in GRIDMET format (not observations)"
+        },
     ));
     g.push(Attr::text(
         "source",
@@ -180,8 +209,14 @@ pub(crate) fn schema(
     g.push(Attr::text("firecast_seed", seed.to_string()));
     g.push(Attr::text(
         "comment",
-        "Synthetic test-bed data: realistic formats and plausible physics, no real weather. \
-         Do not use for science about the real world.",
+        if truth {
+            "The generator's probability of at least one ignition in each land cell-day, \
+             1 - exp(-lambda) of the Poisson rate it drew the ignitions from: the oracle of a \
+             forecasting experiment. Never a model input."
+        } else {
+            "Synthetic test-bed data: realistic formats and plausible physics, no real weather. \
+             Do not use for science about the real world."
+        },
     ));
     if packed {
         g.push(Attr::text("Conventions", "CF-1.6"));
@@ -274,38 +309,73 @@ pub(crate) fn schema(
         );
     }
 
-    let (description, standard, cell_methods) = describe(var);
     let mut attrs = Vec::new();
-    if packed {
-        let p = packing(var);
-        if p.unsigned {
-            attrs.push(Attr::text("_Unsigned", "true"));
+    let name = match content {
+        Content::Weather(var) => {
+            let (description, standard, cell_methods) = describe(var);
+            if packed {
+                let p = packing(var);
+                if p.unsigned {
+                    attrs.push(Attr::text("_Unsigned", "true"));
+                }
+                attrs.push(Attr::short("_FillValue", p.fill()));
+                attrs.push(Attr::short("missing_value", p.fill()));
+                attrs.push(Attr::double("scale_factor", p.scale));
+                attrs.push(Attr::double("add_offset", p.offset));
+            } else {
+                attrs.push(Attr::float("missing_value", FLOAT_FILL));
+            }
+            attrs.push(Attr::text("units", var.units()));
+            attrs.push(Attr::text("description", description));
+            attrs.push(Attr::text("long_name", var.short_name()));
+            if let Some(sn) = standard {
+                attrs.push(Attr::text("standard_name", sn));
+            }
+            attrs.push(Attr::text("cell_methods", cell_methods));
+            var.netcdf_names()[0]
         }
-        attrs.push(Attr::short("_FillValue", p.fill()));
-        attrs.push(Attr::short("missing_value", p.fill()));
-        attrs.push(Attr::double("scale_factor", p.scale));
-        attrs.push(Attr::double("add_offset", p.offset));
-    } else {
-        attrs.push(Attr::float("missing_value", -32767.0));
-    }
-    attrs.push(Attr::text("units", var.units()));
-    attrs.push(Attr::text("description", description));
-    attrs.push(Attr::text("long_name", var.short_name()));
-    if let Some(sn) = standard {
-        attrs.push(Attr::text("standard_name", sn));
-    }
-    attrs.push(Attr::text("cell_methods", cell_methods));
+        Content::Truth => {
+            // Unpacked float32: probabilities down to 1e-9 matter for ranking, and a fixed
+            // 16-bit step would flatten them.
+            attrs.push(Attr::float("_FillValue", FLOAT_FILL));
+            attrs.push(Attr::float("missing_value", FLOAT_FILL));
+            attrs.push(Attr::text("units", "1"));
+            attrs.push(Attr::text(
+                "description",
+                "Probability of at least one ignition in the cell on the day, 1 - exp(-lambda), \
+                 lambda = s*(lambda_h + lambda_l + lambda_rx) of the synthetic ignition model \
+                 (generator truth; not a feature)",
+            ));
+            attrs.push(Attr::text("long_name", TRUTH_VARIABLE));
+            TRUTH_VARIABLE
+        }
+    };
     attrs.push(Attr::text("coordinates", "lon lat"));
     if packed {
         attrs.push(Attr::text("grid_mapping", "crs"));
     }
-    let (dims, dtype) = if packed {
-        (vec![day_d, lat_d, lon_d], NcType::Short)
+    let dims = if packed {
+        vec![day_d, lat_d, lon_d]
     } else {
-        (vec![day_d, lon_d, lat_d], NcType::Float)
+        vec![day_d, lon_d, lat_d]
     };
-    s.add_var(var.netcdf_names()[0], dtype, &dims, attrs);
+    let dtype = match content {
+        Content::Weather(_) if packed => NcType::Short,
+        _ => NcType::Float,
+    };
+    s.add_var(name, dtype, &dims, attrs);
     s
+}
+
+/// How the data variable's values are stored.
+#[derive(Debug, Clone, Copy)]
+enum Encoding {
+    /// `(day, lat, lon)` packed 16-bit integers.
+    Packed(Packing),
+    /// `(day, lat, lon)` float32 (the truth in a packed-vintage year).
+    FloatLatLon,
+    /// `(day, lon, lat)` float32.
+    FloatLonLat,
 }
 
 /// Writes one variable-year to `.<name>.tmp-<pid>` and renames it to `<name>` on
@@ -314,8 +384,7 @@ pub(crate) struct GridmetWriter {
     writer: Option<ClassicWriter<BufWriter<File>>>,
     tmp: PathBuf,
     dest: PathBuf,
-    vintage: Vintage,
-    packing: Packing,
+    encoding: Encoding,
     n_lat: usize,
     n_lon: usize,
     bytes: Vec<u8>,
@@ -334,7 +403,7 @@ impl GridmetWriter {
     #[allow(clippy::too_many_arguments)]
     pub fn create(
         dir: &Path,
-        var: GridmetVariable,
+        content: Content,
         year: i32,
         days: &[i32],
         vintage: Vintage,
@@ -342,16 +411,20 @@ impl GridmetWriter {
         seed: u64,
         version: Version,
     ) -> Result<Self, SynthError> {
-        let dest = dir.join(var.file_name(year));
+        let dest = dir.join(content.file_name(year));
         let tmp = temp_path(&dest);
-        let schema = schema(var, vintage, window, days.len(), seed);
+        let schema = schema(content, vintage, window, days.len(), seed);
+        let encoding = match (content, vintage) {
+            (Content::Weather(v), Vintage::PackedLatLon) => Encoding::Packed(packing(v)),
+            (Content::Truth, Vintage::PackedLatLon) => Encoding::FloatLatLon,
+            (_, Vintage::FloatLonLat) => Encoding::FloatLonLat,
+        };
         let file = File::create(&tmp).map_err(|e| SynthError::io(&tmp, e))?;
         let mut me = Self {
             writer: None,
             tmp,
             dest,
-            vintage,
-            packing: packing(var),
+            encoding,
             n_lat: window.n_lat,
             n_lon: window.n_lon,
             bytes: Vec::new(),
@@ -382,10 +455,10 @@ impl GridmetWriter {
                 super::netcdf3::NcWriteError::Sequence("writer already finished".into()),
             ));
         };
-        let r = match self.vintage {
-            Vintage::PackedLatLon => {
+        let fill = |v: f32| if v.is_nan() { FLOAT_FILL } else { v };
+        let r = match self.encoding {
+            Encoding::Packed(p) => {
                 self.bytes.resize(grid.len() * 2, 0);
-                let p = self.packing;
                 self.bytes
                     .par_chunks_mut(n_lon * 2)
                     .zip(grid.par_chunks(n_lon))
@@ -396,16 +469,26 @@ impl GridmetWriter {
                     });
                 w.write_be_bytes(NcType::Short, &self.bytes)
             }
-            Vintage::FloatLonLat => {
+            Encoding::FloatLatLon => {
+                self.bytes.resize(grid.len() * 4, 0);
+                self.bytes
+                    .par_chunks_mut(n_lon * 4)
+                    .zip(grid.par_chunks(n_lon))
+                    .for_each(|(out, row)| {
+                        for (o, &v) in out.chunks_exact_mut(4).zip(row) {
+                            o.copy_from_slice(&fill(v).to_be_bytes());
+                        }
+                    });
+                w.write_be_bytes(NcType::Float, &self.bytes)
+            }
+            Encoding::FloatLonLat => {
                 self.bytes.resize(grid.len() * 4, 0);
                 self.bytes
                     .par_chunks_mut(n_lat * 4)
                     .enumerate()
                     .for_each(|(i, out)| {
                         for (j, o) in out.chunks_exact_mut(4).enumerate() {
-                            let v = grid[j * n_lon + i];
-                            let v = if v.is_nan() { -32767.0f32 } else { v };
-                            o.copy_from_slice(&v.to_be_bytes());
+                            o.copy_from_slice(&fill(grid[j * n_lon + i]).to_be_bytes());
                         }
                     });
                 w.write_be_bytes(NcType::Float, &self.bytes)

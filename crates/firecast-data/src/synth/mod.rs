@@ -1,6 +1,8 @@
 //! Seeded synthetic sources in the real formats: GRIDMET-style yearly NetCDF files
 //! (`gridmet/<short>_<YYYY>.nc`, NetCDF classic CDF-1/CDF-2) and a WFIGS-style incident CSV
-//! (`incidents/wfigs_incidents.csv`).
+//! (`incidents/wfigs_incidents.csv`); on request also the generator's true ignition
+//! probability per cell-day in the same layout (`truth/ignition_probability_<YYYY>.nc`,
+//! [`SynthConfig::write_truth`]), the oracle of a forecasting experiment.
 //!
 //! **This is a test bed, not data.** The weather is a seeded stochastic model with plausible
 //! climatology, persistence, spatial correlation and NFDRS-style fuel-moisture integration
@@ -46,6 +48,32 @@ pub const MODEL_VERSION: &str = "firecast-synth-1.0";
 
 /// File name of the incidents CSV inside `<out_dir>/incidents/`.
 pub const INCIDENTS_CSV: &str = "wfigs_incidents.csv";
+
+/// Folder of the truth files inside the output directory (beside `gridmet/`, never in it, so
+/// no GRIDMET reader takes the truth for weather).
+pub const TRUTH_DIR: &str = "truth";
+
+/// NetCDF variable (and file-name stem) of the true probability of at least one ignition per
+/// cell-day, `1 − exp(−λ)`.
+pub const TRUTH_VARIABLE: &str = "ignition_probability";
+
+/// The truth file of `year`: `ignition_probability_<YYYY>.nc`.
+pub fn truth_file_name(year: i32) -> String {
+    format!("{TRUTH_VARIABLE}_{year:04}.nc")
+}
+
+/// The year of a truth file name `ignition_probability_<YYYY>.nc` (directories are ignored).
+pub fn truth_file_year(path: impl AsRef<Path>) -> Option<i32> {
+    let name = path.as_ref().file_name()?.to_str()?;
+    let year = name
+        .strip_suffix(".nc")?
+        .strip_prefix(TRUTH_VARIABLE)?
+        .strip_prefix('_')?;
+    if year.len() != 4 || !year.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    year.parse().ok()
+}
 
 /// Storage layout of the yearly files.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -97,11 +125,15 @@ pub struct SynthConfig {
     pub duplicate_fraction: f64,
     /// NetCDF classic version ([`NcVersion::Auto`]: CDF-2 only when a file exceeds 2 GiB).
     pub netcdf_version: NcVersion,
+    /// Whether to write `truth/ignition_probability_<YYYY>.nc` (default false: a CONUS year
+    /// is 1.2 GB of float32, and only forecasting experiments need it).
+    pub write_truth: bool,
 }
 
 impl SynthConfig {
     /// A configuration with the defaults: all 16 variables, [`DimOrderChoice::ByVintage`],
-    /// rate scale 1, incidents written, 365 warm-up days, 6 % duplicates, automatic format.
+    /// rate scale 1, incidents written, 365 warm-up days, 6 % duplicates, automatic format,
+    /// no truth files.
     pub fn new(seed: u64, region: Region, years: (i32, i32)) -> Self {
         Self {
             seed,
@@ -114,6 +146,7 @@ impl SynthConfig {
             warmup_days: 365,
             duplicate_fraction: 0.06,
             netcdf_version: NcVersion::Auto,
+            write_truth: false,
         }
     }
 }
@@ -123,6 +156,9 @@ impl SynthConfig {
 pub struct SynthSummary {
     /// The NetCDF files, by year then in the order of [`SynthConfig::variables`].
     pub gridmet_files: Vec<PathBuf>,
+    /// The truth files (`truth/ignition_probability_<YYYY>.nc`), by year; empty unless
+    /// [`SynthConfig::write_truth`].
+    pub truth_files: Vec<PathBuf>,
     /// The incidents CSV, when written.
     pub incidents_csv: Option<PathBuf>,
     /// The grid window.
@@ -222,7 +258,8 @@ fn validate(config: &SynthConfig) -> Result<(), SynthError> {
     Ok(())
 }
 
-/// Generates the configured sources under `out_dir` (`gridmet/` and `incidents/` are created).
+/// Generates the configured sources under `out_dir` (`gridmet/` and `incidents/` are created,
+/// and `truth/` with [`SynthConfig::write_truth`]).
 ///
 /// `progress(done, total)` is called after every simulated day (warm-up included). Every file
 /// is written to `.<name>.tmp-<pid>` in its directory and renamed when complete.
@@ -249,40 +286,55 @@ pub fn generate(
 
     let grid_dir = out_dir.join("gridmet");
     let inc_dir = out_dir.join("incidents");
+    let truth_dir = out_dir.join(TRUTH_DIR);
     if !variables.is_empty() {
         fs::create_dir_all(&grid_dir).map_err(|e| SynthError::io(&grid_dir, e))?;
     }
     if config.write_incidents {
         fs::create_dir_all(&inc_dir).map_err(|e| SynthError::io(&inc_dir, e))?;
     }
+    if config.write_truth {
+        fs::create_dir_all(&truth_dir).map_err(|e| SynthError::io(&truth_dir, e))?;
+    }
 
     let mut world = weather::World::new(config.seed, window, day0);
     let mut state = vec![weather::FuelState::default(); world.land_cells()];
     let all_index = |v: GridmetVariable| GridmetVariable::ALL.iter().position(|&a| a == v).unwrap_or(0);
-    let slots: Vec<(usize, usize)> = variables
+    // One output grid per file written each day: the variables, then the truth.
+    let mut contents: Vec<files::Content> = variables.iter().map(|&v| files::Content::Weather(v)).collect();
+    let mut slots: Vec<(usize, usize)> = variables
         .iter()
         .enumerate()
         .map(|(k, &v)| (all_index(v), k))
         .collect();
-    let mut outputs: Vec<Vec<f32>> = vec![vec![f32::NAN; window.cells()]; variables.len()];
+    if config.write_truth {
+        slots.push((weather::idx::TRUTH, contents.len()));
+        contents.push(files::Content::Truth);
+    }
+    let mut outputs: Vec<Vec<f32>> = vec![vec![f32::NAN; window.cells()]; contents.len()];
     let total = (last_day - day0 + 1) as u64;
     let mut candidates = Vec::new();
-    let mut writers: Vec<files::GridmetWriter> = Vec::new();
+    let mut writers: Vec<(files::Content, files::GridmetWriter)> = Vec::new();
     let mut gridmet_files = Vec::new();
+    let mut truth_files = Vec::new();
 
     for (done, day) in (day0..=last_day).enumerate() {
         world.advance(day);
         let record = day >= first_day;
         let (y, m, d) = day_to_ymd(day);
-        if record && m == 1 && d == 1 && !variables.is_empty() {
+        if record && m == 1 && d == 1 && !contents.is_empty() {
             let days: Vec<i32> = (date(y, 1, 1)?..=date(y, 12, 31)?).collect();
             let vintage = config.dim_order.vintage(y);
-            writers = variables
+            writers = contents
                 .iter()
-                .map(|&v| {
+                .map(|&c| {
+                    let dir = match c {
+                        files::Content::Weather(_) => &grid_dir,
+                        files::Content::Truth => &truth_dir,
+                    };
                     files::GridmetWriter::create(
-                        &grid_dir,
-                        v,
+                        dir,
+                        c,
                         y,
                         &days,
                         vintage,
@@ -290,6 +342,7 @@ pub fn generate(
                         config.seed,
                         config.netcdf_version,
                     )
+                    .map(|w| (c, w))
                 })
                 .collect::<Result<_, _>>()?;
         }
@@ -301,12 +354,16 @@ pub fn generate(
         };
         candidates.extend(world.run_day(&ctx, record, &mut state, outs, sl));
         if record {
-            for (w, grid) in writers.iter_mut().zip(&outputs) {
+            for ((_, w), grid) in writers.iter_mut().zip(&outputs) {
                 w.write_day(grid)?;
             }
             if m == 12 && d == 31 {
-                for w in writers.drain(..) {
-                    gridmet_files.push(w.finish()?);
+                for (c, w) in writers.drain(..) {
+                    let path = w.finish()?;
+                    match c {
+                        files::Content::Weather(_) => gridmet_files.push(path),
+                        files::Content::Truth => truth_files.push(path),
+                    }
                 }
             }
         }
@@ -321,6 +378,7 @@ pub fn generate(
     };
     Ok(SynthSummary {
         gridmet_files,
+        truth_files,
         incidents_csv,
         window,
         n_lat: window.n_lat,
@@ -365,6 +423,13 @@ byte-identical files.
   Great Lakes, Canada, Mexico) are masked in every variable.
 * `incidents/wfigs_incidents.csv`: the 97 columns of a real 2023 WFIGS export in order, dates
   `YYYY/MM/DD HH:MM:SS+00` (UTC), fields FireCast has filled, the rest empty.
+* `truth/ignition_probability_<YYYY>.nc` (when asked for: the `truth` output of
+  `data.synthesize`, `firecast dataset synthesize`): the generator's true probability of at least
+  one ignition in each land cell-day, `ignition_probability = 1 − exp(−λ)` with λ the Poisson rate
+  of the Ignitions section, float32 with `_FillValue` = `missing_value` = −32767 off land, in the
+  layout of that year's GRIDMET files (dimension order, `lat`/`lon`/`day` axes, day numbering,
+  `crs`). It is the oracle of a forecasting experiment — the best any model can score on these
+  data — never a weather variable nor a model input, hence its own folder.
 
 ## Static world (per cell; seeded, identical for any region)
 

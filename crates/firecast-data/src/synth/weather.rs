@@ -31,7 +31,7 @@ use super::noise::{
     ArLattice, Axis, Stream, hash_with, interp_col, key, normal_q, normal_quantile, triangular_pair, unit,
 };
 
-/// Index of each output in `GridmetVariable::ALL` order.
+/// Index of each output in `GridmetVariable::ALL` order, then the extra outputs.
 pub(crate) mod idx {
     pub const PR: usize = 0;
     pub const RMAX: usize = 1;
@@ -49,6 +49,10 @@ pub(crate) mod idx {
     pub const PET: usize = 13;
     pub const ETR: usize = 14;
     pub const TH: usize = 15;
+    /// Not a GRIDMET variable: the probability of at least one ignition, `1 − exp(−λ)`.
+    pub const TRUTH: usize = 16;
+    /// Number of outputs.
+    pub const N: usize = 17;
 }
 
 /// NFDRS 1978 24-hour response factor of the 100-h fuel: `1 − 0.87·exp(−24/100)`.
@@ -408,7 +412,7 @@ impl World {
         let key_a = key(self.seed, Stream::CellNoiseA, i64::from(ctx.day));
         let key_b = key(self.seed, Stream::CellNoiseB, i64::from(ctx.day));
         let key_i = key(self.seed, Stream::Ignition, i64::from(ctx.day));
-        let mut vals = [f32::NAN; 16];
+        let mut vals = [f32::NAN; idx::N];
         const INV24: f32 = 1.0 / 24.0;
 
         // Cells go through the model in chunks, one stage at a time: the stages are long chains
@@ -659,14 +663,20 @@ impl World {
                 vals[idx::ERC] = erc[k];
                 vals[idx::FM100] = st.fm100;
                 vals[idx::FM1000] = st.fm1000;
+                // The draw below gives an ignition with probability exactly 1 − exp(−λ), so this
+                // is the truth the forecasting oracle scores with (computed as −expm1(−λ) so tiny
+                // rates keep their precision).
+                let rates = lam[k];
+                let total = f64::from(ctx.rate_scale * (rates[0] + rates[1] + rates[2]));
+                if need.truth {
+                    vals[idx::TRUTH] = (-(-total).exp_m1()) as f32;
+                }
                 for &(v, o) in slots {
                     outs[o][col] = vals[v];
                 }
 
                 // Ignitions: N ~ Poisson(λ) by inverse CDF (see `ignitions` for the model).
                 if ctx.sample_ignitions {
-                    let rates = lam[k];
-                    let total = f64::from(ctx.rate_scale * (rates[0] + rates[1] + rates[2]));
                     let u = unit(hash_with(key_i, u64::from(c.gid)));
                     // No ignition when u < exp(−λ); as exp(−λ) ≥ 1 − λ, u < 1 − λ settles the
                     // common case without an exp.
@@ -722,6 +732,8 @@ pub(crate) struct Needs {
     pub bi: bool,
     pub rad: bool,
     pub sph: bool,
+    /// The ignition probability (only meaningful when ignitions are sampled).
+    pub truth: bool,
 }
 
 impl Needs {
@@ -734,6 +746,7 @@ impl Needs {
             bi: has(idx::BI),
             rad: has(idx::SRAD) || has(idx::PET) || has(idx::ETR),
             sph: has(idx::SPH),
+            truth: has(idx::TRUTH),
         }
     }
 }

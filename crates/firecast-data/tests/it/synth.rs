@@ -8,8 +8,9 @@ use std::process::Command;
 
 use firecast_data::gridmet::{DimOrder, GridmetFile, GridmetVariable, day_to_ymd, ymd_to_day};
 use firecast_data::synth::{
-    DimOrderChoice, GridWindow, IgnitionCause, NcVersion, Region, SynthConfig, SynthSummary, WFIGS_HEADER,
-    generate, grid_lat, grid_lon, is_land, land_mask, packing,
+    DimOrderChoice, GridWindow, IgnitionCause, NcVersion, Region, SynthConfig, SynthSummary, TRUTH_VARIABLE,
+    WFIGS_HEADER, generate, grid_lat, grid_lon, is_land, land_mask, packing, truth_file_name,
+    truth_file_year,
 };
 use netcdf_reader::NcFile;
 
@@ -203,7 +204,10 @@ fn both_dimension_orders_can_be_forced_and_cdf2_written() {
 
 fn file_bytes(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
     let mut out = Vec::new();
-    for sub in ["gridmet", "incidents"] {
+    for sub in ["gridmet", "incidents", "truth"] {
+        if !dir.join(sub).is_dir() {
+            continue;
+        }
         let mut names: Vec<PathBuf> = std::fs::read_dir(dir.join(sub))
             .unwrap()
             .map(|e| e.unwrap().path())
@@ -223,6 +227,7 @@ fn same_seed_gives_identical_bytes_and_another_seed_differs() {
     config.variables = vec![GridmetVariable::Tmmx, GridmetVariable::Pr, GridmetVariable::Erc];
     config.warmup_days = 120;
     config.ignition_rate_scale = 30.0;
+    config.write_truth = true;
     let a = tempfile::tempdir().unwrap();
     let b = tempfile::tempdir().unwrap();
     let sa = run(&config, a.path());
@@ -230,7 +235,8 @@ fn same_seed_gives_identical_bytes_and_another_seed_differs() {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
     let sb = pool.install(|| run(&config, b.path()));
     let (fa, fb) = (file_bytes(a.path()), file_bytes(b.path()));
-    assert_eq!(fa.len(), 4);
+    assert_eq!(fa.len(), 5, "3 GRIDMET files, the CSV and the truth");
+    assert_eq!(fa[4].0, Path::new("truth").join(truth_file_name(2019)));
     assert_eq!(
         fa.iter().map(|f| &f.0).collect::<Vec<_>>(),
         fb.iter().map(|f| &f.0).collect::<Vec<_>>()
@@ -549,12 +555,27 @@ fn python_netcdf4_and_xarray_read_the_same_values() {
     let dir = tempfile::tempdir().unwrap();
     let mut config = SynthConfig::new(31, coast_box(), (2018, 2019));
     config.warmup_days = 60;
+    config.write_truth = true;
     let s = run(&config, dir.path());
-    // What our reader sees: days 0, 180 and 364 of every file, [lat][lon], null = masked.
+    assert_eq!(s.truth_files.len(), 2);
+    // What our reader sees: days 0, 180 and 364 of every file (the truth too), [lat][lon],
+    // null = masked.
     let mut files = Vec::new();
-    for path in &s.gridmet_files {
-        let (v, year) = GridmetVariable::from_file_name(path).unwrap();
-        let f = GridmetFile::open(path, v).unwrap();
+    for path in s.gridmet_files.iter().chain(&s.truth_files) {
+        let (f, short, year, scale) = match GridmetVariable::from_file_name(path) {
+            Some((v, year)) => (
+                GridmetFile::open(path, v).unwrap(),
+                v.short_name(),
+                year,
+                packing(v).scale,
+            ),
+            None => (
+                GridmetFile::open_named(path, TRUTH_VARIABLE).unwrap(),
+                TRUTH_VARIABLE,
+                truth_file_year(path).unwrap(),
+                0.0,
+            ),
+        };
         let days: Vec<serde_json::Value> = [0usize, 180, 364]
             .iter()
             .map(|&t| {
@@ -575,7 +596,7 @@ fn python_netcdf4_and_xarray_read_the_same_values() {
             .collect();
         files.push(serde_json::json!({
             "path": path,
-            "short": v.short_name(),
+            "short": short,
             "year": year,
             "variable": f.var_name(),
             "n_lat": f.grid_shape().0,
@@ -583,7 +604,7 @@ fn python_netcdf4_and_xarray_read_the_same_values() {
             "first_day": f.days()[0],
             "lat0": f.lats()[0],
             "lon0": f.lons()[0],
-            "scale": packing(v).scale,
+            "scale": scale,
             "days": days,
         }));
     }
@@ -700,4 +721,124 @@ fn auto_version_switches_to_cdf2_beyond_2_gib() {
     } else {
         println!("SKIP python part: no {}", python.display());
     }
+}
+
+/// The truth files: the layout of their year's GRIDMET files (both vintages), land cells only,
+/// `1 − exp(−λ)` of the very rate each ignition was drawn from, calibrated against the draws,
+/// and no effect on any other output.
+#[test]
+fn truth_files_hold_the_probability_the_ignitions_were_drawn_with() {
+    let mut config = SynthConfig::new(13, coast_box(), (2018, 2019));
+    config.variables = vec![GridmetVariable::Fm100];
+    config.warmup_days = 60;
+    config.ignition_rate_scale = 20.0;
+    let (plain, dir) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let sp = run(&config, plain.path());
+    assert!(sp.truth_files.is_empty() && !plain.path().join("truth").exists());
+    config.write_truth = true;
+    let s = run(&config, dir.path());
+
+    // Asking for the truth changes nothing else, byte for byte.
+    let others = |d: &Path| {
+        file_bytes(d)
+            .into_iter()
+            .filter(|(p, _)| !p.starts_with("truth"))
+            .collect::<Vec<_>>()
+    };
+    assert!(others(plain.path()) == others(dir.path()));
+    assert_eq!(sp.events, s.events);
+
+    let truth_dir = dir.path().join("truth");
+    assert_eq!(
+        s.truth_files,
+        vec![
+            truth_dir.join("ignition_probability_2018.nc"),
+            truth_dir.join("ignition_probability_2019.nc")
+        ]
+    );
+    // Neither folder holds the other's files.
+    for e in std::fs::read_dir(&truth_dir).unwrap() {
+        assert!(GridmetVariable::from_file_name(e.unwrap().path()).is_none());
+    }
+    for e in std::fs::read_dir(dir.path().join("gridmet")).unwrap() {
+        assert!(truth_file_year(e.unwrap().path()).is_none());
+    }
+
+    let (mut sum_p, mut var_p, mut land_days) = (0f64, 0f64, 0u64);
+    let mut truth = std::collections::HashMap::new();
+    for (year, path) in [2018, 2019].iter().zip(&s.truth_files) {
+        assert_eq!(truth_file_year(path), Some(*year));
+        let f = GridmetFile::open_named(path, TRUTH_VARIABLE).unwrap();
+        let g = GridmetFile::open(
+            dir.path()
+                .join("gridmet")
+                .join(GridmetVariable::Fm100.file_name(*year)),
+            GridmetVariable::Fm100,
+        )
+        .unwrap();
+        assert_eq!((f.var_name(), f.variable()), (TRUTH_VARIABLE, None));
+        assert_eq!(f.dim_order(), g.dim_order(), "{year}");
+        assert_eq!((f.lats(), f.lons(), f.days()), (g.lats(), g.lons(), g.days()));
+        let nc = NcFile::open(path).unwrap();
+        let var = nc.variable(TRUTH_VARIABLE).unwrap();
+        assert_eq!(format!("{:?}", var.dtype()), "Float");
+        assert_eq!(
+            var.attribute("_FillValue").unwrap().value.as_f64(),
+            Some(-32767.0)
+        );
+        assert!(
+            nc.global_attribute("comment")
+                .unwrap()
+                .value
+                .as_string()
+                .unwrap()
+                .contains("Never a model input")
+        );
+        let (pt, gt) = (read_all(&f), read_all(&g));
+        for (t, (pd, gd)) in pt.iter().zip(&gt).enumerate() {
+            for (k, (&p, &w)) in pd.iter().zip(gd).enumerate() {
+                assert_eq!(p.is_nan(), w.is_nan(), "{year} day {t} cell {k}: masks differ");
+                if p.is_nan() {
+                    continue;
+                }
+                assert!((0.0..=1.0).contains(&p), "{year} day {t} cell {k}: {p}");
+                let p = f64::from(p);
+                sum_p += p;
+                var_p += p * (1.0 - p);
+                land_days += 1;
+                truth.insert((f.days()[t], k), p);
+            }
+        }
+    }
+    assert!(land_days > 100_000);
+
+    // Each ignition's cell-day holds 1 − exp(−λ) of the rate it was drawn from.
+    let n_lon = s.n_lon;
+    let mut hit_days = std::collections::BTreeSet::new();
+    let mut sum_hit = 0f64;
+    for e in &s.events {
+        let k = (e.lat_index - s.window.lat_start) * n_lon + (e.lon_index - s.window.lon_start);
+        let p = truth[&(e.gridmet_day, k)];
+        let want = -(-e.rate).exp_m1();
+        assert!(
+            (p - want).abs() <= 1e-5 * want + 1e-9,
+            "event {}: {p} vs {want}",
+            e.object_id
+        );
+        if hit_days.insert((e.gridmet_day, k)) {
+            sum_hit += p;
+        }
+    }
+    // Calibrated: the cell-days with an ignition number Σp (within 4σ of the Poisson-binomial),
+    // and they are far likelier than the average cell-day.
+    let n = hit_days.len() as f64;
+    assert!(n > 100.0, "{n} ignition cell-days");
+    assert!(
+        (n - sum_p).abs() < 4.0 * var_p.sqrt() + 1.0,
+        "{n} ignition cell-days, Σp = {sum_p:.1} ± {:.1}",
+        var_p.sqrt()
+    );
+    let (hit_mean, mean) = (sum_hit / n, sum_p / land_days as f64);
+    println!("{n} ignition cell-days, Σp = {sum_p:.1}; mean p {hit_mean:.5} there, {mean:.5} overall");
+    assert!(hit_mean > 1.5 * mean, "{hit_mean} vs {mean}");
 }

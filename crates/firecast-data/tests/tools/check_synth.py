@@ -5,7 +5,8 @@ Usage:
     check_synth.py OUT_DIR [--dump rust_reader_dump.json]
 
 OUT_DIR is a `firecast_data::synth::generate` output directory (`gridmet/<short>_<YYYY>.nc`,
-`incidents/wfigs_incidents.csv`). For every NetCDF file the script
+`incidents/wfigs_incidents.csv`, and with `write_truth` `truth/ignition_probability_<YYYY>.nc`).
+For every NetCDF file the script
 
 * opens it with netCDF4 (libnetcdf: validates the classic header and layout) and with xarray
   (CF decoding: `_Unsigned`, `_FillValue`/`missing_value`, `scale_factor`/`add_offset`,
@@ -16,6 +17,9 @@ OUT_DIR is a `firecast_data::synth::generate` output directory (`gridmet/<short>
   and values lie in the data spec ranges;
 * with --dump, compares three days of every file with what the Rust reader
   (`firecast_data::gridmet::GridmetFile`) returned.
+
+Each truth file must also be float32 in [0, 1] with the dimension order, axes and land mask of
+the GRIDMET files of its year.
 
 It also parses the incidents CSV (header, row count, date format) when present. Prints one line
 per file and `ALL OK` at the end; exits 1 on any mismatch. Run with the project's Python:
@@ -37,11 +41,15 @@ RANGES = {
     "th": (0, 360), "tmmn": (225, 315), "tmmx": (233, 327), "vs": (0.1, 29), "bi": (0, 214),
     "erc": (0, 132), "fm100": (0.3, 33), "fm1000": (0.4, 48), "etr": (0, 27), "pet": (0, 17),
     "vpd": (0, 9.8),
+    # The generator's true probability of >= 1 ignition per cell-day (truth/), not weather.
+    "ignition_probability": (0, 1),
 }
+TRUTH = "ignition_probability"
 COORDS = {"day", "lat", "lon", "crs"}
 WFIGS_COLUMNS = 97
 
 failures = []
+summary = {}
 
 
 def fail(msg):
@@ -133,11 +141,34 @@ def check_file(path, dump_entry):
                 fail(f"{path}: day {t}: Rust {rust[ok][k]} vs Python {py[ok][k]}")
             compared += int(ok.sum())
 
+    summary[path] = {"dims": dims, "mask": nan[0], "days": np.asarray(days_nc, dtype="f8"),
+                     "lats": np.asarray(lats), "lons": np.asarray(lons), "dtype": str(raw_dtype),
+                     "short": short, "year": year}
     n_valid = int((~nan[0]).sum())
     print(f"  {os.path.basename(path):16s} {fmt:16s} {name:42s} dims={'/'.join(dims):11s} "
           f"raw={str(raw_dtype):7s} crs={'y' if has_crs else 'n'} land={n_valid:4d} "
           f"min={np.nanmin(a_nc):10.4f} mean={np.nanmean(a_nc):10.4f} max={np.nanmax(a_nc):10.4f} "
           f"rust-compared={compared}")
+
+
+def check_truth(path):
+    """The truth file shares its year's GRIDMET layout and land mask, and is float32."""
+    t = summary.get(path)
+    if t is None:
+        return
+    if t["dtype"] != "float32":
+        fail(f"{path}: stored as {t['dtype']}, expected float32")
+    peers = [s for s in summary.values() if s["short"] != TRUTH and s["year"] == t["year"]]
+    for g in peers:
+        if g["dims"] != t["dims"]:
+            fail(f"{path}: dimensions {t['dims']} but the GRIDMET files of {t['year']} have {g['dims']}")
+        if not (np.array_equal(g["days"], t["days"]) and np.array_equal(g["lats"], t["lats"])
+                and np.array_equal(g["lons"], t["lons"])):
+            fail(f"{path}: day/lat/lon axes differ from the GRIDMET files of {t['year']}")
+        if not np.array_equal(g["mask"], t["mask"]):
+            fail(f"{path}: land mask differs from the GRIDMET files of {t['year']}")
+        break
+    print(f"  {os.path.basename(path)}: layout and mask match {len(peers)} GRIDMET file(s) of {t['year']}")
 
 
 def check_csv(path):
@@ -171,8 +202,12 @@ def main():
     paths = sorted(glob.glob(os.path.join(out, "gridmet", "*.nc")))
     if not paths:
         fail(f"no NetCDF files under {out}/gridmet")
+    truth = sorted(glob.glob(os.path.join(out, "truth", "*.nc")))
+    paths += truth
     for p in paths:
         check_file(p, None if dump is None else dump.get(os.path.abspath(p)))
+    for p in truth:
+        check_truth(p)
     if dump is not None:
         missing = set(dump) - {os.path.abspath(p) for p in paths}
         if missing:

@@ -22,6 +22,7 @@ fn table(events: &[(u32, u32, i32, Tier)]) -> WindowTable {
             cell: (j, i),
             cell_lat: 40.0,
             cell_lon: -105.0,
+            true_probability: None,
         })
         .collect();
     let mut values = Vec::new();

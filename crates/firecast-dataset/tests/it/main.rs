@@ -4,6 +4,7 @@
 mod dataset;
 mod kaggle;
 mod sampling;
+mod truth;
 mod windows;
 
 use std::path::PathBuf;

@@ -1,0 +1,133 @@
+//! A fitted model on disk: `model.json` (what it is, what it was trained on, its threshold
+//! and its non-neural parameters) and, for networks, `weights.safetensors`. Loading a bundle
+//! back gives the same predictions. Written into a temporary sibling and renamed, so a
+//! folder with `model.json` is always complete.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::ForecastError;
+use crate::models::Trained;
+use crate::neural::{NeuralHeader, NeuralModel};
+
+pub const MODEL_FILE: &str = "model.json";
+pub const WEIGHTS_FILE: &str = "weights.safetensors";
+/// Bumped when the bundle layout changes.
+pub const BUNDLE_VERSION: u32 = 1;
+
+/// What a bundle says about its model.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct BundleInfo {
+    pub model: String,
+    pub kind: String,
+    pub protocol: String,
+    /// Inclusive input day offsets relative to the predicted date.
+    pub days: (i32, i32),
+    pub seed: u64,
+    pub threshold: f64,
+    pub threshold_rule: String,
+    pub dataset: String,
+    pub dataset_version: String,
+    pub validation_auroc: Option<f64>,
+    pub validation_auprc: Option<f64>,
+    pub test_auroc: Option<f64>,
+    /// The dataset variables the protocol's inputs carry, in order.
+    pub features: Vec<String>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct ModelFile {
+    bundle_version: u32,
+    info: BundleInfo,
+    /// Non-neural models in full; networks as their header (weights alongside).
+    model: Option<Trained>,
+    neural: Option<NeuralHeader>,
+}
+
+/// A bundle read back.
+pub struct Bundle {
+    pub info: BundleInfo,
+    pub model: Trained,
+    pub dir: PathBuf,
+}
+
+pub fn save(dir: &Path, info: &BundleInfo, model: &Trained) -> Result<(), ForecastError> {
+    let parent = dir.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(parent).map_err(ForecastError::io("creating", parent))?;
+    let tmp = firecast_pipeline::fsutil::temp_sibling(dir, &std::process::id().to_string());
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(&tmp).map_err(ForecastError::io("creating", &tmp))?;
+    let (file, neural) = match model {
+        Trained::Neural(n) => {
+            n.save_weights(&tmp.join(WEIGHTS_FILE))?;
+            (
+                ModelFile {
+                    bundle_version: BUNDLE_VERSION,
+                    info: info.clone(),
+                    model: None,
+                    neural: Some(n.header()),
+                },
+                true,
+            )
+        }
+        other => (
+            ModelFile {
+                bundle_version: BUNDLE_VERSION,
+                info: info.clone(),
+                model: Some(clone_trained(other)?),
+                neural: None,
+            },
+            false,
+        ),
+    };
+    let _ = neural;
+    let json = serde_json::to_vec_pretty(&file).map_err(|e| ForecastError::Model(e.to_string()))?;
+    std::fs::write(tmp.join(MODEL_FILE), json).map_err(ForecastError::io("writing", &tmp.join(MODEL_FILE)))?;
+    if dir.exists() {
+        std::fs::remove_dir_all(dir).map_err(ForecastError::io("replacing", dir))?;
+    }
+    std::fs::rename(&tmp, dir).map_err(ForecastError::io("renaming into place", dir))
+}
+
+/// Serialises through JSON (non-neural models are plain data).
+fn clone_trained(model: &Trained) -> Result<Trained, ForecastError> {
+    let v = serde_json::to_value(model).map_err(|e| ForecastError::Model(e.to_string()))?;
+    serde_json::from_value(v).map_err(|e| ForecastError::Model(e.to_string()))
+}
+
+pub fn load(dir: &Path, device: tch::Device) -> Result<Bundle, ForecastError> {
+    let path = dir.join(MODEL_FILE);
+    let text = std::fs::read_to_string(&path).map_err(|e| ForecastError::Data {
+        path: path.clone(),
+        message: format!("not a FireCast model folder ({e})"),
+    })?;
+    let file: ModelFile = serde_json::from_str(&text).map_err(|e| ForecastError::Data {
+        path: path.clone(),
+        message: format!("line {}: {e}", e.line()),
+    })?;
+    if file.bundle_version != BUNDLE_VERSION {
+        return Err(ForecastError::Data {
+            path,
+            message: format!(
+                "bundle version {}, this FireCast reads {BUNDLE_VERSION}",
+                file.bundle_version
+            ),
+        });
+    }
+    let model = match (file.model, file.neural) {
+        (Some(m), _) => m,
+        (None, Some(h)) => Trained::Neural(NeuralModel::load(h, &dir.join(WEIGHTS_FILE), device)?),
+        (None, None) => {
+            return Err(ForecastError::Data {
+                path,
+                message: "the bundle holds neither a model nor a network header".into(),
+            });
+        }
+    };
+    Ok(Bundle {
+        info: file.info,
+        model,
+        dir: dir.to_path_buf(),
+    })
+}

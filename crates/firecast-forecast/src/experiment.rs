@@ -1,0 +1,641 @@
+//! Running an experiment: every protocol × model × seed is fitted on its training side,
+//! thresholded on its validation side, and scored once on its test side. Intervals come from
+//! a cluster bootstrap over the test set; the best model is tested against the best
+//! baseline on the same test samples.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use firecast_eval::metrics::{BinaryReport, ThresholdRule as EvalRule};
+use serde::{Deserialize, Serialize};
+
+use crate::ForecastError;
+use crate::data::{Block, Windows};
+use crate::models::{FitContext, Inputs, ModelConfig, Trained};
+use crate::spec::{ClusterBy, ExperimentSpec, ThresholdRule};
+
+/// The reported numbers of one model under one protocol, pooled over its seeds.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ModelResult {
+    pub protocol: String,
+    pub model: String,
+    pub kind: String,
+    /// Which family the row belongs to: `reference` (no-skill and cheap references),
+    /// `paper_baseline` (Table III's flattened models), `sequence` (LSTM, LightTS), `authors`
+    /// (variants R and D), `firecast`.
+    pub family: String,
+    pub seeds: Vec<u64>,
+    /// Test metrics averaged over seeds.
+    pub test: BTreeMap<String, f64>,
+    /// Bootstrap intervals of the seed-averaged metrics: metric → (low, high).
+    pub intervals: BTreeMap<String, (f64, f64)>,
+    /// Standard deviation over seeds (0 for deterministic models).
+    pub seed_std: BTreeMap<String, f64>,
+    /// Per-seed test reports.
+    pub runs: Vec<SeedRun>,
+    /// Test metrics by year of the predicted date.
+    pub by_year: BTreeMap<String, BTreeMap<String, f64>>,
+    /// By negative tier: positives against that tier's negatives.
+    pub by_tier: BTreeMap<String, BTreeMap<String, f64>>,
+    pub parameters: Option<i64>,
+    /// Share of the oracle's AUROC / AUPRC reached (synthetic data with known rates).
+    pub skill_vs_oracle: Option<BTreeMap<String, f64>>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SeedRun {
+    pub seed: u64,
+    pub threshold: f64,
+    pub threshold_rule: String,
+    pub fit_seconds: f64,
+    pub report: BinaryReport,
+    pub validation: BinaryReport,
+    pub epochs: Option<usize>,
+    pub best_epoch: Option<usize>,
+    /// Where the fitted model was written, relative to the report folder.
+    pub model_dir: String,
+    /// Per-epoch curves of networks: key → (epoch, value).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub curves: BTreeMap<String, Vec<(i64, f64)>>,
+}
+
+/// The test-side scores of one protocol, kept for curves and plots.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ProtocolPredictions {
+    pub protocol: String,
+    pub sample_ids: Vec<u32>,
+    pub labels: Vec<bool>,
+    /// Model → per-seed test scores and thresholds.
+    pub models: Vec<(String, Vec<Vec<f64>>, Vec<f64>)>,
+}
+
+/// One protocol's facts.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ProtocolInfo {
+    pub name: String,
+    pub days: (i32, i32),
+    pub split: String,
+    pub train: usize,
+    pub val: usize,
+    pub test: usize,
+    pub dropped: usize,
+    pub test_positives: usize,
+    pub prevalence: f64,
+    /// Always predicting "no fire".
+    pub majority_accuracy: f64,
+    pub leaks_future: bool,
+    pub oracle: Option<BTreeMap<String, f64>>,
+}
+
+/// A paired comparison on the same test samples.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PairedTest {
+    pub protocol: String,
+    pub model: String,
+    pub baseline: String,
+    pub mcnemar_b: u64,
+    pub mcnemar_c: u64,
+    pub mcnemar_p: f64,
+    pub mcnemar_exact: bool,
+    pub delong_auroc_diff: f64,
+    pub delong_p: f64,
+    pub auprc_diff: f64,
+    pub auprc_diff_interval: (f64, f64),
+    pub prob_model_better_auprc: f64,
+}
+
+/// Everything an experiment produced.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ExperimentResult {
+    pub name: String,
+    pub dataset: String,
+    pub dataset_version: String,
+    pub framing: String,
+    pub headline: String,
+    pub device: String,
+    pub bootstrap: usize,
+    pub level: f64,
+    pub cluster: String,
+    pub protocols: Vec<ProtocolInfo>,
+    pub results: Vec<ModelResult>,
+    pub paired: Vec<PairedTest>,
+    pub seconds: f64,
+}
+
+/// Where the run reports: progress lines and metrics (the registry, Rerun).
+pub trait Sink: Sync {
+    fn progress(&self, _what: &str, _done: u64, _total: u64) {}
+    fn message(&self, _line: &str) {}
+    fn metric(&self, _key: &str, _step: i64, _value: f64) {}
+}
+
+/// A sink that drops everything.
+pub struct Quiet;
+impl Sink for Quiet {}
+
+fn family(kind: &str) -> &'static str {
+    match kind {
+        "majority" | "climatology" | "fire_danger_index" | "minirocket" | "window_stats_xgboost" => "reference",
+        "logistic_regression" | "gaussian_nb" | "decision_tree" | "random_forest" | "gradient_boosting" | "knn"
+        | "xgboost" | "mlp" => "paper_baseline",
+        "lstm2" | "lightts" => "sequence",
+        "cnn_bilstm" | "cnn_bilstm_attn" => "authors",
+        _ => "firecast",
+    }
+}
+
+fn eval_rule(rule: ThresholdRule) -> EvalRule {
+    match rule {
+        ThresholdRule::Fixed(t) => EvalRule::Fixed(t),
+        ThresholdRule::MaxF1 => EvalRule::MaxF1,
+        ThresholdRule::Youden => EvalRule::Youden,
+    }
+}
+
+fn rule_label(rule: ThresholdRule) -> String {
+    match rule {
+        ThresholdRule::Fixed(t) => format!("fixed {t}"),
+        ThresholdRule::MaxF1 => "max F1 on validation".into(),
+        ThresholdRule::Youden => "Youden J on validation".into(),
+    }
+}
+
+/// The headline metrics of a report, by name.
+pub fn report_metrics(r: &BinaryReport) -> BTreeMap<String, f64> {
+    let mut m = BTreeMap::new();
+    m.insert("accuracy".into(), r.accuracy);
+    m.insert("precision".into(), r.precision);
+    m.insert("recall".into(), r.recall);
+    m.insert("f1".into(), r.f1);
+    m.insert("auroc".into(), r.auroc.unwrap_or(f64::NAN));
+    m.insert("auprc".into(), r.auprc.unwrap_or(f64::NAN));
+    m.insert("brier".into(), r.brier);
+    m.insert("ece".into(), r.ece);
+    m.insert("mcc".into(), r.mcc);
+    m.insert("balanced_accuracy".into(), r.balanced_accuracy);
+    m
+}
+
+/// Metrics that get intervals, in table order.
+pub const TABLE_METRICS: [&str; 8] = ["accuracy", "precision", "recall", "f1", "auroc", "auprc", "brier", "ece"];
+
+fn metric_of(name: &str, y: &[bool], p: &[f64], threshold: f64, bins: usize) -> Option<f64> {
+    use firecast_eval::metrics as m;
+    let c = m::Confusion::at(y, p, threshold);
+    Some(match name {
+        "accuracy" => c.accuracy(),
+        "precision" => c.precision(),
+        "recall" => c.recall(),
+        "f1" => c.f1(),
+        "auroc" => m::roc_auc(y, p)?,
+        "auprc" => m::average_precision(y, p)?,
+        "brier" => m::brier(y, p),
+        "ece" => m::ece(y, p, bins),
+        _ => return None,
+    })
+}
+
+/// Cluster ids of the test samples (GRIDMET cells, or each sample alone).
+fn clusters(w: &Windows, idx: &[usize], by: ClusterBy) -> Vec<u64> {
+    idx.iter()
+        .map(|&s| match by {
+            ClusterBy::Cell => (u64::from(w.meta[s].cell.0) << 32) | u64::from(w.meta[s].cell.1),
+            ClusterBy::Sample => s as u64,
+        })
+        .collect()
+}
+
+/// Runs the experiment on `windows`; fitted models go under `out/models/`.
+pub fn run(
+    spec: &ExperimentSpec,
+    windows: &Windows,
+    device: tch::Device,
+    out: &Path,
+    sink: &dyn Sink,
+) -> Result<(ExperimentResult, Vec<ProtocolPredictions>), ForecastError> {
+    let started = Instant::now();
+    let all_features: Vec<usize> = (0..windows.n_features()).collect();
+    let configs: Vec<ModelConfig> = spec
+        .models
+        .iter()
+        .map(|m| ModelConfig::parse(&m.kind, &m.params))
+        .collect::<Result<_, _>>()?;
+    let mut protocols = Vec::new();
+    let mut results = Vec::new();
+    let mut paired = Vec::new();
+    let mut predictions = Vec::new();
+    let total_fits: usize = spec.protocols.len()
+        * configs
+            .iter()
+            .map(|c| if c.is_stochastic() { spec.seeds.len() } else { 1 })
+            .sum::<usize>();
+    let mut fits_done = 0usize;
+    for (pname, protocol) in &spec.protocols {
+        let key = format!("protocols.{pname}");
+        let days = windows.day_range(protocol.days.0, protocol.days.1, &format!("{key}.days"))?;
+        let split = crate::split::apply(windows, &protocol.split, protocol.days, &key)?;
+        let cut = |rows: &[usize]| Block::cut(windows, days.clone(), &all_features, rows);
+        let (btr, bva, bte) = (cut(&split.train), cut(&split.val), cut(&split.test));
+        let labels = |rows: &[usize]| rows.iter().map(|&s| windows.labels[s]).collect::<Vec<_>>();
+        let (ytr, yva, yte) = (labels(&split.train), labels(&split.val), labels(&split.test));
+        let meta = |rows: &[usize]| rows.iter().map(|&s| &windows.meta[s]).collect::<Vec<_>>();
+        let test_clusters = clusters(windows, &split.test, spec.evaluation.cluster);
+        let positives = yte.iter().filter(|&&l| l).count();
+        let prevalence = positives as f64 / yte.len() as f64;
+        protocols.push(ProtocolInfo {
+            name: pname.clone(),
+            days: protocol.days,
+            split: split.description.clone(),
+            train: split.train.len(),
+            val: split.val.len(),
+            test: split.test.len(),
+            dropped: split.dropped.len(),
+            test_positives: positives,
+            prevalence,
+            majority_accuracy: prevalence.max(1.0 - prevalence),
+            leaks_future: protocol.days.1 >= 0,
+            oracle: None,
+        });
+        sink.message(&format!(
+            "protocol {pname}: days {}..{}, {} (train {}, val {}, test {} with {} positive, dropped {})",
+            protocol.days.0,
+            protocol.days.1,
+            split.description,
+            split.train.len(),
+            split.val.len(),
+            split.test.len(),
+            positives,
+            split.dropped.len()
+        ));
+        let mut test_scores: Vec<(String, String, Vec<Vec<f64>>, Vec<f64>)> = Vec::new();
+        for (entry, config) in spec.models.iter().zip(&configs) {
+            let label = entry.label();
+            let seeds: Vec<u64> = if config.is_stochastic() {
+                spec.seeds.clone()
+            } else {
+                vec![spec.seeds[0]]
+            };
+            let rule = entry.threshold.unwrap_or_else(|| config.default_threshold());
+            let mut runs = Vec::new();
+            let mut per_seed_scores = Vec::new();
+            let mut parameters = None;
+            for &seed in &seeds {
+                let what = format!("{pname}/{label}/seed {seed}");
+                let progress = |done: u64, total: u64, step: &str| sink.progress(&format!("{what} {step}"), done, total);
+                let curve_prefix = format!("{pname}/{label}/seed{seed}");
+                let recorded: std::sync::Mutex<BTreeMap<String, Vec<(i64, f64)>>> = Default::default();
+                let curve = |epoch: i64, k: &str, v: f64| {
+                    sink.metric(&format!("{curve_prefix}/{k}"), epoch, v);
+                    recorded
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .entry(k.to_string())
+                        .or_default()
+                        .push((epoch, v));
+                };
+                let ctx = FitContext {
+                    train: Inputs {
+                        block: &btr,
+                        meta: meta(&split.train),
+                    },
+                    train_labels: &ytr,
+                    val: Inputs {
+                        block: &bva,
+                        meta: meta(&split.val),
+                    },
+                    val_labels: &yva,
+                    seed,
+                    device,
+                    progress: &progress,
+                    curve: &curve,
+                };
+                let t0 = Instant::now();
+                let trained = crate::models::fit(config, &ctx).map_err(|e| e.in_model(&label))?;
+                let fit_seconds = t0.elapsed().as_secs_f64();
+                let val_inputs = Inputs {
+                    block: &bva,
+                    meta: meta(&split.val),
+                };
+                let test_inputs = Inputs {
+                    block: &bte,
+                    meta: meta(&split.test),
+                };
+                let pv = trained.predict(&val_inputs, device).map_err(|e| e.in_model(&label))?;
+                let pt = trained.predict(&test_inputs, device).map_err(|e| e.in_model(&label))?;
+                let threshold = firecast_eval::metrics::choose_threshold(&yva, &pv, eval_rule(rule));
+                let report = firecast_eval::metrics::evaluate(&yte, &pt, threshold, spec.evaluation.calibration_bins);
+                let validation = firecast_eval::metrics::evaluate(&yva, &pv, threshold, spec.evaluation.calibration_bins);
+                let model_rel = format!("models/{pname}/{label}/seed-{seed}");
+                crate::bundle::save(
+                    &out.join(&model_rel),
+                    &crate::bundle::BundleInfo {
+                        model: label.clone(),
+                        kind: entry.kind.clone(),
+                        protocol: pname.clone(),
+                        days: protocol.days,
+                        seed,
+                        threshold,
+                        threshold_rule: rule_label(rule),
+                        dataset: windows.manifest.name.clone(),
+                        dataset_version: windows.manifest.version.clone(),
+                        validation_auprc: validation.auprc,
+                        validation_auroc: validation.auroc,
+                        test_auroc: report.auroc,
+                        features: btr.features.clone(),
+                    },
+                    &trained,
+                )?;
+                let (epochs, best_epoch) = match &trained {
+                    Trained::Neural(n) => (Some(n.epochs_run), Some(n.best_epoch)),
+                    _ => (None, None),
+                };
+                parameters = trained.parameter_count();
+                for (k, v) in report_metrics(&report) {
+                    sink.metric(&format!("{pname}/{label}/test/{k}"), seed as i64, v);
+                }
+                fits_done += 1;
+                sink.progress("experiment", fits_done as u64, total_fits as u64);
+                sink.message(&format!(
+                    "{what}: test AUROC {:.3} AUPRC {:.3} acc {:.3} (threshold {threshold:.3}, {fit_seconds:.1} s)",
+                    report.auroc.unwrap_or(f64::NAN),
+                    report.auprc.unwrap_or(f64::NAN),
+                    report.accuracy
+                ));
+                runs.push(SeedRun {
+                    seed,
+                    threshold,
+                    threshold_rule: rule_label(rule),
+                    fit_seconds,
+                    report,
+                    validation,
+                    epochs,
+                    best_epoch,
+                    model_dir: model_rel,
+                    curves: recorded.into_inner().unwrap_or_else(|e| e.into_inner()),
+                });
+                per_seed_scores.push(pt);
+            }
+            let thresholds: Vec<f64> = runs.iter().map(|r| r.threshold).collect();
+            let (test, intervals) = seed_mean_with_intervals(
+                &yte,
+                &per_seed_scores,
+                &thresholds,
+                &test_clusters,
+                spec,
+            );
+            let mut seed_std = BTreeMap::new();
+            for k in TABLE_METRICS {
+                let vals: Vec<f64> = runs.iter().map(|r| report_metrics(&r.report)[k]).collect();
+                let mean = vals.iter().sum::<f64>() / vals.len() as f64;
+                let var = vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (vals.len().max(2) - 1) as f64;
+                seed_std.insert(k.to_string(), if vals.len() > 1 { var.sqrt() } else { 0.0 });
+            }
+            let by_year = breakdown_by_year(windows, &split.test, &yte, &per_seed_scores[0], thresholds[0]);
+            let by_tier = breakdown_by_tier(windows, &split.test, &yte, &per_seed_scores[0], thresholds[0]);
+            test_scores.push((label.clone(), entry.kind.clone(), per_seed_scores, thresholds.clone()));
+            results.push(ModelResult {
+                protocol: pname.clone(),
+                model: label,
+                kind: entry.kind.clone(),
+                family: family(&entry.kind).into(),
+                seeds,
+                test,
+                intervals,
+                seed_std,
+                runs,
+                by_year,
+                by_tier,
+                parameters,
+                skill_vs_oracle: None,
+            });
+        }
+        let paired_result = paired_test(pname, &results, &test_scores, &yte, &test_clusters, spec);
+        predictions.push(ProtocolPredictions {
+            protocol: pname.clone(),
+            sample_ids: split.test.iter().map(|&s| windows.meta[s].sample_id).collect(),
+            labels: yte.clone(),
+            models: test_scores.into_iter().map(|(m, _, s, t)| (m, s, t)).collect(),
+        });
+        if let Some(test) = paired_result {
+            sink.message(&format!(
+                "{pname}: {} vs {}: McNemar p = {:.2e}, DeLong p = {:.2e}, ΔAUPRC = {:+.3} [{:+.3}, {:+.3}]",
+                test.model,
+                test.baseline,
+                test.mcnemar_p,
+                test.delong_p,
+                test.auprc_diff,
+                test.auprc_diff_interval.0,
+                test.auprc_diff_interval.1
+            ));
+            paired.push(test);
+        }
+    }
+    let result = ExperimentResult {
+        name: spec.name.clone(),
+        dataset: windows.manifest.name.clone(),
+        dataset_version: windows.manifest.version.clone(),
+        framing: format!("{:?}", windows.manifest.framing.kind).to_lowercase(),
+        headline: spec.headline_protocol().to_string(),
+        device: format!("{device:?}"),
+        bootstrap: spec.evaluation.bootstrap,
+        level: spec.evaluation.level,
+        cluster: format!("{:?}", spec.evaluation.cluster).to_lowercase(),
+        protocols,
+        results,
+        paired,
+        seconds: started.elapsed().as_secs_f64(),
+    };
+    Ok((result, predictions))
+}
+
+/// Seed-averaged metrics and their bootstrap intervals: on each resample of the test
+/// clusters, every seed's metric is computed on the same samples and averaged.
+fn seed_mean_with_intervals(
+    y: &[bool],
+    scores: &[Vec<f64>],
+    thresholds: &[f64],
+    clusters: &[u64],
+    spec: &ExperimentSpec,
+) -> (BTreeMap<String, f64>, BTreeMap<String, (f64, f64)>) {
+    let bins = spec.evaluation.calibration_bins;
+    let mean_metric = |name: &str, idx: Option<&[usize]>| -> Option<f64> {
+        let mut sum = 0.0;
+        for (p, &t) in scores.iter().zip(thresholds) {
+            let v = match idx {
+                Some(idx) => {
+                    let yy: Vec<bool> = idx.iter().map(|&i| y[i]).collect();
+                    let pp: Vec<f64> = idx.iter().map(|&i| p[i]).collect();
+                    metric_of(name, &yy, &pp, t, bins)?
+                }
+                None => metric_of(name, y, p, t, bins)?,
+            };
+            sum += v;
+        }
+        Some(sum / scores.len() as f64)
+    };
+    let mut point = BTreeMap::new();
+    for k in TABLE_METRICS {
+        point.insert(k.to_string(), mean_metric(k, None).unwrap_or(f64::NAN));
+    }
+    let resamples = firecast_eval::bootstrap::resample_indices(y.len(), Some(clusters), spec.evaluation.bootstrap, spec.evaluation.seed);
+    let mut draws: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+    for idx in &resamples {
+        for k in TABLE_METRICS {
+            if let Some(v) = mean_metric(k, Some(idx)) {
+                draws.entry(k).or_default().push(v);
+            }
+        }
+    }
+    let alpha = (1.0 - spec.evaluation.level) / 2.0;
+    let intervals = draws
+        .into_iter()
+        .map(|(k, mut v)| {
+            v.sort_by(f64::total_cmp);
+            (k.to_string(), (percentile(&v, alpha), percentile(&v, 1.0 - alpha)))
+        })
+        .collect();
+    (point, intervals)
+}
+
+/// Percentile with linear interpolation (NumPy's default).
+pub fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let pos = q * (sorted.len() - 1) as f64;
+    let lo = pos.floor() as usize;
+    let hi = pos.ceil() as usize;
+    sorted[lo] + (sorted[hi] - sorted[lo]) * (pos - lo as f64)
+}
+
+fn breakdown_by_year(
+    w: &Windows,
+    idx: &[usize],
+    y: &[bool],
+    p: &[f64],
+    threshold: f64,
+) -> BTreeMap<String, BTreeMap<String, f64>> {
+    let mut groups: BTreeMap<i32, Vec<usize>> = BTreeMap::new();
+    for (i, &s) in idx.iter().enumerate() {
+        groups.entry(w.meta[s].year).or_default().push(i);
+    }
+    groups
+        .into_iter()
+        .map(|(year, members)| {
+            let yy: Vec<bool> = members.iter().map(|&i| y[i]).collect();
+            let pp: Vec<f64> = members.iter().map(|&i| p[i]).collect();
+            let mut m = BTreeMap::new();
+            m.insert("n".into(), yy.len() as f64);
+            m.insert("positives".into(), yy.iter().filter(|&&l| l).count() as f64);
+            for k in ["accuracy", "auroc", "auprc"] {
+                if let Some(v) = metric_of(k, &yy, &pp, threshold, 10) {
+                    m.insert(k.into(), v);
+                }
+            }
+            (year.to_string(), m)
+        })
+        .collect()
+}
+
+/// Per negative tier: accuracy on that tier's negatives (specificity) and the AUROC of
+/// all positives against them, which shows whether a model only separates easy negatives.
+fn breakdown_by_tier(
+    w: &Windows,
+    idx: &[usize],
+    y: &[bool],
+    p: &[f64],
+    threshold: f64,
+) -> BTreeMap<String, BTreeMap<String, f64>> {
+    let mut tiers: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
+    for (i, &s) in idx.iter().enumerate() {
+        tiers.entry(w.meta[s].tier.as_str()).or_default().push(i);
+    }
+    let pos: Vec<usize> = (0..y.len()).filter(|&i| y[i]).collect();
+    tiers
+        .into_iter()
+        .map(|(tier, members)| {
+            let mut m = BTreeMap::new();
+            m.insert("n".into(), members.len() as f64);
+            let correct = members.iter().filter(|&&i| (p[i] > threshold) == y[i]).count();
+            m.insert("accuracy".into(), correct as f64 / members.len().max(1) as f64);
+            if !members.iter().all(|&i| y[i]) {
+                let set: Vec<usize> = pos.iter().chain(members.iter()).copied().collect();
+                let yy: Vec<bool> = set.iter().map(|&i| y[i]).collect();
+                let pp: Vec<f64> = set.iter().map(|&i| p[i]).collect();
+                if let Some(a) = firecast_eval::metrics::roc_auc(&yy, &pp) {
+                    m.insert("auroc_vs_positives".into(), a);
+                }
+            }
+            (tier.to_string(), m)
+        })
+        .collect()
+}
+
+/// The best model (by mean test AUROC) against the best other model of the paper's
+/// baselines and references, on the first seed's scores.
+fn paired_test(
+    protocol: &str,
+    results: &[ModelResult],
+    scores: &[(String, String, Vec<Vec<f64>>, Vec<f64>)],
+    y: &[bool],
+    clusters: &[u64],
+    spec: &ExperimentSpec,
+) -> Option<PairedTest> {
+    let here: Vec<&ModelResult> = results.iter().filter(|r| r.protocol == protocol).collect();
+    let auroc = |r: &ModelResult| r.test.get("auroc").copied().unwrap_or(f64::NAN);
+    let best = here
+        .iter()
+        .filter(|r| auroc(r).is_finite())
+        .max_by(|a, b| auroc(a).total_cmp(&auroc(b)))?;
+    let baseline = here
+        .iter()
+        .filter(|r| r.model != best.model && matches!(r.family.as_str(), "paper_baseline" | "reference") && r.kind != "majority")
+        .filter(|r| auroc(r).is_finite())
+        .max_by(|a, b| auroc(a).total_cmp(&auroc(b)))?;
+    let find = |name: &str| scores.iter().find(|s| s.0 == name);
+    let (_, _, sa, ta) = find(&best.model)?;
+    let (_, _, sb, tb) = find(&baseline.model)?;
+    let (pa, pb) = (&sa[0], &sb[0]);
+    let pred_a: Vec<bool> = pa.iter().map(|p| *p > ta[0]).collect();
+    let pred_b: Vec<bool> = pb.iter().map(|p| *p > tb[0]).collect();
+    let mc = firecast_eval::tests::mcnemar(y, &pred_a, &pred_b).ok()?;
+    let dl = firecast_eval::tests::delong(y, pa, pb).ok()?;
+    let diff = firecast_eval::bootstrap::paired_diff_ci(
+        y,
+        pa,
+        pb,
+        Some(clusters),
+        spec.evaluation.bootstrap,
+        spec.evaluation.seed,
+        spec.evaluation.level,
+        |y, p| firecast_eval::metrics::average_precision(y, p),
+    )
+    .ok()?;
+    Some(PairedTest {
+        protocol: protocol.into(),
+        model: best.model.clone(),
+        baseline: baseline.model.clone(),
+        mcnemar_b: mc.b,
+        mcnemar_c: mc.c,
+        mcnemar_p: mc.p_value,
+        mcnemar_exact: mc.exact,
+        delong_auroc_diff: dl.diff,
+        delong_p: dl.p_value,
+        auprc_diff: diff.estimate,
+        auprc_diff_interval: (diff.low, diff.high),
+        prob_model_better_auprc: diff.prob_a_better,
+    })
+}
+
+/// Where a run's outputs go.
+pub fn output_paths(out: &Path) -> BTreeMap<&'static str, PathBuf> {
+    BTreeMap::from([
+        ("results", out.join("results.json")),
+        ("table_md", out.join("table3.md")),
+        ("table_csv", out.join("table3.csv")),
+        ("metrics", out.join("metrics.json")),
+        ("plots", out.join("plots")),
+        ("models", out.join("models")),
+    ])
+}

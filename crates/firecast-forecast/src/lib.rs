@@ -1,0 +1,122 @@
+//! Ignition forecasting for FireCast: the experiments behind Table III, done so a reviewer
+//! would accept them.
+//!
+//! - [`spec`]: experiment files (`experiments/*.yaml`), strict;
+//! - [`data`], [`split`], [`features`]: a dataset folder → protocols (the paper's random
+//!   split with days −60..+14, and the leak-free temporal split with inputs before the date)
+//!   → model inputs;
+//! - [`models`]: every model behind one interface — no-skill and cheap references
+//!   (majority, climatology, the fire-danger index, MiniRocket, boosted window statistics),
+//!   the paper's flattened baselines (pure Rust in `firecast-baselines`, the real XGBoost in
+//!   `firecast-xgboost`), and the networks of [`neural`] in `tch`;
+//! - [`experiment`]: fit, threshold on validation, score the test side once, bootstrap
+//!   intervals over GRIDMET cells, paired tests;
+//! - [`table`], [`plots`]: Table III (Markdown, CSV, JSON), DVC metrics and plot files, PNG
+//!   plots; [`bundle`]: fitted models on disk; [`predict`]: a model asked about a place
+//!   and a date; [`stage`]: the `forecast.experiment` pipeline stage kind.
+
+use std::path::{Path, PathBuf};
+
+pub mod bundle;
+pub mod data;
+pub mod experiment;
+pub mod features;
+pub mod minirocket;
+pub mod models;
+pub mod neural;
+pub mod plots;
+pub mod predict;
+pub mod split;
+pub mod spec;
+pub mod stage;
+pub mod table;
+
+/// Errors of forecasting. Each names the file, key or model at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum ForecastError {
+    #[error("{context} {}: {source}", path.display())]
+    Io {
+        context: &'static str,
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: {message}", path.display())]
+    Data { path: PathBuf, message: String },
+    #[error("dataset {}: {source}", path.display())]
+    Dataset {
+        path: PathBuf,
+        #[source]
+        source: firecast_dataset::DatasetError,
+    },
+    #[error(transparent)]
+    Spec(#[from] firecast_pipeline::SpecError),
+    #[error("`{key}`: {message}")]
+    Config { key: String, message: String },
+    #[error("unknown model kind `{kind}`")]
+    UnknownModel { kind: String },
+    #[error("{0}")]
+    Model(String),
+    #[error("model `{model}`: {source}")]
+    InModel {
+        model: String,
+        #[source]
+        source: Box<ForecastError>,
+    },
+}
+
+impl ForecastError {
+    pub(crate) fn io<'a>(context: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> ForecastError + 'a {
+        move |source| ForecastError::Io {
+            context,
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    pub(crate) fn dataset(path: &Path, source: firecast_dataset::DatasetError) -> Self {
+        ForecastError::Dataset {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    /// Names the model a failure belongs to.
+    pub fn in_model(self, model: &str) -> Self {
+        ForecastError::InModel {
+            model: model.into(),
+            source: Box::new(self),
+        }
+    }
+}
+
+/// Parses `auto`, `cpu`, `cuda` or `cuda:N`. `cuda` without a GPU (or without libtorch's
+/// CUDA backend) is an error, never a silent fall-back to the CPU.
+pub fn parse_device(s: &str) -> Result<tch::Device, ForecastError> {
+    let bad = |message: String| ForecastError::Config {
+        key: "device".into(),
+        message,
+    };
+    match s {
+        "auto" => Ok(firecast_learn::default_device()),
+        "cpu" => Ok(tch::Device::Cpu),
+        _ => {
+            let index = match s.strip_prefix("cuda") {
+                Some("") => 0,
+                Some(rest) => rest
+                    .strip_prefix(':')
+                    .and_then(|n| n.parse::<usize>().ok())
+                    .ok_or_else(|| bad(format!("`{s}` is not auto, cpu, cuda or cuda:N")))?,
+                None => return Err(bad(format!("`{s}` is not auto, cpu, cuda or cuda:N"))),
+            };
+            let loaded = firecast_learn::load_cuda_backend();
+            let count = tch::Cuda::device_count();
+            if !loaded || (index as i64) >= count {
+                return Err(bad(format!(
+                    "`{s}` was asked for but libtorch sees {count} CUDA device(s) (CUDA backend loaded: {loaded})"
+                )));
+            }
+            Ok(tch::Device::Cuda(index))
+        }
+    }
+}

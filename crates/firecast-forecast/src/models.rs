@@ -1,0 +1,518 @@
+//! Every model of the comparison behind one interface: parse strict params, fit on the
+//! training side (the validation side may stop training), score any samples.
+
+use serde::{Deserialize, Serialize};
+
+use crate::ForecastError;
+use crate::data::{Block, SampleMeta};
+use crate::features::{FeatureSet, Scaler, window_statistics};
+use crate::neural::{NeuralConfig, NeuralKind, NeuralModel};
+
+/// Model kinds, in the order tables list them when an experiment does not say otherwise.
+pub const KINDS: &[&str] = &[
+    "majority",
+    "climatology",
+    "fire_danger_index",
+    "logistic_regression",
+    "gaussian_nb",
+    "decision_tree",
+    "random_forest",
+    "gradient_boosting",
+    "knn",
+    "xgboost",
+    "mlp",
+    "window_stats_xgboost",
+    "minirocket",
+    "lstm2",
+    "lightts",
+    "cnn_bilstm",
+    "cnn_bilstm_attn",
+    "firecast",
+];
+
+/// Inputs shared by the flattened baselines: which variables, scaled or not.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FlatInputs {
+    /// Variables (default: all of the dataset's, as the paper's 1125-dim vectors).
+    #[serde(default)]
+    pub features: FeatureSet,
+    /// Standardise with training-split statistics (sklearn's StandardScaler in a pipeline).
+    #[serde(default)]
+    pub standardize: Option<bool>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClimatologyParams {
+    /// Gaussian kernel width over the day of the year.
+    #[serde(default = "default_bandwidth")]
+    pub bandwidth_days: f64,
+    /// Places are pooled in square blocks of this size.
+    #[serde(default = "default_block")]
+    pub block_degrees: f64,
+    /// Pseudo-samples pulling a block's rate toward the region-wide seasonal rate.
+    #[serde(default = "default_prior")]
+    pub prior_strength: f64,
+}
+
+fn default_bandwidth() -> f64 {
+    15.0
+}
+fn default_block() -> f64 {
+    0.25
+}
+fn default_prior() -> f64 {
+    10.0
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DangerIndexParams {
+    /// The index variable; its value on the last input day is the score.
+    #[serde(default = "default_index")]
+    pub feature: String,
+}
+
+fn default_index() -> String {
+    "erc".into()
+}
+
+/// XGBoost's own parameters (strict, XGBoost's names) plus the variables to read.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct XgbEntry {
+    pub features: FeatureSet,
+    pub params: firecast_xgboost::XgbParams,
+}
+
+impl XgbEntry {
+    fn parse(params: &serde_json::Value) -> Result<Self, ForecastError> {
+        let mut rest = match params {
+            serde_json::Value::Null => serde_json::Map::new(),
+            serde_json::Value::Object(m) => m.clone(),
+            _ => {
+                return Err(ForecastError::Config {
+                    key: String::new(),
+                    message: "params must be a mapping".into(),
+                });
+            }
+        };
+        let features = match rest.remove("features") {
+            Some(v) => strict(&v).map_err(|e| match e {
+                ForecastError::Config { message, .. } => ForecastError::Config {
+                    key: "features".into(),
+                    message,
+                },
+                other => other,
+            })?,
+            None => FeatureSet::default(),
+        };
+        let params = firecast_xgboost::XgbParams::from_json(&serde_json::Value::Object(rest)).map_err(|e| match e {
+            firecast_xgboost::XgbError::Param { key, message } => ForecastError::Config { key, message },
+            other => ForecastError::Model(other.to_string()),
+        })?;
+        Ok(Self { features, params })
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MiniRocketParams {
+    #[serde(default)]
+    pub features: FeatureSet,
+    /// Number of random-convolution features (rounded down to a multiple of 84).
+    #[serde(default = "default_rocket_features")]
+    pub num_features: usize,
+    /// Inverse L2 strength of the logistic head (on standardised features).
+    #[serde(default = "default_rocket_c")]
+    pub c: f64,
+    #[serde(default = "default_rocket_iter")]
+    pub max_iter: usize,
+}
+
+fn default_rocket_features() -> usize {
+    2016
+}
+fn default_rocket_c() -> f64 {
+    0.1
+}
+fn default_rocket_iter() -> usize {
+    300
+}
+
+/// A model's parsed configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "kind", content = "params")]
+pub enum ModelConfig {
+    Majority,
+    Climatology(ClimatologyParams),
+    FireDangerIndex(DangerIndexParams),
+    Baseline {
+        inputs: FlatInputs,
+        spec: firecast_baselines::BaselineSpec,
+    },
+    Xgboost(XgbEntry),
+    WindowStatsXgboost(XgbEntry),
+    MiniRocket(MiniRocketParams),
+    Neural(NeuralConfig),
+}
+
+fn strict<T: serde::de::DeserializeOwned>(params: &serde_json::Value) -> Result<T, ForecastError> {
+    let value = if params.is_null() {
+        serde_json::json!({})
+    } else {
+        params.clone()
+    };
+    serde_path_to_error_like(value)
+}
+
+/// serde's error with the key path that failed (params are small JSON objects).
+fn serde_path_to_error_like<T: serde::de::DeserializeOwned>(value: serde_json::Value) -> Result<T, ForecastError> {
+    match firecast_pipeline::stage::deserialize_params::<T>(&value) {
+        Ok(v) => Ok(v),
+        Err(e) => Err(ForecastError::Config {
+            key: e.path.replace(".?", ""),
+            message: e.message,
+        }),
+    }
+}
+
+impl ModelConfig {
+    /// `kind` + its params; an unknown kind or key is an error naming it.
+    pub fn parse(kind: &str, params: &serde_json::Value) -> Result<Self, ForecastError> {
+        let split_inputs = |params: &serde_json::Value| -> Result<(FlatInputs, serde_json::Value), ForecastError> {
+            let mut rest = if params.is_null() {
+                serde_json::Map::new()
+            } else {
+                params
+                    .as_object()
+                    .cloned()
+                    .ok_or_else(|| ForecastError::Config {
+                        key: String::new(),
+                        message: "params must be a mapping".into(),
+                    })?
+            };
+            let mut inputs = serde_json::Map::new();
+            for k in ["features", "standardize"] {
+                if let Some(v) = rest.remove(k) {
+                    inputs.insert(k.into(), v);
+                }
+            }
+            Ok((strict(&serde_json::Value::Object(inputs))?, serde_json::Value::Object(rest)))
+        };
+        let baseline = |model: &str, params: &serde_json::Value| -> Result<ModelConfig, ForecastError> {
+            let (inputs, rest) = split_inputs(params)?;
+            let spec = firecast_baselines::BaselineSpec::from_kind(model, &rest).map_err(|e| ForecastError::Config {
+                key: String::new(),
+                message: e.to_string(),
+            })?;
+            Ok(ModelConfig::Baseline { inputs, spec })
+        };
+        Ok(match kind {
+            "majority" => {
+                let _: EmptyParams = strict(params)?;
+                ModelConfig::Majority
+            }
+            "climatology" => ModelConfig::Climatology(strict(params)?),
+            "fire_danger_index" => ModelConfig::FireDangerIndex(strict(params)?),
+            "logistic_regression" | "gaussian_nb" | "decision_tree" | "random_forest" | "gradient_boosting"
+            | "knn" => baseline(kind, params)?,
+            "xgboost" => ModelConfig::Xgboost(XgbEntry::parse(params)?),
+            "window_stats_xgboost" => ModelConfig::WindowStatsXgboost(XgbEntry::parse(params)?),
+            "minirocket" => ModelConfig::MiniRocket(strict(params)?),
+            "mlp" | "lstm2" | "lightts" | "cnn_bilstm" | "cnn_bilstm_attn" | "firecast" => {
+                let kind = NeuralKind::parse(kind).ok_or_else(|| ForecastError::UnknownModel { kind: kind.into() })?;
+                ModelConfig::Neural(NeuralConfig::parse(kind, params)?)
+            }
+            other => return Err(ForecastError::UnknownModel { kind: other.into() }),
+        })
+    }
+
+    /// Whether training draws random numbers (then every seed is a separate run).
+    pub fn is_stochastic(&self) -> bool {
+        match self {
+            ModelConfig::Majority | ModelConfig::Climatology(_) | ModelConfig::FireDangerIndex(_) => false,
+            ModelConfig::Baseline { spec, .. } => matches!(spec, firecast_baselines::BaselineSpec::RandomForest(_)),
+            ModelConfig::Xgboost(e) | ModelConfig::WindowStatsXgboost(e) => e.params.subsample < 1.0 || e.params.colsample_bytree < 1.0,
+            ModelConfig::MiniRocket(_) | ModelConfig::Neural(_) => true,
+        }
+    }
+
+    /// The default threshold rule: the authors' fixed 0.5 for their own model, else chosen
+    /// on validation by F1.
+    pub fn default_threshold(&self) -> crate::spec::ThresholdRule {
+        match self {
+            ModelConfig::Neural(n) if n.kind == NeuralKind::CnnBilstm || n.kind == NeuralKind::CnnBilstmAttn => {
+                crate::spec::ThresholdRule::Fixed(0.5)
+            }
+            _ => crate::spec::ThresholdRule::MaxF1,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EmptyParams {}
+
+/// What a model sees: the protocol's days of every dataset variable, plus sample facts.
+pub struct Inputs<'a> {
+    pub block: &'a Block,
+    pub meta: Vec<&'a SampleMeta>,
+}
+
+/// A fitted model.
+#[derive(Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum Trained {
+    Majority {
+        prevalence: f64,
+    },
+    Climatology {
+        params: ClimatologyParams,
+        /// Per training sample: (day of year, block row, block col, label).
+        samples: Vec<(u32, i64, i64, bool)>,
+        prevalence: f64,
+    },
+    FireDangerIndex {
+        feature: String,
+        /// Logistic calibration of the raw index on training data: p = σ(a·x + b).
+        a: f64,
+        b: f64,
+    },
+    Baseline {
+        features: Vec<String>,
+        scaler: Option<Scaler>,
+        model: firecast_baselines::Fitted,
+    },
+    Xgboost {
+        features: Vec<String>,
+        stats: bool,
+        /// The booster as XGBoost's own JSON model.
+        model_json: String,
+    },
+    MiniRocket {
+        features: Vec<String>,
+        rocket: crate::minirocket::MiniRocket,
+        scaler: Scaler,
+        head: firecast_baselines::Fitted,
+    },
+    /// Saved as a header and safetensors weights by [`crate::bundle`].
+    #[serde(skip)]
+    Neural(NeuralModel),
+}
+
+/// Progress of a long fit: (done, total, what).
+pub type Progress<'a> = &'a (dyn Fn(u64, u64, &str) + Sync);
+
+/// Training context: the training side, the validation side (early stopping, plateau
+/// schedules) and the run's seed and device.
+pub struct FitContext<'a> {
+    pub train: Inputs<'a>,
+    pub train_labels: &'a [bool],
+    pub val: Inputs<'a>,
+    pub val_labels: &'a [bool],
+    pub seed: u64,
+    pub device: tch::Device,
+    pub progress: Progress<'a>,
+    /// Per-epoch curves (neural models) are reported here: (epoch, key, value).
+    pub curve: &'a (dyn Fn(i64, &str, f64) + Sync),
+}
+
+pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, ForecastError> {
+    let y = ctx.train_labels;
+    let prevalence = y.iter().filter(|&&l| l).count() as f64 / y.len().max(1) as f64;
+    Ok(match config {
+        ModelConfig::Majority => Trained::Majority { prevalence },
+        ModelConfig::Climatology(p) => {
+            let samples = ctx
+                .train
+                .meta
+                .iter()
+                .zip(y)
+                .map(|(m, &l)| {
+                    let (r, c) = block_of(m, p.block_degrees);
+                    (m.day_of_year, r, c, l)
+                })
+                .collect();
+            Trained::Climatology {
+                params: p.clone(),
+                samples,
+                prevalence,
+            }
+        }
+        ModelConfig::FireDangerIndex(p) => {
+            let x = last_day_values(ctx.train.block, &p.feature)?;
+            let (a, b) = crate::features::fit_logistic_1d(&x, y);
+            Trained::FireDangerIndex {
+                feature: p.feature.clone(),
+                a,
+                b,
+            }
+        }
+        ModelConfig::Baseline { inputs, spec } => {
+            let features = inputs.features.resolve(&ctx.train.block.features)?;
+            let x = crate::features::flatten(ctx.train.block, &features)?;
+            let standardize = inputs.standardize.unwrap_or_else(|| spec.wants_standardized());
+            let scaler = standardize.then(|| Scaler::fit(&x));
+            let x = match &scaler {
+                Some(s) => s.transform(&x),
+                None => x,
+            };
+            let report = |done: usize, total: usize| (ctx.progress)(done as u64, total as u64, "fit");
+            let model = firecast_baselines::fit_with_progress(spec, &x, y, ctx.seed, &report)
+                .map_err(|e| ForecastError::Model(e.to_string()))?;
+            Trained::Baseline {
+                features,
+                scaler,
+                model,
+            }
+        }
+        ModelConfig::Xgboost(e) | ModelConfig::WindowStatsXgboost(e) => {
+            let stats = matches!(config, ModelConfig::WindowStatsXgboost(_));
+            let features = e.features.resolve(&ctx.train.block.features)?;
+            let x = if stats {
+                window_statistics(ctx.train.block, &features)?
+            } else {
+                crate::features::flatten(ctx.train.block, &features)?
+            };
+            let report = |done: u32, total: u32| (ctx.progress)(u64::from(done), u64::from(total), "boost");
+            let booster = firecast_xgboost::Booster::fit_with_progress(&x.data, x.rows, x.cols, y, &e.params, ctx.seed, report)
+                .map_err(|e| ForecastError::Model(e.to_string()))?;
+            let json = booster.save_json().map_err(|e| ForecastError::Model(e.to_string()))?;
+            Trained::Xgboost {
+                features,
+                stats,
+                model_json: String::from_utf8_lossy(&json).into_owned(),
+            }
+        }
+        ModelConfig::MiniRocket(p) => {
+            let features = p.features.resolve(&ctx.train.block.features)?;
+            let rocket = crate::minirocket::MiniRocket::fit(ctx.train.block, &features, p.num_features, ctx.seed)?;
+            let x = rocket.transform(ctx.train.block, ctx.progress)?;
+            let scaler = Scaler::fit(&x);
+            let x = scaler.transform(&x);
+            let spec = firecast_baselines::BaselineSpec::from_kind(
+                "logistic_regression",
+                &serde_json::json!({"c": p.c, "max_iter": p.max_iter}),
+            )
+            .map_err(|e| ForecastError::Model(e.to_string()))?;
+            let head = firecast_baselines::fit(&spec, &x, y, ctx.seed).map_err(|e| ForecastError::Model(e.to_string()))?;
+            Trained::MiniRocket {
+                features,
+                rocket,
+                scaler,
+                head,
+            }
+        }
+        ModelConfig::Neural(n) => Trained::Neural(crate::neural::train(n, ctx)?),
+    })
+}
+
+fn block_of(m: &SampleMeta, deg: f64) -> (i64, i64) {
+    ((m.lat / deg).floor() as i64, (m.lon / deg).floor() as i64)
+}
+
+fn last_day_values(block: &Block, feature: &str) -> Result<Vec<f32>, ForecastError> {
+    let f = block.features.iter().position(|n| n == feature).ok_or_else(|| ForecastError::Config {
+        key: "params.feature".into(),
+        message: format!("the dataset has no variable `{feature}` (it has {})", block.features.join(", ")),
+    })?;
+    let nf = block.n_features();
+    let d = block.n_days - 1;
+    Ok((0..block.rows()).map(|s| block.sample(s)[d * nf + f]).collect())
+}
+
+/// Circular day-of-year distance.
+fn doy_distance(a: u32, b: u32) -> f64 {
+    let d = (a as f64 - b as f64).abs();
+    d.min(365.25 - d)
+}
+
+impl Trained {
+    /// Probability of an ignition for each sample of `inputs`.
+    pub fn predict(&self, inputs: &Inputs<'_>, device: tch::Device) -> Result<Vec<f64>, ForecastError> {
+        let n = inputs.block.rows();
+        Ok(match self {
+            Trained::Majority { prevalence } => vec![*prevalence; n],
+            Trained::Climatology {
+                params,
+                samples,
+                prevalence,
+            } => {
+                let kernel = |a: u32, b: u32| {
+                    let d = doy_distance(a, b) / params.bandwidth_days;
+                    (-0.5 * d * d).exp()
+                };
+                inputs
+                    .meta
+                    .iter()
+                    .map(|m| {
+                        let (r, c) = block_of(m, params.block_degrees);
+                        let (mut gw, mut gp, mut bw, mut bp) = (0.0, 0.0, 0.0, 0.0);
+                        for &(doy, sr, sc, l) in samples {
+                            let k = kernel(m.day_of_year, doy);
+                            gw += k;
+                            gp += k * f64::from(u8::from(l));
+                            if sr == r && sc == c {
+                                bw += k;
+                                bp += k * f64::from(u8::from(l));
+                            }
+                        }
+                        // Seasonal rate of the whole region, then the block's rate shrunk
+                        // toward it.
+                        let season = (gp + prevalence) / (gw + 1.0);
+                        (bp + params.prior_strength * season) / (bw + params.prior_strength)
+                    })
+                    .collect()
+            }
+            Trained::FireDangerIndex { feature, a, b } => last_day_values(inputs.block, feature)?
+                .into_iter()
+                .map(|x| 1.0 / (1.0 + (-(a * f64::from(x) + b)).exp()))
+                .collect(),
+            Trained::Baseline {
+                features,
+                scaler,
+                model,
+            } => {
+                let x = crate::features::flatten(inputs.block, features)?;
+                let x = match scaler {
+                    Some(s) => s.transform(&x),
+                    None => x,
+                };
+                model.predict_proba(&x).map_err(|e| ForecastError::Model(e.to_string()))?
+            }
+            Trained::Xgboost {
+                features,
+                stats,
+                model_json,
+            } => {
+                let x = if *stats {
+                    window_statistics(inputs.block, features)?
+                } else {
+                    crate::features::flatten(inputs.block, features)?
+                };
+                let booster = firecast_xgboost::Booster::load_json(model_json.as_bytes())
+                    .map_err(|e| ForecastError::Model(e.to_string()))?;
+                booster
+                    .predict_proba(&x.data, x.rows, x.cols)
+                    .map_err(|e| ForecastError::Model(e.to_string()))?
+            }
+            Trained::MiniRocket {
+                rocket, scaler, head, ..
+            } => {
+                let x = rocket.transform(inputs.block, &|_, _, _| {})?;
+                head.predict_proba(&scaler.transform(&x))
+                    .map_err(|e| ForecastError::Model(e.to_string()))?
+            }
+            Trained::Neural(m) => m.predict(inputs, device)?,
+        })
+    }
+
+    /// Trainable parameters (neural models) — compared with PyTorch's count of the same net.
+    pub fn parameter_count(&self) -> Option<i64> {
+        match self {
+            Trained::Neural(m) => Some(m.parameter_count()),
+            _ => None,
+        }
+    }
+}

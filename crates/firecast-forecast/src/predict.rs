@@ -1,0 +1,175 @@
+//! A trained model asked about places and dates (the paper's `predictWildfire`): the window
+//! the model needs is read from GRIDMET files exactly as the dataset's windows were.
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use crate::ForecastError;
+use crate::bundle::Bundle;
+use crate::data::{Block, SampleMeta};
+use crate::models::Inputs;
+
+/// A place and a date to score.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Query {
+    pub lat: f64,
+    pub lon: f64,
+    /// `YYYY-MM-DD`: the day whose ignition is predicted.
+    pub date: String,
+}
+
+/// One answer.
+#[derive(Debug, Clone, Serialize)]
+pub struct Prediction {
+    pub lat: f64,
+    pub lon: f64,
+    pub date: String,
+    pub probability: f64,
+    pub threshold: f64,
+    pub ignition_expected: bool,
+    /// The GRIDMET cell whose weather was read.
+    pub cell_lat: f64,
+    pub cell_lon: f64,
+    pub model: String,
+    pub kind: String,
+    pub protocol: String,
+    pub dataset: String,
+    pub dataset_version: String,
+    pub input_days: (i32, i32),
+}
+
+fn parse_day(date: &str) -> Option<(i32, u32, u32)> {
+    let mut it = date.split('-');
+    let y = it.next()?.parse().ok()?;
+    let m = it.next()?.parse().ok()?;
+    let d = it.next()?.parse().ok()?;
+    if it.next().is_some() {
+        return None;
+    }
+    firecast_data::gridmet::ymd_to_day(y, m, d).map(|_| (y, m, d))
+}
+
+/// Scores `queries` with `bundle`, reading weather from the GRIDMET folder `gridmet`.
+pub fn predict(bundle: &Bundle, gridmet: &Path, queries: &[Query], device: tch::Device) -> Result<Vec<Prediction>, ForecastError> {
+    let mut samples = Vec::with_capacity(queries.len());
+    for (i, q) in queries.iter().enumerate() {
+        let (y, m, d) = parse_day(&q.date).ok_or_else(|| ForecastError::Config {
+            key: format!("date[{i}]"),
+            message: format!("`{}` is not a YYYY-MM-DD date", q.date),
+        })?;
+        if !(-90.0..=90.0).contains(&q.lat) || !(-180.0..=180.0).contains(&q.lon) {
+            return Err(ForecastError::Config {
+                key: format!("point[{i}]"),
+                message: format!("({}, {}) is not a latitude/longitude", q.lat, q.lon),
+            });
+        }
+        let day = firecast_data::gridmet::ymd_to_day(y, m, d).unwrap_or(0);
+        // Noon in Mountain Standard Time: the GRIDMET day is the MST day.
+        let days_since_epoch = i64::from(day) - 25_567;
+        samples.push(firecast_dataset::windows::SampleIn {
+            sample_id: i as u32,
+            lat: q.lat,
+            lon: q.lon,
+            time_ms: (days_since_epoch * 86_400 + 19 * 3600) * 1000,
+            tier: firecast_dataset::Tier::Far,
+            source_row: None,
+        });
+    }
+    let cfg = firecast_dataset::windows::ExtractConfig {
+        first_offset: bundle.info.days.0,
+        last_offset: bundle.info.days.1,
+        variables: bundle.info.features.clone(),
+        ..Default::default()
+    };
+    let (table, report) = firecast_dataset::windows::extract(&samples, gridmet, &cfg, false, &|_, _| {})
+        .map_err(|e| ForecastError::dataset(gridmet, e))?;
+    if table.samples.len() != queries.len() {
+        let kept: std::collections::BTreeSet<u32> = table.samples.iter().map(|s| s.sample_id).collect();
+        let missing: Vec<String> = (0..queries.len() as u32)
+            .filter(|i| !kept.contains(i))
+            .map(|i| {
+                let q = &queries[i as usize];
+                format!("({}, {}) on {}", q.lat, q.lon, q.date)
+            })
+            .collect();
+        return Err(ForecastError::Data {
+            path: gridmet.to_path_buf(),
+            message: format!(
+                "no complete {}-day window for {} ({:?}): outside the files' grid or years, or on a masked cell",
+                cfg.last_offset - cfg.first_offset + 1,
+                missing.join(", "),
+                report.dropped
+            ),
+        });
+    }
+    if let Some(at) = table.values.iter().position(|v| !v.is_finite()) {
+        let s = at / (table.n_days * table.n_features());
+        let q = &queries[table.samples[s].sample_id as usize];
+        return Err(ForecastError::Data {
+            path: gridmet.to_path_buf(),
+            message: format!(
+                "missing value in `{}` in the window of ({}, {}) on {}",
+                table.features[at % table.n_features()],
+                q.lat,
+                q.lon,
+                q.date
+            ),
+        });
+    }
+    let block = Block {
+        features: table.features.clone(),
+        first_offset: table.first_offset,
+        n_days: table.n_days,
+        values: table.values.clone(),
+    };
+    let meta: Vec<SampleMeta> = table
+        .samples
+        .iter()
+        .map(|s| {
+            let (year, month, _) = firecast_data::gridmet::day_to_ymd(s.event_day);
+            let jan1 = firecast_data::gridmet::ymd_to_day(year, 1, 1).unwrap_or(s.event_day);
+            SampleMeta {
+                sample_id: s.sample_id,
+                event_day: s.event_day,
+                year,
+                month,
+                day_of_year: (s.event_day - jan1 + 1) as u32,
+                lat: s.lat,
+                lon: s.lon,
+                cell: s.cell,
+                tier: s.tier,
+                dataset_split: None,
+            }
+        })
+        .collect();
+    let inputs = Inputs {
+        block: &block,
+        meta: meta.iter().collect(),
+    };
+    let p = bundle.model.predict(&inputs, device)?;
+    Ok(table
+        .samples
+        .iter()
+        .zip(p)
+        .map(|(s, prob)| {
+            let q = &queries[s.sample_id as usize];
+            Prediction {
+                lat: q.lat,
+                lon: q.lon,
+                date: q.date.clone(),
+                probability: prob,
+                threshold: bundle.info.threshold,
+                ignition_expected: prob > bundle.info.threshold,
+                cell_lat: s.cell_lat,
+                cell_lon: s.cell_lon,
+                model: bundle.info.model.clone(),
+                kind: bundle.info.kind.clone(),
+                protocol: bundle.info.protocol.clone(),
+                dataset: bundle.info.dataset.clone(),
+                dataset_version: bundle.info.dataset_version.clone(),
+                input_days: bundle.info.days,
+            }
+        })
+        .collect())
+}
