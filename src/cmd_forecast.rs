@@ -94,9 +94,13 @@ fn relative_to_root(settings: &Settings, path: &Path) -> PathBuf {
     let abs = if path.is_absolute() {
         path.to_path_buf()
     } else {
-        std::env::current_dir().map(|d| d.join(path)).unwrap_or_else(|_| path.to_path_buf())
+        std::env::current_dir()
+            .map(|d| d.join(path))
+            .unwrap_or_else(|_| path.to_path_buf())
     };
-    abs.strip_prefix(&settings.root).map(Path::to_path_buf).unwrap_or(abs)
+    abs.strip_prefix(&settings.root)
+        .map(Path::to_path_buf)
+        .unwrap_or(abs)
 }
 
 fn run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
@@ -105,10 +109,12 @@ fn run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
     if let Some(device) = &args.device {
         spec.device = device.clone();
     }
-    let dataset = spec
-        .dataset
-        .take()
-        .with_context(|| format!("{}: `dataset`: the experiment names no dataset folder", file.display()))?;
+    let dataset = spec.dataset.take().with_context(|| {
+        format!(
+            "{}: `dataset`: the experiment names no dataset folder",
+            file.display()
+        )
+    })?;
     if !settings.root.join(&dataset).join("dataset.json").exists() {
         anyhow::bail!(
             "{}: `dataset`: {} is not a dataset folder (no dataset.json); build one with `firecast dataset build` \
@@ -179,7 +185,8 @@ fn read_result(dir: &Path) -> anyhow::Result<ExperimentResult> {
     let path = dir.join("results.json");
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("cannot read {} (not an experiment report?)", path.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{}: not a FireCast experiment result", path.display()))
+    serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a FireCast experiment result", path.display()))
 }
 
 fn cell(r: &firecast_forecast::experiment::ModelResult, k: &str, pct: bool) -> String {
@@ -203,7 +210,11 @@ fn print_tables(result: &ExperimentResult) -> anyhow::Result<()> {
             "\nTable III — {} — protocol `{}`{}: days {}..{} ({}), {}",
             result.name,
             p.name,
-            if p.name == result.headline { " (headline)" } else { "" },
+            if p.name == result.headline {
+                " (headline)"
+            } else {
+                ""
+            },
             p.days.0,
             p.days.1,
             if p.leaks_future {
@@ -225,8 +236,27 @@ fn print_tables(result: &ExperimentResult) -> anyhow::Result<()> {
             result.bootstrap,
             result.cluster
         );
+        if let Some(o) = &p.oracle {
+            println!(
+                "oracle (the synthetic generator's true probabilities): AUROC {:.3}, AUPRC {:.3}; \
+                 `of oracle` = (AUROC - 0.5) / (oracle AUROC - 0.5)",
+                o.get("auroc").copied().unwrap_or(f64::NAN),
+                o.get("auprc").copied().unwrap_or(f64::NAN)
+            );
+        }
         let mut table = output::table(&[
-            "model", "family", "accuracy %", "precision", "recall", "F1", "AUROC", "AUPRC", "Brier", "threshold", "seeds",
+            "model",
+            "family",
+            "accuracy %",
+            "precision",
+            "recall",
+            "F1",
+            "AUROC",
+            "AUPRC",
+            "Brier",
+            "threshold",
+            "seeds",
+            "of oracle",
         ]);
         for r in firecast_forecast::table::rows(result, &p.name) {
             table.add_row(vec![
@@ -239,8 +269,14 @@ fn print_tables(result: &ExperimentResult) -> anyhow::Result<()> {
                 cell(r, "auroc", false),
                 cell(r, "auprc", false),
                 cell(r, "brier", false),
-                r.runs.first().map_or(String::new(), |s| format!("{:.3}", s.threshold)),
+                r.runs
+                    .first()
+                    .map_or(String::new(), |s| format!("{:.3}", s.threshold + 0.0)),
                 r.seeds.len().to_string(),
+                r.skill_vs_oracle
+                    .as_ref()
+                    .and_then(|m| m.get("auroc"))
+                    .map_or("—".into(), |v| format!("{:.0} %", v * 100.0)),
             ]);
         }
         output::print_table(&table)?;
@@ -312,7 +348,9 @@ pub fn run_forecast_command(settings: &Settings, command: ForecastCommand) -> an
 fn read_points(path: &Path) -> anyhow::Result<Vec<firecast_forecast::predict::Query>> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut lines = text.lines().enumerate();
-    let (_, header) = lines.next().with_context(|| format!("{}: empty file", path.display()))?;
+    let (_, header) = lines
+        .next()
+        .with_context(|| format!("{}: empty file", path.display()))?;
     let cols: Vec<String> = header.split(',').map(|c| c.trim().to_lowercase()).collect();
     let find = |name: &str| {
         cols.iter()
@@ -357,12 +395,21 @@ fn predict(settings: &Settings, args: &PredictArgs) -> anyhow::Result<ExitCode> 
     };
     let device = firecast_forecast::parse_device(&args.device)?;
     let bundle = firecast_forecast::bundle::load(&settings.root.join(&args.model), device)?;
-    let answers = firecast_forecast::predict::predict(&bundle, &settings.root.join(&args.gridmet), &queries, device)?;
+    let answers =
+        firecast_forecast::predict::predict(&bundle, &settings.root.join(&args.gridmet), &queries, device)?;
     if settings.json {
         output::print_json(&answers)?;
         return Ok(ExitCode::SUCCESS);
     }
-    let mut table = output::table(&["lat", "lon", "date", "P(ignition)", "threshold", "ignition expected", "GRIDMET cell"]);
+    let mut table = output::table(&[
+        "lat",
+        "lon",
+        "date",
+        "P(ignition)",
+        "threshold",
+        "ignition expected",
+        "GRIDMET cell",
+    ]);
     for a in &answers {
         table.add_row(vec![
             format!("{:.4}", a.lat),

@@ -2,10 +2,10 @@
 
 use crate::{Project, describe, venv_bin};
 
-const REGION: &str = "39.0,39.75,-107.5,-106.5";
+pub(crate) const REGION: &str = "39.0,39.75,-107.5,-106.5";
 
 /// Synthetic sources → ignitions → negatives → windows → a paper dataset, all through the CLI.
-fn build_paper_dataset(p: &Project, out: &str) -> serde_json::Value {
+pub(crate) fn build_paper_dataset(p: &Project, out: &str) -> serde_json::Value {
     let incidents = p.path("src/incidents/wfigs_incidents.csv");
     let gridmet = p.path("src/gridmet");
     p.ok(&[
@@ -105,7 +105,13 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
     assert_eq!(truth["column"], "true_ignition_probability", "{first}");
     assert_eq!(truth["samples_with_value"], first["samples"]);
     assert!(truth["mean_positive"].as_f64().unwrap() > truth["mean_negative"].as_f64().unwrap());
-    assert!(!first["features"].as_array().unwrap().iter().any(|f| f == "true_ignition_probability"));
+    assert!(
+        !first["features"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|f| f == "true_ignition_probability")
+    );
     let card = p.read("data/a/card.md");
     assert!(
         card.contains("## Samples per tier") && card.contains("How the sources were made"),

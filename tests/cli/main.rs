@@ -3,6 +3,7 @@
 #![allow(clippy::unwrap_used)]
 
 mod dataset;
+mod forecast;
 mod pipeline;
 mod registry;
 mod sim;

@@ -228,6 +228,13 @@ fn demo(ctx: &Context, args: &[String]) -> Result<(), String> {
             .current_dir(&ctx.root)
             .args(["runs", "list", "--limit", "15"]),
         "firecast runs list",
+    )?;
+    // Table III of the demo's forecasting experiment (stage forecast_table3).
+    run(
+        Command::new(&firecast)
+            .current_dir(&ctx.root)
+            .args(["experiment", "compare", "build/demo/table3"]),
+        "firecast experiment compare build/demo/table3",
     )
 }
 

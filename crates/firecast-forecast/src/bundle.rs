@@ -83,7 +83,8 @@ pub fn save(dir: &Path, info: &BundleInfo, model: &Trained) -> Result<(), Foreca
     };
     let _ = neural;
     let json = serde_json::to_vec_pretty(&file).map_err(|e| ForecastError::Model(e.to_string()))?;
-    std::fs::write(tmp.join(MODEL_FILE), json).map_err(ForecastError::io("writing", &tmp.join(MODEL_FILE)))?;
+    std::fs::write(tmp.join(MODEL_FILE), json)
+        .map_err(ForecastError::io("writing", &tmp.join(MODEL_FILE)))?;
     if dir.exists() {
         std::fs::remove_dir_all(dir).map_err(ForecastError::io("replacing", dir))?;
     }

@@ -29,6 +29,8 @@ pub struct SampleMeta {
     pub tier: Tier,
     /// The split the dataset itself assigned (`train`, `val`, `test`).
     pub dataset_split: Option<String>,
+    /// The synthetic generator's true probability of an ignition (never a model input).
+    pub true_probability: Option<f32>,
 }
 
 /// A dataset in memory.
@@ -112,6 +114,7 @@ impl Windows {
                 cell: s.cell,
                 tier: s.tier,
                 dataset_split: stored.splits.as_ref().map(|v| v[i].clone()),
+                true_probability: s.true_probability,
             });
             let _ = day;
         }
@@ -172,12 +175,7 @@ impl Block {
     }
 
     /// Cuts `windows` down to `days`, `features` and the samples `rows`.
-    pub fn cut(
-        windows: &Windows,
-        days: std::ops::Range<usize>,
-        features: &[usize],
-        rows: &[usize],
-    ) -> Block {
+    pub fn cut(windows: &Windows, days: std::ops::Range<usize>, features: &[usize], rows: &[usize]) -> Block {
         let nf = windows.n_features();
         let mut values = Vec::with_capacity(rows.len() * days.len() * features.len());
         for &s in rows {

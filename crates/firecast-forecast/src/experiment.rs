@@ -39,7 +39,8 @@ pub struct ModelResult {
     /// By negative tier: positives against that tier's negatives.
     pub by_tier: BTreeMap<String, BTreeMap<String, f64>>,
     pub parameters: Option<i64>,
-    /// Share of the oracle's AUROC / AUPRC reached (synthetic data with known rates).
+    /// Skill above no skill as a share of the oracle's, (m − m₀)/(oracle − m₀), for AUROC
+    /// (m₀ = 0.5) and AUPRC (m₀ = prevalence), on synthetic data with known probabilities.
     pub skill_vs_oracle: Option<BTreeMap<String, f64>>,
 }
 
@@ -85,6 +86,7 @@ pub struct ProtocolInfo {
     /// Always predicting "no fire".
     pub majority_accuracy: f64,
     pub leaks_future: bool,
+    /// AUROC and AUPRC of the generator's true probabilities on the test side (synthetic data).
     pub oracle: Option<BTreeMap<String, f64>>,
 }
 
@@ -136,9 +138,17 @@ impl Sink for Quiet {}
 
 fn family(kind: &str) -> &'static str {
     match kind {
-        "majority" | "climatology" | "fire_danger_index" | "minirocket" | "window_stats_xgboost" => "reference",
-        "logistic_regression" | "gaussian_nb" | "decision_tree" | "random_forest" | "gradient_boosting" | "knn"
-        | "xgboost" | "mlp" => "paper_baseline",
+        "majority" | "climatology" | "fire_danger_index" | "minirocket" | "window_stats_xgboost" => {
+            "reference"
+        }
+        "logistic_regression"
+        | "gaussian_nb"
+        | "decision_tree"
+        | "random_forest"
+        | "gradient_boosting"
+        | "knn"
+        | "xgboost"
+        | "mlp" => "paper_baseline",
         "lstm2" | "lightts" => "sequence",
         "cnn_bilstm" | "cnn_bilstm_attn" => "authors",
         _ => "firecast",
@@ -178,7 +188,16 @@ pub fn report_metrics(r: &BinaryReport) -> BTreeMap<String, f64> {
 }
 
 /// Metrics that get intervals, in table order.
-pub const TABLE_METRICS: [&str; 8] = ["accuracy", "precision", "recall", "f1", "auroc", "auprc", "brier", "ece"];
+pub const TABLE_METRICS: [&str; 8] = [
+    "accuracy",
+    "precision",
+    "recall",
+    "f1",
+    "auroc",
+    "auprc",
+    "brier",
+    "ece",
+];
 
 fn metric_of(name: &str, y: &[bool], p: &[f64], threshold: f64, bins: usize) -> Option<f64> {
     use firecast_eval::metrics as m;
@@ -243,6 +262,24 @@ pub fn run(
         let test_clusters = clusters(windows, &split.test, spec.evaluation.cluster);
         let positives = yte.iter().filter(|&&l| l).count();
         let prevalence = positives as f64 / yte.len() as f64;
+        // The ceiling on synthetic data: scoring each test sample by its true probability.
+        let truth: Option<Vec<f64>> = split
+            .test
+            .iter()
+            .map(|&s| windows.meta[s].true_probability.map(f64::from))
+            .collect();
+        let oracle = truth.as_ref().map(|t| {
+            BTreeMap::from([
+                (
+                    "auroc".to_string(),
+                    firecast_eval::metrics::roc_auc(&yte, t).unwrap_or(f64::NAN),
+                ),
+                (
+                    "auprc".to_string(),
+                    firecast_eval::metrics::average_precision(&yte, t).unwrap_or(f64::NAN),
+                ),
+            ])
+        });
         protocols.push(ProtocolInfo {
             name: pname.clone(),
             days: protocol.days,
@@ -255,7 +292,7 @@ pub fn run(
             prevalence,
             majority_accuracy: prevalence.max(1.0 - prevalence),
             leaks_future: protocol.days.1 >= 0,
-            oracle: None,
+            oracle: oracle.clone(),
         });
         sink.message(&format!(
             "protocol {pname}: days {}..{}, {} (train {}, val {}, test {} with {} positive, dropped {})",
@@ -282,7 +319,8 @@ pub fn run(
             let mut parameters = None;
             for &seed in &seeds {
                 let what = format!("{pname}/{label}/seed {seed}");
-                let progress = |done: u64, total: u64, step: &str| sink.progress(&format!("{what} {step}"), done, total);
+                let progress =
+                    |done: u64, total: u64, step: &str| sink.progress(&format!("{what} {step}"), done, total);
                 let curve_prefix = format!("{pname}/{label}/seed{seed}");
                 let recorded: std::sync::Mutex<BTreeMap<String, Vec<(i64, f64)>>> = Default::default();
                 let curve = |epoch: i64, k: &str, v: f64| {
@@ -321,11 +359,17 @@ pub fn run(
                     block: &bte,
                     meta: meta(&split.test),
                 };
-                let pv = trained.predict(&val_inputs, device).map_err(|e| e.in_model(&label))?;
-                let pt = trained.predict(&test_inputs, device).map_err(|e| e.in_model(&label))?;
+                let pv = trained
+                    .predict(&val_inputs, device)
+                    .map_err(|e| e.in_model(&label))?;
+                let pt = trained
+                    .predict(&test_inputs, device)
+                    .map_err(|e| e.in_model(&label))?;
                 let threshold = firecast_eval::metrics::choose_threshold(&yva, &pv, eval_rule(rule));
-                let report = firecast_eval::metrics::evaluate(&yte, &pt, threshold, spec.evaluation.calibration_bins);
-                let validation = firecast_eval::metrics::evaluate(&yva, &pv, threshold, spec.evaluation.calibration_bins);
+                let report =
+                    firecast_eval::metrics::evaluate(&yte, &pt, threshold, spec.evaluation.calibration_bins);
+                let validation =
+                    firecast_eval::metrics::evaluate(&yva, &pv, threshold, spec.evaluation.calibration_bins);
                 let model_rel = format!("models/{pname}/{label}/seed-{seed}");
                 crate::bundle::save(
                     &out.join(&model_rel),
@@ -377,23 +421,34 @@ pub fn run(
                 per_seed_scores.push(pt);
             }
             let thresholds: Vec<f64> = runs.iter().map(|r| r.threshold).collect();
-            let (test, intervals) = seed_mean_with_intervals(
-                &yte,
-                &per_seed_scores,
-                &thresholds,
-                &test_clusters,
-                spec,
-            );
+            let (test, intervals) =
+                seed_mean_with_intervals(&yte, &per_seed_scores, &thresholds, &test_clusters, spec);
             let mut seed_std = BTreeMap::new();
             for k in TABLE_METRICS {
                 let vals: Vec<f64> = runs.iter().map(|r| report_metrics(&r.report)[k]).collect();
                 let mean = vals.iter().sum::<f64>() / vals.len() as f64;
-                let var = vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (vals.len().max(2) - 1) as f64;
+                let var =
+                    vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (vals.len().max(2) - 1) as f64;
                 seed_std.insert(k.to_string(), if vals.len() > 1 { var.sqrt() } else { 0.0 });
             }
             let by_year = breakdown_by_year(windows, &split.test, &yte, &per_seed_scores[0], thresholds[0]);
             let by_tier = breakdown_by_tier(windows, &split.test, &yte, &per_seed_scores[0], thresholds[0]);
-            test_scores.push((label.clone(), entry.kind.clone(), per_seed_scores, thresholds.clone()));
+            // Skill above no skill as a share of the oracle's: (m − m₀) / (oracle − m₀).
+            let skill_vs_oracle = oracle.as_ref().map(|o| {
+                [("auroc", 0.5), ("auprc", prevalence)]
+                    .into_iter()
+                    .map(|(k, none)| {
+                        let m = test.get(k).copied().unwrap_or(f64::NAN);
+                        (k.to_string(), (m - none) / (o[k] - none))
+                    })
+                    .collect::<BTreeMap<_, _>>()
+            });
+            test_scores.push((
+                label.clone(),
+                entry.kind.clone(),
+                per_seed_scores,
+                thresholds.clone(),
+            ));
             results.push(ModelResult {
                 protocol: pname.clone(),
                 model: label,
@@ -407,7 +462,7 @@ pub fn run(
                 by_year,
                 by_tier,
                 parameters,
-                skill_vs_oracle: None,
+                skill_vs_oracle,
             });
         }
         let paired_result = paired_test(pname, &results, &test_scores, &yte, &test_clusters, spec);
@@ -478,7 +533,12 @@ fn seed_mean_with_intervals(
     for k in TABLE_METRICS {
         point.insert(k.to_string(), mean_metric(k, None).unwrap_or(f64::NAN));
     }
-    let resamples = firecast_eval::bootstrap::resample_indices(y.len(), Some(clusters), spec.evaluation.bootstrap, spec.evaluation.seed);
+    let resamples = firecast_eval::bootstrap::resample_indices(
+        y.len(),
+        Some(clusters),
+        spec.evaluation.bootstrap,
+        spec.evaluation.seed,
+    );
     let mut draws: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
     for idx in &resamples {
         for k in TABLE_METRICS {
@@ -492,7 +552,10 @@ fn seed_mean_with_intervals(
         .into_iter()
         .map(|(k, mut v)| {
             v.sort_by(f64::total_cmp);
-            (k.to_string(), (percentile(&v, alpha), percentile(&v, 1.0 - alpha)))
+            (
+                k.to_string(),
+                (percentile(&v, alpha), percentile(&v, 1.0 - alpha)),
+            )
         })
         .collect();
     (point, intervals)
@@ -590,7 +653,11 @@ fn paired_test(
         .max_by(|a, b| auroc(a).total_cmp(&auroc(b)))?;
     let baseline = here
         .iter()
-        .filter(|r| r.model != best.model && matches!(r.family.as_str(), "paper_baseline" | "reference") && r.kind != "majority")
+        .filter(|r| {
+            r.model != best.model
+                && matches!(r.family.as_str(), "paper_baseline" | "reference")
+                && r.kind != "majority"
+        })
         .filter(|r| auroc(r).is_finite())
         .max_by(|a, b| auroc(a).total_cmp(&auroc(b)))?;
     let find = |name: &str| scores.iter().find(|s| s.0 == name);

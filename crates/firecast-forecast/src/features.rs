@@ -36,7 +36,9 @@ impl FeatureSet {
     pub fn resolve(&self, have: &[String]) -> Result<Vec<String>, ForecastError> {
         match self {
             FeatureSet::Named(FeatureSetName::All) => Ok(have.to_vec()),
-            FeatureSet::Named(FeatureSetName::NoEtr) => Ok(have.iter().filter(|f| *f != "etr").cloned().collect()),
+            FeatureSet::Named(FeatureSetName::NoEtr) => {
+                Ok(have.iter().filter(|f| *f != "etr").cloned().collect())
+            }
             FeatureSet::List(list) => {
                 if list.is_empty() {
                     return Err(ForecastError::Config {
@@ -48,7 +50,10 @@ impl FeatureSet {
                     if !have.contains(f) {
                         return Err(ForecastError::Config {
                             key: "params.features".into(),
-                            message: format!("the dataset has no variable `{f}` (it has {})", have.join(", ")),
+                            message: format!(
+                                "the dataset has no variable `{f}` (it has {})",
+                                have.join(", ")
+                            ),
                         });
                     }
                 }
@@ -62,13 +67,17 @@ fn indices(block: &Block, features: &[String]) -> Result<Vec<usize>, ForecastErr
     features
         .iter()
         .map(|f| {
-            block.features.iter().position(|n| n == f).ok_or_else(|| ForecastError::Config {
-                key: "features".into(),
-                message: format!(
-                    "the model was trained on `{f}`, which these inputs lack (they have {})",
-                    block.features.join(", ")
-                ),
-            })
+            block
+                .features
+                .iter()
+                .position(|n| n == f)
+                .ok_or_else(|| ForecastError::Config {
+                    key: "features".into(),
+                    message: format!(
+                        "the model was trained on `{f}`, which these inputs lack (they have {})",
+                        block.features.join(", ")
+                    ),
+                })
         })
         .collect()
 }
@@ -111,7 +120,8 @@ pub fn window_statistics(block: &Block, features: &[String]) -> Result<Matrix, F
         let x = block.sample(s);
         for &f in &idx {
             let series = (0..n).map(|d| f64::from(x[d * nf + f]));
-            let (mut sum, mut sq, mut lo, mut hi, mut cov) = (0.0, 0.0, f64::INFINITY, f64::NEG_INFINITY, 0.0);
+            let (mut sum, mut sq, mut lo, mut hi, mut cov) =
+                (0.0, 0.0, f64::INFINITY, f64::NEG_INFINITY, 0.0);
             for (t, v) in series.enumerate() {
                 sum += v;
                 sq += v * v;
@@ -188,7 +198,9 @@ impl Scaler {
 pub fn fit_logistic_1d(x: &[f32], y: &[bool]) -> (f64, f64) {
     let n = x.len().max(1) as f64;
     let mean = x.iter().map(|v| f64::from(*v)).sum::<f64>() / n;
-    let sd = (x.iter().map(|v| (f64::from(*v) - mean).powi(2)).sum::<f64>() / n).sqrt().max(1e-12);
+    let sd = (x.iter().map(|v| (f64::from(*v) - mean).powi(2)).sum::<f64>() / n)
+        .sqrt()
+        .max(1e-12);
     let (mut a, mut b) = (0.0f64, 0.0f64);
     for _ in 0..50 {
         let (mut ga, mut gb, mut haa, mut hab, mut hbb) = (0.0, 0.0, 1e-9, 0.0, 1e-9);

@@ -26,8 +26,8 @@ pub mod models;
 pub mod neural;
 pub mod plots;
 pub mod predict;
-pub mod split;
 pub mod spec;
+pub mod split;
 pub mod stage;
 pub mod table;
 
@@ -66,7 +66,10 @@ pub enum ForecastError {
 }
 
 impl ForecastError {
-    pub(crate) fn io<'a>(context: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> ForecastError + 'a {
+    pub(crate) fn io<'a>(
+        context: &'static str,
+        path: &'a Path,
+    ) -> impl FnOnce(std::io::Error) -> ForecastError + 'a {
         move |source| ForecastError::Io {
             context,
             path: path.to_path_buf(),

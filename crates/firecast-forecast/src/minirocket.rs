@@ -56,7 +56,12 @@ impl MiniRocket {
     }
 
     /// Chooses dilations, variable subsets and biases from the training windows.
-    pub fn fit(block: &Block, features: &[String], num_features: usize, seed: u64) -> Result<Self, ForecastError> {
+    pub fn fit(
+        block: &Block,
+        features: &[String],
+        num_features: usize,
+        seed: u64,
+    ) -> Result<Self, ForecastError> {
         let days = block.n_days;
         if days < KERNEL_LEN {
             return Err(ForecastError::Config {
@@ -144,7 +149,13 @@ impl MiniRocket {
                 };
                 // Biases: quantiles of one random training window's convolution.
                 let example = rng.random_range(0..n);
-                let series = mixed_series(&idx.data[example * days * c..(example + 1) * days * c], c, &combo.channels, &mean, &std);
+                let series = mixed_series(
+                    &idx.data[example * days * c..(example + 1) * days * c],
+                    c,
+                    &combo.channels,
+                    &mean,
+                    &std,
+                );
                 let mut conv = convolve(&series, &kernels[k], dilation, true);
                 conv.sort_by(f32::total_cmp);
                 for _ in 0..counts[di] {
@@ -165,11 +176,18 @@ impl MiniRocket {
     }
 
     /// PPV features of every window of `block`.
-    pub fn transform(&self, block: &Block, progress: crate::models::Progress<'_>) -> Result<Matrix, ForecastError> {
+    pub fn transform(
+        &self,
+        block: &Block,
+        progress: crate::models::Progress<'_>,
+    ) -> Result<Matrix, ForecastError> {
         if block.n_days != self.days {
             return Err(ForecastError::Config {
                 key: "days".into(),
-                message: format!("MiniRocket was fitted on {}-day windows, these have {}", self.days, block.n_days),
+                message: format!(
+                    "MiniRocket was fitted on {}-day windows, these have {}",
+                    self.days, block.n_days
+                ),
             });
         }
         let x = crate::features::flatten(block, &self.features)?;
@@ -206,7 +224,12 @@ impl MiniRocket {
 fn mixed_series(window: &[f32], c: usize, channels: &[usize], mean: &[f32], std: &[f32]) -> Vec<f32> {
     let days = window.len() / c;
     (0..days)
-        .map(|d| channels.iter().map(|&ch| (window[d * c + ch] - mean[ch]) / std[ch]).sum())
+        .map(|d| {
+            channels
+                .iter()
+                .map(|&ch| (window[d * c + ch] - mean[ch]) / std[ch])
+                .sum()
+        })
         .collect()
 }
 

@@ -107,10 +107,12 @@ impl XgbEntry {
             })?,
             None => FeatureSet::default(),
         };
-        let params = firecast_xgboost::XgbParams::from_json(&serde_json::Value::Object(rest)).map_err(|e| match e {
-            firecast_xgboost::XgbError::Param { key, message } => ForecastError::Config { key, message },
-            other => ForecastError::Model(other.to_string()),
-        })?;
+        let params = firecast_xgboost::XgbParams::from_json(&serde_json::Value::Object(rest)).map_err(
+            |e| match e {
+                firecast_xgboost::XgbError::Param { key, message } => ForecastError::Config { key, message },
+                other => ForecastError::Model(other.to_string()),
+            },
+        )?;
         Ok(Self { features, params })
     }
 }
@@ -167,7 +169,9 @@ fn strict<T: serde::de::DeserializeOwned>(params: &serde_json::Value) -> Result<
 }
 
 /// serde's error with the key path that failed (params are small JSON objects).
-fn serde_path_to_error_like<T: serde::de::DeserializeOwned>(value: serde_json::Value) -> Result<T, ForecastError> {
+fn serde_path_to_error_like<T: serde::de::DeserializeOwned>(
+    value: serde_json::Value,
+) -> Result<T, ForecastError> {
     match firecast_pipeline::stage::deserialize_params::<T>(&value) {
         Ok(v) => Ok(v),
         Err(e) => Err(ForecastError::Config {
@@ -180,31 +184,34 @@ fn serde_path_to_error_like<T: serde::de::DeserializeOwned>(value: serde_json::V
 impl ModelConfig {
     /// `kind` + its params; an unknown kind or key is an error naming it.
     pub fn parse(kind: &str, params: &serde_json::Value) -> Result<Self, ForecastError> {
-        let split_inputs = |params: &serde_json::Value| -> Result<(FlatInputs, serde_json::Value), ForecastError> {
-            let mut rest = if params.is_null() {
-                serde_json::Map::new()
-            } else {
-                params
-                    .as_object()
-                    .cloned()
-                    .ok_or_else(|| ForecastError::Config {
+        let split_inputs =
+            |params: &serde_json::Value| -> Result<(FlatInputs, serde_json::Value), ForecastError> {
+                let mut rest = if params.is_null() {
+                    serde_json::Map::new()
+                } else {
+                    params.as_object().cloned().ok_or_else(|| ForecastError::Config {
                         key: String::new(),
                         message: "params must be a mapping".into(),
                     })?
-            };
-            let mut inputs = serde_json::Map::new();
-            for k in ["features", "standardize"] {
-                if let Some(v) = rest.remove(k) {
-                    inputs.insert(k.into(), v);
+                };
+                let mut inputs = serde_json::Map::new();
+                for k in ["features", "standardize"] {
+                    if let Some(v) = rest.remove(k) {
+                        inputs.insert(k.into(), v);
+                    }
                 }
-            }
-            Ok((strict(&serde_json::Value::Object(inputs))?, serde_json::Value::Object(rest)))
-        };
+                Ok((
+                    strict(&serde_json::Value::Object(inputs))?,
+                    serde_json::Value::Object(rest),
+                ))
+            };
         let baseline = |model: &str, params: &serde_json::Value| -> Result<ModelConfig, ForecastError> {
             let (inputs, rest) = split_inputs(params)?;
-            let spec = firecast_baselines::BaselineSpec::from_kind(model, &rest).map_err(|e| ForecastError::Config {
-                key: String::new(),
-                message: e.to_string(),
+            let spec = firecast_baselines::BaselineSpec::from_kind(model, &rest).map_err(|e| {
+                ForecastError::Config {
+                    key: String::new(),
+                    message: e.to_string(),
+                }
             })?;
             Ok(ModelConfig::Baseline { inputs, spec })
         };
@@ -215,13 +222,18 @@ impl ModelConfig {
             }
             "climatology" => ModelConfig::Climatology(strict(params)?),
             "fire_danger_index" => ModelConfig::FireDangerIndex(strict(params)?),
-            "logistic_regression" | "gaussian_nb" | "decision_tree" | "random_forest" | "gradient_boosting"
+            "logistic_regression"
+            | "gaussian_nb"
+            | "decision_tree"
+            | "random_forest"
+            | "gradient_boosting"
             | "knn" => baseline(kind, params)?,
             "xgboost" => ModelConfig::Xgboost(XgbEntry::parse(params)?),
             "window_stats_xgboost" => ModelConfig::WindowStatsXgboost(XgbEntry::parse(params)?),
             "minirocket" => ModelConfig::MiniRocket(strict(params)?),
             "mlp" | "lstm2" | "lightts" | "cnn_bilstm" | "cnn_bilstm_attn" | "firecast" => {
-                let kind = NeuralKind::parse(kind).ok_or_else(|| ForecastError::UnknownModel { kind: kind.into() })?;
+                let kind = NeuralKind::parse(kind)
+                    .ok_or_else(|| ForecastError::UnknownModel { kind: kind.into() })?;
                 ModelConfig::Neural(NeuralConfig::parse(kind, params)?)
             }
             other => return Err(ForecastError::UnknownModel { kind: other.into() }),
@@ -232,8 +244,12 @@ impl ModelConfig {
     pub fn is_stochastic(&self) -> bool {
         match self {
             ModelConfig::Majority | ModelConfig::Climatology(_) | ModelConfig::FireDangerIndex(_) => false,
-            ModelConfig::Baseline { spec, .. } => matches!(spec, firecast_baselines::BaselineSpec::RandomForest(_)),
-            ModelConfig::Xgboost(e) | ModelConfig::WindowStatsXgboost(e) => e.params.subsample < 1.0 || e.params.colsample_bytree < 1.0,
+            ModelConfig::Baseline { spec, .. } => {
+                matches!(spec, firecast_baselines::BaselineSpec::RandomForest(_))
+            }
+            ModelConfig::Xgboost(e) | ModelConfig::WindowStatsXgboost(e) => {
+                e.params.subsample < 1.0 || e.params.colsample_bytree < 1.0
+            }
             ModelConfig::MiniRocket(_) | ModelConfig::Neural(_) => true,
         }
     }
@@ -242,7 +258,9 @@ impl ModelConfig {
     /// on validation by F1.
     pub fn default_threshold(&self) -> crate::spec::ThresholdRule {
         match self {
-            ModelConfig::Neural(n) if n.kind == NeuralKind::CnnBilstm || n.kind == NeuralKind::CnnBilstmAttn => {
+            ModelConfig::Neural(n)
+                if n.kind == NeuralKind::CnnBilstm || n.kind == NeuralKind::CnnBilstmAttn =>
+            {
                 crate::spec::ThresholdRule::Fixed(0.5)
             }
             _ => crate::spec::ThresholdRule::MaxF1,
@@ -376,9 +394,13 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
                 crate::features::flatten(ctx.train.block, &features)?
             };
             let report = |done: u32, total: u32| (ctx.progress)(u64::from(done), u64::from(total), "boost");
-            let booster = firecast_xgboost::Booster::fit_with_progress(&x.data, x.rows, x.cols, y, &e.params, ctx.seed, report)
+            let booster = firecast_xgboost::Booster::fit_with_progress(
+                &x.data, x.rows, x.cols, y, &e.params, ctx.seed, report,
+            )
+            .map_err(|e| ForecastError::Model(e.to_string()))?;
+            let json = booster
+                .save_json()
                 .map_err(|e| ForecastError::Model(e.to_string()))?;
-            let json = booster.save_json().map_err(|e| ForecastError::Model(e.to_string()))?;
             Trained::Xgboost {
                 features,
                 stats,
@@ -387,7 +409,8 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
         }
         ModelConfig::MiniRocket(p) => {
             let features = p.features.resolve(&ctx.train.block.features)?;
-            let rocket = crate::minirocket::MiniRocket::fit(ctx.train.block, &features, p.num_features, ctx.seed)?;
+            let rocket =
+                crate::minirocket::MiniRocket::fit(ctx.train.block, &features, p.num_features, ctx.seed)?;
             let x = rocket.transform(ctx.train.block, ctx.progress)?;
             let scaler = Scaler::fit(&x);
             let x = scaler.transform(&x);
@@ -396,7 +419,8 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
                 &serde_json::json!({"c": p.c, "max_iter": p.max_iter}),
             )
             .map_err(|e| ForecastError::Model(e.to_string()))?;
-            let head = firecast_baselines::fit(&spec, &x, y, ctx.seed).map_err(|e| ForecastError::Model(e.to_string()))?;
+            let head = firecast_baselines::fit(&spec, &x, y, ctx.seed)
+                .map_err(|e| ForecastError::Model(e.to_string()))?;
             Trained::MiniRocket {
                 features,
                 rocket,
@@ -413,10 +437,17 @@ fn block_of(m: &SampleMeta, deg: f64) -> (i64, i64) {
 }
 
 fn last_day_values(block: &Block, feature: &str) -> Result<Vec<f32>, ForecastError> {
-    let f = block.features.iter().position(|n| n == feature).ok_or_else(|| ForecastError::Config {
-        key: "params.feature".into(),
-        message: format!("the dataset has no variable `{feature}` (it has {})", block.features.join(", ")),
-    })?;
+    let f = block
+        .features
+        .iter()
+        .position(|n| n == feature)
+        .ok_or_else(|| ForecastError::Config {
+            key: "params.feature".into(),
+            message: format!(
+                "the dataset has no variable `{feature}` (it has {})",
+                block.features.join(", ")
+            ),
+        })?;
     let nf = block.n_features();
     let d = block.n_days - 1;
     Ok((0..block.rows()).map(|s| block.sample(s)[d * nf + f]).collect())
@@ -479,7 +510,9 @@ impl Trained {
                     Some(s) => s.transform(&x),
                     None => x,
                 };
-                model.predict_proba(&x).map_err(|e| ForecastError::Model(e.to_string()))?
+                model
+                    .predict_proba(&x)
+                    .map_err(|e| ForecastError::Model(e.to_string()))?
             }
             Trained::Xgboost {
                 features,

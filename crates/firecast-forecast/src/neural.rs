@@ -229,7 +229,8 @@ impl NeuralConfig {
 
     /// Defaults of `kind` overlaid with `params` (strict: unknown keys are errors).
     pub fn parse(kind: NeuralKind, params: &serde_json::Value) -> Result<Self, ForecastError> {
-        let mut merged = serde_json::to_value(Self::defaults(kind)).map_err(|e| ForecastError::Model(e.to_string()))?;
+        let mut merged =
+            serde_json::to_value(Self::defaults(kind)).map_err(|e| ForecastError::Model(e.to_string()))?;
         if let (Some(m), Some(p)) = (merged.as_object_mut(), params.as_object()) {
             m.remove("kind");
             for (k, v) in p {
@@ -247,10 +248,11 @@ impl NeuralConfig {
                 message: "params must be a mapping".into(),
             });
         }
-        let mut cfg: NeuralConfig = firecast_pipeline::stage::deserialize_params(&merged).map_err(|e| ForecastError::Config {
-            key: e.path,
-            message: e.message,
-        })?;
+        let mut cfg: NeuralConfig =
+            firecast_pipeline::stage::deserialize_params(&merged).map_err(|e| ForecastError::Config {
+                key: e.path,
+                message: e.message,
+            })?;
         cfg.kind = kind;
         let bad = |key: &str, message: &str| {
             Err(ForecastError::Config {
@@ -362,7 +364,15 @@ struct Recurrent {
 }
 
 impl Recurrent {
-    fn new(p: nn::Path<'_>, cell: Cell, input: i64, hidden: i64, layers: i64, bidirectional: bool, dropout: f64) -> Self {
+    fn new(
+        p: nn::Path<'_>,
+        cell: Cell,
+        input: i64,
+        hidden: i64,
+        layers: i64,
+        bidirectional: bool,
+        dropout: f64,
+    ) -> Self {
         let gates = match cell {
             Cell::Lstm => 4,
             Cell::Gru => 3,
@@ -375,8 +385,16 @@ impl Recurrent {
             let in_size = if layer == 0 { input } else { hidden * dirs };
             for dir in 0..dirs {
                 let suffix = if dir == 1 { "_reverse" } else { "" };
-                params.push(p.var(&format!("weight_ih_l{layer}{suffix}"), &[gates * hidden, in_size], init));
-                params.push(p.var(&format!("weight_hh_l{layer}{suffix}"), &[gates * hidden, hidden], init));
+                params.push(p.var(
+                    &format!("weight_ih_l{layer}{suffix}"),
+                    &[gates * hidden, in_size],
+                    init,
+                ));
+                params.push(p.var(
+                    &format!("weight_hh_l{layer}{suffix}"),
+                    &[gates * hidden, hidden],
+                    init,
+                ));
                 params.push(p.var(&format!("bias_ih_l{layer}{suffix}"), &[gates * hidden], init));
                 params.push(p.var(&format!("bias_hh_l{layer}{suffix}"), &[gates * hidden], init));
             }
@@ -411,7 +429,16 @@ impl Recurrent {
                 );
                 (out, h)
             }
-            Cell::Gru => x.gru(&h0, &self.params, true, self.layers, self.dropout, train, self.bidirectional, true),
+            Cell::Gru => x.gru(
+                &h0,
+                &self.params,
+                true,
+                self.layers,
+                self.dropout,
+                train,
+                self.bidirectional,
+                true,
+            ),
         }
     }
 }
@@ -490,7 +517,15 @@ fn net(cfg: &NeuralConfig, root: &nn::Path<'_>, features: i64, days: i64) -> Net
             }
         }
         NeuralKind::Lstm2 => Net::Lstm2 {
-            rnn: Recurrent::new(root / "lstm", Cell::Lstm, features, h, cfg.layers, false, cfg.dropout),
+            rnn: Recurrent::new(
+                root / "lstm",
+                Cell::Lstm,
+                features,
+                h,
+                cfg.layers,
+                false,
+                cfg.dropout,
+            ),
             fc: torch_linear(root / "fc", h, 1),
         },
         NeuralKind::Lightts => {
@@ -576,7 +611,13 @@ impl Net {
                 let pad = chunk * chunks - t;
                 // Zero days before the window so it splits into whole chunks.
                 let x = if pad > 0 {
-                    Tensor::cat(&[Tensor::zeros([b, pad, f], (x.kind(), x.device())), x.shallow_clone()], 1)
+                    Tensor::cat(
+                        &[
+                            Tensor::zeros([b, pad, f], (x.kind(), x.device())),
+                            x.shallow_clone(),
+                        ],
+                        1,
+                    )
                 } else {
                     x.shallow_clone()
                 };
@@ -585,10 +626,18 @@ impl Net {
                 let cont = xf.reshape([b, f, *chunks, *chunk]).apply(cont_in).relu(); // [B,F,n,h]
                 let cont = cont.transpose(2, 3).apply(cont_out).squeeze_dim(3); // [B,F,h]
                 // Interval sampling: every chunk-th day.
-                let int = xf.reshape([b, f, *chunks, *chunk]).transpose(2, 3).apply(int_in).relu(); // [B,F,c,h]
+                let int = xf
+                    .reshape([b, f, *chunks, *chunk])
+                    .transpose(2, 3)
+                    .apply(int_in)
+                    .relu(); // [B,F,c,h]
                 let int = int.transpose(2, 3).apply(int_out).squeeze_dim(3); // [B,F,h]
                 let z = Tensor::cat(&[cont, int], 2).flatten(1, 2);
-                z.apply(head).relu().dropout(*dropout, train).apply(out).squeeze_dim(1)
+                z.apply(head)
+                    .relu()
+                    .dropout(*dropout, train)
+                    .apply(out)
+                    .squeeze_dim(1)
             }
             Net::CnnBiLstm {
                 conv1,
@@ -599,11 +648,21 @@ impl Net {
                 fc,
             } => {
                 let z = x.permute([0, 2, 1]);
-                let z = z.apply(conv1).relu().apply_t(bn1, train).max_pool1d(2, 2, 0, 1, false);
-                let z = z.apply(conv2).relu().apply_t(bn2, train).max_pool1d(2, 2, 0, 1, false);
+                let z = z
+                    .apply(conv1)
+                    .relu()
+                    .apply_t(bn1, train)
+                    .max_pool1d(2, 2, 0, 1, false);
+                let z = z
+                    .apply(conv2)
+                    .relu()
+                    .apply_t(bn2, train)
+                    .max_pool1d(2, 2, 0, 1, false);
                 let (_, h) = rnn.forward(&z.permute([0, 2, 1]), train);
                 let n = h.size()[0];
-                Tensor::cat(&[h.get(n - 2), h.get(n - 1)], 1).apply(fc).squeeze_dim(1)
+                Tensor::cat(&[h.get(n - 2), h.get(n - 1)], 1)
+                    .apply(fc)
+                    .squeeze_dim(1)
             }
             Net::CnnBiLstmAttn {
                 conv1,
@@ -632,7 +691,12 @@ impl Net {
                 let z = z.apply(conv2).apply_t(bn2, train).relu().dropout(*dropout, train);
                 let (out, _) = rnn.forward(&z.permute([0, 2, 1]), train);
                 let pooled = attention_pool(&out, attn);
-                pooled.apply(fc1).relu().dropout(*dropout, train).apply(fc2).squeeze_dim(1)
+                pooled
+                    .apply(fc1)
+                    .relu()
+                    .dropout(*dropout, train)
+                    .apply(fc2)
+                    .squeeze_dim(1)
             }
         }
     }
@@ -770,7 +834,10 @@ fn scores(net: &Net, x: &Tensor, batch: i64) -> Vec<f64> {
         let mut start = 0;
         while start < n {
             let len = batch.min(n - start);
-            let p = net.forward_t(&x.narrow(0, start, len), false).sigmoid().to_device(Device::Cpu);
+            let p = net
+                .forward_t(&x.narrow(0, start, len), false)
+                .sigmoid()
+                .to_device(Device::Cpu);
             let v: Vec<f32> = Vec::try_from(&p).unwrap_or_default();
             out.extend(v.into_iter().map(f64::from));
             start += len;
@@ -803,16 +870,30 @@ fn restore(vs: &nn::VarStore, best: &BTreeMap<String, Tensor>) {
 pub fn train(cfg: &NeuralConfig, ctx: &FitContext<'_>) -> Result<NeuralModel, ForecastError> {
     let device = ctx.device;
     let features = cfg.features.resolve(&ctx.train.block.features)?;
-    let (raw, _, _) = input_tensor(&NeuralConfig { month_features: false, ..cfg.clone() }, &features, &ctx.train, None)?;
+    let (raw, _, _) = input_tensor(
+        &NeuralConfig {
+            month_features: false,
+            ..cfg.clone()
+        },
+        &features,
+        &ctx.train,
+        None,
+    )?;
     let scaler = cfg.standardize.then(|| fit_scaler(&raw, features.len()));
     let (xtr, days, width) = input_tensor(cfg, &features, &ctx.train, scaler.as_ref())?;
     let (xva, _, _) = input_tensor(cfg, &features, &ctx.val, scaler.as_ref())?;
     let n_train = ctx.train_labels.len() as i64;
     let n_val = ctx.val_labels.len() as i64;
-    let to_y = |labels: &[bool]| Tensor::from_slice(&labels.iter().map(|&l| f32::from(u8::from(l))).collect::<Vec<_>>());
-    let xtr = Tensor::from_slice(&xtr).reshape([n_train, days, width]).to_device(device);
+    let to_y = |labels: &[bool]| {
+        Tensor::from_slice(&labels.iter().map(|&l| f32::from(u8::from(l))).collect::<Vec<_>>())
+    };
+    let xtr = Tensor::from_slice(&xtr)
+        .reshape([n_train, days, width])
+        .to_device(device);
     let ytr = to_y(ctx.train_labels).to_device(device);
-    let xva = Tensor::from_slice(&xva).reshape([n_val, days, width]).to_device(device);
+    let xva = Tensor::from_slice(&xva)
+        .reshape([n_val, days, width])
+        .to_device(device);
     let yva = to_y(ctx.val_labels).to_device(device);
 
     tch::manual_seed(ctx.seed as i64);
@@ -852,7 +933,11 @@ pub fn train(cfg: &NeuralConfig, ctx: &FitContext<'_>) -> Result<NeuralModel, Fo
         let order: Vec<i64> = if cfg.balanced_sampling {
             (0..n_train)
                 .map(|_| {
-                    let pool = if rng.random_bool(0.5) { &positives } else { &negatives };
+                    let pool = if rng.random_bool(0.5) {
+                        &positives
+                    } else {
+                        &negatives
+                    };
                     pool[rng.random_range(0..pool.len())]
                 })
                 .collect()
@@ -873,7 +958,10 @@ pub fn train(cfg: &NeuralConfig, ctx: &FitContext<'_>) -> Result<NeuralModel, Fo
             let logits = net.forward_t(&xb, true);
             let mut loss = loss_of(cfg, &logits, &yb);
             if cfg.optimizer == Optimizer::AdamL2 {
-                let l2: Tensor = weights.iter().map(|w| w.pow_tensor_scalar(2).sum(Kind::Float)).sum();
+                let l2: Tensor = weights
+                    .iter()
+                    .map(|w| w.pow_tensor_scalar(2).sum(Kind::Float))
+                    .sum();
                 loss = loss + l2 * (0.5 * cfg.weight_decay / batch.len() as f64);
             }
             opt.zero_grad();
@@ -900,10 +988,16 @@ pub fn train(cfg: &NeuralConfig, ctx: &FitContext<'_>) -> Result<NeuralModel, Fo
                     .collect::<Vec<_>>(),
             );
             logits
-                .binary_cross_entropy_with_logits::<Tensor>(&yva.to_device(Device::Cpu), None, None, tch::Reduction::Mean)
+                .binary_cross_entropy_with_logits::<Tensor>(
+                    &yva.to_device(Device::Cpu),
+                    None,
+                    None,
+                    tch::Reduction::Mean,
+                )
                 .double_value(&[])
         });
-        let val_auprc = firecast_eval::metrics::average_precision(val_labels, &val_scores).unwrap_or(f64::NAN);
+        let val_auprc =
+            firecast_eval::metrics::average_precision(val_labels, &val_scores).unwrap_or(f64::NAN);
         (ctx.curve)(epoch as i64 + 1, "train_loss", train_loss);
         (ctx.curve)(epoch as i64 + 1, "val_loss", val_loss);
         (ctx.curve)(epoch as i64 + 1, "val_auprc", val_auprc);
@@ -974,13 +1068,19 @@ impl NeuralModel {
         }
         let (x, days, width) = input_tensor(&self.config, &self.features, inputs, self.scaler.as_ref())?;
         let n = inputs.block.rows() as i64;
-        let x = Tensor::from_slice(&x).reshape([n, days, width]).to_device(self.vs.device());
+        let x = Tensor::from_slice(&x)
+            .reshape([n, days, width])
+            .to_device(self.vs.device());
         let _ = device;
         Ok(scores(&self.net, &x, 1024))
     }
 
     pub fn parameter_count(&self) -> i64 {
-        self.vs.trainable_variables().iter().map(|t| t.numel() as i64).sum()
+        self.vs
+            .trainable_variables()
+            .iter()
+            .map(|t| t.numel() as i64)
+            .sum()
     }
 
     pub fn header(&self) -> NeuralHeader {
@@ -997,16 +1097,25 @@ impl NeuralModel {
 
     /// Weights as safetensors (PyTorch state-dict names).
     pub fn save_weights(&self, path: &std::path::Path) -> Result<(), ForecastError> {
-        self.vs.save(path).map_err(|e| ForecastError::Model(format!("saving {}: {e}", path.display())))
+        self.vs
+            .save(path)
+            .map_err(|e| ForecastError::Model(format!("saving {}: {e}", path.display())))
     }
 
     /// Rebuilds the network of `header` and loads its weights.
-    pub fn load(header: NeuralHeader, weights: &std::path::Path, device: Device) -> Result<Self, ForecastError> {
+    pub fn load(
+        header: NeuralHeader,
+        weights: &std::path::Path,
+        device: Device,
+    ) -> Result<Self, ForecastError> {
         let mut vs = nn::VarStore::new(device);
         let net = net(&header.config, &vs.root(), header.width, header.days);
         vs.load(weights).map_err(|e| ForecastError::Data {
             path: weights.to_path_buf(),
-            message: format!("cannot load the weights of a `{}` model: {e}", header.config.kind.as_str()),
+            message: format!(
+                "cannot load the weights of a `{}` model: {e}",
+                header.config.kind.as_str()
+            ),
         })?;
         Ok(Self {
             config: header.config,
@@ -1023,7 +1132,11 @@ impl NeuralModel {
 
     /// Named parameter shapes (for the PyTorch parity check).
     pub fn parameter_shapes(&self) -> BTreeMap<String, Vec<i64>> {
-        self.vs.variables().into_iter().map(|(k, v)| (k, v.size())).collect()
+        self.vs
+            .variables()
+            .into_iter()
+            .map(|(k, v)| (k, v.size()))
+            .collect()
     }
 }
 

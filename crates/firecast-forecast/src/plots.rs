@@ -49,7 +49,12 @@ fn mean_scores(scores: &[Vec<f64>]) -> Vec<f64> {
 }
 
 /// Writes every plot and plot file of `result` into `out/plots`, and `predictions.csv`.
-pub fn write_all(out: &Path, result: &ExperimentResult, predictions: &[ProtocolPredictions], _w: &Windows) -> Result<(), ForecastError> {
+pub fn write_all(
+    out: &Path,
+    result: &ExperimentResult,
+    predictions: &[ProtocolPredictions],
+    _w: &Windows,
+) -> Result<(), ForecastError> {
     let dir = out.join("plots");
     std::fs::create_dir_all(&dir).map_err(ForecastError::io("creating", &dir))?;
     let palette = firecast_render::chart::OKABE_ITO;
@@ -66,7 +71,12 @@ pub fn write_all(out: &Path, result: &ExperimentResult, predictions: &[ProtocolP
             .y_range(0.0, 1.0)
             .grid(true)
             .legend(Some(LegendPosition::BottomRight))
-            .series(Series::segment((0.0, 0.0), (1.0, 1.0)).color([150, 150, 150]).dashed(true).label("no skill"));
+            .series(
+                Series::segment((0.0, 0.0), (1.0, 1.0))
+                    .color([150, 150, 150])
+                    .dashed(true)
+                    .label("no skill"),
+            );
         let mut pr = Chart::new(720, 560)
             .title(format!("Precision-recall, test side, protocol {p}"))
             .x_label("recall")
@@ -75,7 +85,12 @@ pub fn write_all(out: &Path, result: &ExperimentResult, predictions: &[ProtocolP
             .y_range(0.0, 1.0)
             .grid(true)
             .legend(Some(LegendPosition::TopRight))
-            .series(Series::hline(prevalence).color([150, 150, 150]).dashed(true).label(format!("prevalence {prevalence:.2}")));
+            .series(
+                Series::hline(prevalence)
+                    .color([150, 150, 150])
+                    .dashed(true)
+                    .label(format!("prevalence {prevalence:.2}")),
+            );
         let mut rel = Chart::new(720, 560)
             .title(format!("Reliability, test side, protocol {p}"))
             .x_label("mean predicted probability")
@@ -84,7 +99,12 @@ pub fn write_all(out: &Path, result: &ExperimentResult, predictions: &[ProtocolP
             .y_range(0.0, 1.0)
             .grid(true)
             .legend(Some(LegendPosition::TopLeft))
-            .series(Series::segment((0.0, 0.0), (1.0, 1.0)).color([150, 150, 150]).dashed(true).label("calibrated"));
+            .series(
+                Series::segment((0.0, 0.0), (1.0, 1.0))
+                    .color([150, 150, 150])
+                    .dashed(true)
+                    .label("calibrated"),
+            );
         let mut k = 0usize;
         let mut dvc_roc = serde_json::Map::new();
         let mut dvc_pr = serde_json::Map::new();
@@ -126,18 +146,27 @@ pub fn write_all(out: &Path, result: &ExperimentResult, predictions: &[ProtocolP
                     .map_err(render_err(&path))?;
                 write_json(
                     &dir.join(format!("confusion_{p}_{}.json", sanitize(model))),
-                    &firecast_eval::dvc::confusion(y, first, t).map_err(|e| ForecastError::Model(e.to_string()))?,
+                    &firecast_eval::dvc::confusion(y, first, t)
+                        .map_err(|e| ForecastError::Model(e.to_string()))?,
                 )?;
             }
             if show.contains(&model.as_str()) {
                 let color = palette[k % palette.len()];
                 k += 1;
-                roc = roc.series(Series::line(roc_pts.iter().map(|r| (r.fpr, r.tpr))).color(color).label(model.clone()));
-                pr = pr.series(
-                    Series::step(pr_pts.iter().map(|r| (r.recall, r.precision)))
+                roc = roc.series(
+                    Series::line(roc_pts.iter().map(|r| (r.fpr, r.tpr)))
                         .color(color)
                         .label(model.clone()),
                 );
+                // Average precision's step: precision P_n holds on (R_{n-1}, R_n].
+                let mut asc: Vec<(f64, f64)> = pr_pts.iter().map(|r| (r.recall, r.precision)).collect();
+                asc.sort_by(|a, b| a.0.total_cmp(&b.0).then(b.1.total_cmp(&a.1)));
+                let mut steps = Vec::with_capacity(asc.len() * 2);
+                for w in asc.windows(2) {
+                    steps.push((w[0].0, w[1].1));
+                    steps.push((w[1].0, w[1].1));
+                }
+                pr = pr.series(Series::line(steps).color(color).label(model.clone()));
                 rel = rel.series(
                     Series::line(prob_pred.iter().copied().zip(prob_true.iter().copied()))
                         .marker(Marker::Circle, 4.0)
@@ -150,9 +179,18 @@ pub fn write_all(out: &Path, result: &ExperimentResult, predictions: &[ProtocolP
             let path = dir.join(format!("{name}_{p}.png"));
             chart.save_png(&path).map_err(render_err(&path))?;
         }
-        write_json(&dir.join(format!("roc_{p}.json")), &serde_json::Value::Object(dvc_roc))?;
-        write_json(&dir.join(format!("precision_recall_{p}.json")), &serde_json::Value::Object(dvc_pr))?;
-        write_json(&dir.join(format!("calibration_{p}.json")), &serde_json::Value::Object(dvc_cal))?;
+        write_json(
+            &dir.join(format!("roc_{p}.json")),
+            &serde_json::Value::Object(dvc_roc),
+        )?;
+        write_json(
+            &dir.join(format!("precision_recall_{p}.json")),
+            &serde_json::Value::Object(dvc_pr),
+        )?;
+        write_json(
+            &dir.join(format!("calibration_{p}.json")),
+            &serde_json::Value::Object(dvc_cal),
+        )?;
     }
     let path = out.join("predictions.csv");
     firecast_store::write_atomically(&path, csv.as_bytes()).map_err(|e| ForecastError::Data {
@@ -169,7 +207,13 @@ fn result_bins(_result: &ExperimentResult) -> usize {
 
 fn sanitize(name: &str) -> String {
     name.chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect()
 }
 
@@ -182,7 +226,11 @@ pub fn write_tables_only(out: &Path, result: &ExperimentResult) -> Result<(), Fo
         for (metric, reference) in [("auroc", 0.5), ("auprc", p.prevalence)] {
             let rows = crate::table::rows(result, &p.name);
             let mut chart = BarChart::new(760, 120 + 28 * rows.len())
-                .title(format!("Test {} with 95% interval, protocol {}", metric.to_uppercase(), p.name))
+                .title(format!(
+                    "Test {} with 95% interval, protocol {}",
+                    metric.to_uppercase(),
+                    p.name
+                ))
                 .x_label(metric.to_uppercase())
                 .x_range(0.0, 1.0)
                 .reference(reference)
@@ -225,7 +273,12 @@ fn training_curves(dir: &Path, result: &ExperimentResult) -> Result<(), Forecast
             }
         }
         if let Some(best) = run.best_epoch {
-            loss = loss.series(Series::vline(best as f64).color([120, 120, 120]).dashed(true).label("kept epoch"));
+            loss = loss.series(
+                Series::vline(best as f64)
+                    .color([120, 120, 120])
+                    .dashed(true)
+                    .label("kept epoch"),
+            );
         }
         let path = dir.join(format!("training_{}_{}.png", r.protocol, sanitize(&r.model)));
         loss.save_png(&path).map_err(render_err(&path))?;

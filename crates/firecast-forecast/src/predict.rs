@@ -51,7 +51,12 @@ fn parse_day(date: &str) -> Option<(i32, u32, u32)> {
 }
 
 /// Scores `queries` with `bundle`, reading weather from the GRIDMET folder `gridmet`.
-pub fn predict(bundle: &Bundle, gridmet: &Path, queries: &[Query], device: tch::Device) -> Result<Vec<Prediction>, ForecastError> {
+pub fn predict(
+    bundle: &Bundle,
+    gridmet: &Path,
+    queries: &[Query],
+    device: tch::Device,
+) -> Result<Vec<Prediction>, ForecastError> {
     let mut samples = Vec::with_capacity(queries.len());
     for (i, q) in queries.iter().enumerate() {
         let (y, m, d) = parse_day(&q.date).ok_or_else(|| ForecastError::Config {
@@ -140,6 +145,7 @@ pub fn predict(bundle: &Bundle, gridmet: &Path, queries: &[Query], device: tch::
                 cell: s.cell,
                 tier: s.tier,
                 dataset_split: None,
+                true_probability: None,
             }
         })
         .collect();

@@ -298,14 +298,20 @@ impl ExperimentSpec {
             return Err(bad("evaluation.bootstrap", "must be at least 1".into()));
         }
         if !(0.5..1.0).contains(&self.evaluation.level) {
-            return Err(bad("evaluation.level", format!("{} is not in [0.5, 1)", self.evaluation.level)));
+            return Err(bad(
+                "evaluation.level",
+                format!("{} is not in [0.5, 1)", self.evaluation.level),
+            ));
         }
         for (name, p) in &self.protocols {
             let check = |key: &str, v: f64| {
                 if (0.0..1.0).contains(&v) && v > 0.0 {
                     Ok(())
                 } else {
-                    Err(bad(&format!("protocols.{name}.split.{key}"), format!("{v} is not in (0, 1)")))
+                    Err(bad(
+                        &format!("protocols.{name}.split.{key}"),
+                        format!("{v} is not in (0, 1)"),
+                    ))
                 }
             };
             match &p.split {
@@ -316,7 +322,10 @@ impl ExperimentSpec {
                 }
                 Split::Temporal { val, .. } => check("val", *val)?,
                 Split::SpatialBlocks {
-                    test, val, block_degrees, ..
+                    test,
+                    val,
+                    block_degrees,
+                    ..
                 } => {
                     check("test", *test)?;
                     check("val", *val)?;
@@ -351,12 +360,18 @@ impl ExperimentSpec {
                 other => other,
             })?;
             if !labels.insert(m.label()) {
-                return Err(bad(&format!("{key}.name"), format!("`{}` appears twice", m.label())));
+                return Err(bad(
+                    &format!("{key}.name"),
+                    format!("`{}` appears twice", m.label()),
+                ));
             }
             if let Some(ThresholdRule::Fixed(t)) = m.threshold
                 && !(0.0..=1.0).contains(&t)
             {
-                return Err(bad(&format!("{key}.threshold.fixed"), format!("{t} is not in [0, 1]")));
+                return Err(bad(
+                    &format!("{key}.threshold.fixed"),
+                    format!("{t} is not in [0, 1]"),
+                ));
             }
         }
         Ok(())
@@ -415,7 +430,9 @@ pub fn apply_override(root: &mut serde_yaml_ng::Value, text: &str) -> Result<(),
             other => {
                 if matches!(other, Value::Null) {
                     *other = Value::Mapping(Default::default());
-                    let Value::Mapping(map) = other else { unreachable!() };
+                    let Value::Mapping(map) = other else {
+                        unreachable!()
+                    };
                     let k = Value::String((*part).to_string());
                     map.insert(k.clone(), Value::Null);
                     map.get_mut(&k).ok_or_else(|| ForecastError::Config {

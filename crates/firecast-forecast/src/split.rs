@@ -33,7 +33,12 @@ fn shuffle(items: &mut [usize], rng: &mut ChaCha8Rng) {
 
 /// Stratified draw of `share` of `members` (by label), like sklearn's `train_test_split`
 /// with `stratify=y` (per-class rounding; our own seeded shuffle, not NumPy's).
-fn stratified_take(members: &[usize], labels: &dyn Fn(usize) -> bool, share: f64, rng: &mut ChaCha8Rng) -> (Vec<usize>, Vec<usize>) {
+fn stratified_take(
+    members: &[usize],
+    labels: &dyn Fn(usize) -> bool,
+    share: f64,
+    rng: &mut ChaCha8Rng,
+) -> (Vec<usize>, Vec<usize>) {
     let mut taken = Vec::new();
     let mut rest = Vec::new();
     for class in [true, false] {
@@ -107,7 +112,10 @@ pub fn apply(w: &Windows, split: &Split, days: (i32, i32), key: &str) -> Result<
     let out = match split {
         Split::Dataset => {
             let mut out = SplitIndices {
-                description: format!("the dataset's own split ({})", format!("{:?}", w.manifest.config.split.method).to_lowercase()),
+                description: format!(
+                    "the dataset's own split ({})",
+                    format!("{:?}", w.manifest.config.split.method).to_lowercase()
+                ),
                 ..Default::default()
             };
             for (s, m) in w.meta.iter().enumerate() {

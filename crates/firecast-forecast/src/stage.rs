@@ -34,12 +34,16 @@ impl Sink for StageSink<'_, '_> {
             self.bar.set_length(total);
             self.bar.set_position(done);
         } else {
-            self.bar.set_message(format!("{}: {what} {done}/{total}", self.ctx.stage()));
+            self.bar
+                .set_message(format!("{}: {what} {done}/{total}", self.ctx.stage()));
         }
     }
     fn message(&self, line: &str) {
         self.ctx.log(line);
-        self.log.lock().unwrap_or_else(|e| e.into_inner()).push(line.to_string());
+        self.log
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(line.to_string());
     }
     fn metric(&self, key: &str, step: i64, value: f64) {
         if value.is_finite() {
@@ -60,7 +64,11 @@ impl StageKind for ExperimentStage {
     }
     fn ports(&self) -> Ports {
         const IN: &[Port] = &[port("dataset", true, "ignition dataset (directory)")];
-        const OUT: &[Port] = &[port("report", true, "Table III, results.json, metrics, plots, models (directory)")];
+        const OUT: &[Port] = &[port(
+            "report",
+            true,
+            "Table III, results.json, metrics, plots, models (directory)",
+        )];
         Ports {
             inputs: IN,
             outputs: OUT,

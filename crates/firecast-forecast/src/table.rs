@@ -29,7 +29,13 @@ fn fmt_ci(v: f64, ci: Option<&(f64, f64)>, pct: bool) -> String {
 /// threshold-free metric).
 pub fn rows<'a>(result: &'a ExperimentResult, protocol: &str) -> Vec<&'a ModelResult> {
     let mut rows: Vec<&ModelResult> = result.results.iter().filter(|r| r.protocol == protocol).collect();
-    let key = |r: &ModelResult| r.test.get("auroc").copied().filter(|v| v.is_finite()).unwrap_or(f64::NEG_INFINITY);
+    let key = |r: &ModelResult| {
+        r.test
+            .get("auroc")
+            .copied()
+            .filter(|v| v.is_finite())
+            .unwrap_or(f64::NEG_INFINITY)
+    };
     rows.sort_by(|a, b| key(b).total_cmp(&key(a)).then_with(|| a.model.cmp(&b.model)));
     rows
 }
@@ -41,7 +47,11 @@ fn protocol_header(p: &ProtocolInfo, result: &ExperimentResult) -> String {
          Intervals: {:.0} % percentile bootstrap, {} resamples of test {}s; neural and random models averaged over seeds. \
          Threshold chosen on validation only (per row: see `threshold`). Dataset `{}` {}.",
         p.name,
-        if p.name == result.headline { " (headline)" } else { "" },
+        if p.name == result.headline {
+            " (headline)"
+        } else {
+            ""
+        },
         p.days.0,
         p.days.1,
         if p.leaks_future {
@@ -56,7 +66,10 @@ fn protocol_header(p: &ProtocolInfo, result: &ExperimentResult) -> String {
         p.test_positives,
         p.prevalence,
         if p.dropped > 0 {
-            format!("; {} samples dropped to keep test windows out of training", p.dropped)
+            format!(
+                "; {} samples dropped to keep test windows out of training",
+                p.dropped
+            )
         } else {
             String::new()
         },
@@ -79,6 +92,15 @@ pub fn markdown(result: &ExperimentResult) -> String {
     protocols.sort_by_key(|p| (p.name != result.headline, p.name.clone()));
     for p in protocols {
         let _ = writeln!(out, "## {}\n\n{}\n", p.name, protocol_header(p, result));
+        if let Some(o) = &p.oracle {
+            let _ = writeln!(
+                out,
+                "Oracle (the synthetic generator's true ignition probabilities, never a model input): AUROC {:.3}, AUPRC {:.3}. \
+                 Each model's skill above no skill as a share of the oracle's is in results.json (`skill_vs_oracle`).\n",
+                o.get("auroc").copied().unwrap_or(f64::NAN),
+                o.get("auprc").copied().unwrap_or(f64::NAN)
+            );
+        }
         let _ = writeln!(
             out,
             "| Model | Family | Accuracy [%] | Precision | Recall | F1 | AUROC | AUPRC | Brier | ECE | Threshold | Seeds |"
@@ -89,9 +111,9 @@ pub fn markdown(result: &ExperimentResult) -> String {
             let ci = |k: &str| r.intervals.get(k);
             let thr = r.runs.first().map_or(String::new(), |s| {
                 if r.runs.len() > 1 {
-                    format!("{:.3}… ({})", s.threshold, s.threshold_rule)
+                    format!("{:.3}… ({})", s.threshold + 0.0, s.threshold_rule)
                 } else {
-                    format!("{:.3} ({})", s.threshold, s.threshold_rule)
+                    format!("{:.3} ({})", s.threshold + 0.0, s.threshold_rule)
                 }
             });
             let _ = writeln!(
@@ -138,7 +160,11 @@ pub fn markdown(result: &ExperimentResult) -> String {
                 t.mcnemar_b,
                 t.mcnemar_c,
                 t.mcnemar_p,
-                if t.mcnemar_exact { "exact binomial" } else { "χ² with continuity correction" },
+                if t.mcnemar_exact {
+                    "exact binomial"
+                } else {
+                    "χ² with continuity correction"
+                },
                 t.delong_auroc_diff,
                 t.delong_p,
                 t.auprc_diff,
@@ -163,7 +189,10 @@ pub fn markdown(result: &ExperimentResult) -> String {
                 .collect();
             let _ = writeln!(out, "- {}: {}", r.model, parts.join("; "));
         }
-        let _ = writeln!(out, "\nBy negative tier (first seed; accuracy on the tier, AUROC of all positives against it):\n");
+        let _ = writeln!(
+            out,
+            "\nBy negative tier (first seed; accuracy on the tier, AUROC of all positives against it):\n"
+        );
         for r in rows(result, &p.name) {
             let parts: Vec<String> = r
                 .by_tier
@@ -172,7 +201,8 @@ pub fn markdown(result: &ExperimentResult) -> String {
                     format!(
                         "{t}: acc {:.3}{}",
                         m.get("accuracy").copied().unwrap_or(f64::NAN),
-                        m.get("auroc_vs_positives").map_or(String::new(), |a| format!(", AUROC {a:.3}"))
+                        m.get("auroc_vs_positives")
+                            .map_or(String::new(), |a| format!(", AUROC {a:.3}"))
                     )
                 })
                 .collect();
@@ -212,7 +242,11 @@ pub fn csv(result: &ExperimentResult) -> String {
                 let _ = write!(out, ",{v},{lo},{hi},{sd}");
             }
             let fit: f64 = r.runs.iter().map(|s| s.fit_seconds).sum::<f64>() / r.runs.len().max(1) as f64;
-            let _ = writeln!(out, ",{},{fit}", r.parameters.map_or(String::new(), |p| p.to_string()));
+            let _ = writeln!(
+                out,
+                ",{},{fit}",
+                r.parameters.map_or(String::new(), |p| p.to_string())
+            );
         }
     }
     out
@@ -251,7 +285,8 @@ pub fn write_all(out: &Path, result: &ExperimentResult) -> Result<(), ForecastEr
     write("results.json", &json)?;
     write("table3.md", markdown(result).as_bytes())?;
     write("table3.csv", csv(result).as_bytes())?;
-    let metrics = serde_json::to_vec_pretty(&dvc_metrics(result)).map_err(|e| ForecastError::Model(e.to_string()))?;
+    let metrics =
+        serde_json::to_vec_pretty(&dvc_metrics(result)).map_err(|e| ForecastError::Model(e.to_string()))?;
     write("metrics.json", &metrics)?;
     Ok(())
 }

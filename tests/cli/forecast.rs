@@ -1,0 +1,292 @@
+//! `firecast experiment run|compare` and `firecast forecast predict` on a small synthetic
+//! dataset built through the CLI: tiny budgets, real behaviour.
+
+use std::collections::BTreeMap;
+
+use crate::{Project, describe};
+
+const EXPERIMENT: &str = r#"
+name: cli-exp
+dataset: data/a
+protocols:
+  paper:
+    days: [-60, 14]
+    split: {method: stratified_random, test: 0.3, val: 0.25, seed: 42}
+  leak_free:
+    days: [-30, -1]
+    split: {method: stratified_random, test: 0.3, val: 0.25, seed: 42, grouped: true}
+headline: leak_free
+seeds: [0, 1]
+evaluation: {bootstrap: 60}
+device: cpu
+models:
+  - {kind: majority}
+  - {kind: climatology}
+  - {kind: logistic_regression}
+  - {kind: xgboost, params: {n_estimators: 20, nthread: 1}}
+  - {kind: minirocket, params: {num_features: 168}}
+  - {name: cnn_bilstm_R, kind: cnn_bilstm, params: {max_epochs: 1, hidden: 16, layers: 1}}
+  - {kind: firecast, params: {max_epochs: 2}}
+"#;
+
+fn project_with_dataset() -> Project {
+    let p = Project::new();
+    // Denser ignitions than the dataset tests use, so both sides of every split hold both classes.
+    p.write("synth.yaml", "ignition_rate_scale: 1.0\n");
+    p.ok(&[
+        "dataset",
+        "synthesize",
+        "--out",
+        "src",
+        "--seed",
+        "3",
+        "--years",
+        "2018-2019",
+        "--region",
+        "38.5,40.0,-108.5,-106.5",
+        "--config",
+        "synth.yaml",
+    ]);
+    let g = p.path("src/gridmet");
+    let g = g.to_str().unwrap();
+    let inc = p.path("src/incidents/wfigs_incidents.csv");
+    p.ok(&[
+        "dataset",
+        "ignitions",
+        "--incidents",
+        inc.to_str().unwrap(),
+        "--gridmet",
+        g,
+        "--out",
+        "w/ign.parquet",
+    ]);
+    p.write(
+        "neg.yaml",
+        "variant: paper\nperiod_start: \"2018-03-02\"\nperiod_end: \"2019-12-17\"\nfar_min_km: 4\nnear_max_km: 30\n",
+    );
+    p.ok(&[
+        "dataset",
+        "negatives",
+        "--ignitions",
+        "w/ign.parquet",
+        "--gridmet",
+        g,
+        "--out",
+        "w/s.parquet",
+        "--config",
+        "neg.yaml",
+    ]);
+    let truth = p.path("src/truth");
+    p.ok(&[
+        "dataset",
+        "windows",
+        "--samples",
+        "w/s.parquet",
+        "--gridmet",
+        g,
+        "--truth",
+        truth.to_str().unwrap(),
+        "--out",
+        "w/windows",
+    ]);
+    let built = p.json(&[
+        "dataset",
+        "build",
+        "--windows",
+        "w/windows",
+        "--out",
+        "data/a",
+        "--name",
+        "cli-fc",
+        "--framing",
+        "paper",
+    ]);
+    let (n, pos) = (
+        built["samples"].as_u64().unwrap(),
+        built["positives"].as_u64().unwrap(),
+    );
+    assert!(n - pos >= 40 && pos >= 40, "{built}");
+    p.write("experiments/cli.yaml", EXPERIMENT);
+    p
+}
+
+fn metrics(p: &Project) -> serde_json::Value {
+    serde_json::from_str(&p.read("experiments/runs/cli-exp/metrics.json")).unwrap()
+}
+
+#[test]
+fn experiment_runs_every_model_under_both_protocols_and_answers_predictions() {
+    let p = project_with_dataset();
+    let out = p.ok(&["experiment", "run", "experiments/cli.yaml"]);
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(stdout.contains("Table III"), "{stdout}");
+    assert!(stdout.contains("protocol `leak_free` (headline)"), "{stdout}");
+    assert!(stdout.contains("oracle"), "{stdout}");
+
+    let results: serde_json::Value =
+        serde_json::from_str(&p.read("experiments/runs/cli-exp/results.json")).unwrap();
+    let rows = results["results"].as_array().unwrap();
+    assert_eq!(rows.len(), 2 * 7, "every model under every protocol");
+    for r in rows {
+        let auroc = r["test"]["auroc"].as_f64().unwrap();
+        let (lo, hi) = (
+            r["intervals"]["auroc"][0].as_f64().unwrap(),
+            r["intervals"]["auroc"][1].as_f64().unwrap(),
+        );
+        assert!(lo <= hi && (0.0..=1.0).contains(&auroc), "{r}");
+        // Random models run once per seed, deterministic ones once.
+        let seeds = r["runs"].as_array().unwrap().len();
+        match r["kind"].as_str().unwrap() {
+            "majority" | "climatology" | "logistic_regression" | "xgboost" => assert_eq!(seeds, 1, "{r}"),
+            _ => assert_eq!(seeds, 2, "{r}"),
+        }
+        if r["kind"] == "majority" {
+            assert_eq!(auroc, 0.5);
+        }
+    }
+    for protocol in results["protocols"].as_array().unwrap() {
+        assert!(protocol["oracle"]["auroc"].as_f64().unwrap() > 0.5, "{protocol}");
+    }
+    // The R network's parameter count is reported; the paper protocol leaks, the other not.
+    assert!(
+        results["protocols"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|p| p["leaks_future"] == true)
+    );
+    for f in [
+        "table3.md",
+        "table3.csv",
+        "metrics.json",
+        "predictions.csv",
+        "plots/roc_paper.png",
+        "plots/precision_recall_leak_free.png",
+        "plots/calibration_paper.png",
+        "plots/auroc_forest_leak_free.png",
+        "plots/roc_paper.json",
+        "plots/training_paper_firecast.png",
+        "models/paper/cnn_bilstm_R/seed-0/weights.safetensors",
+        "models/paper/logistic_regression/seed-0/model.json",
+    ] {
+        assert!(
+            p.path("experiments/runs/cli-exp").join(f).is_file(),
+            "{f} missing"
+        );
+    }
+    let md = p.read("experiments/runs/cli-exp/table3.md");
+    assert!(md.contains("rows = actual, columns = predicted"), "{md}");
+
+    // Unchanged experiment and dataset: nothing re-runs. Forced: the same numbers (CPU, seeds).
+    let again = p.ok(&["experiment", "run", "experiments/cli.yaml"]);
+    assert!(
+        String::from_utf8_lossy(&again.stdout).contains("up to date"),
+        "{}",
+        describe(&again)
+    );
+    let first = metrics(&p);
+    p.ok(&["experiment", "run", "experiments/cli.yaml", "--force"]);
+    assert_eq!(
+        first,
+        metrics(&p),
+        "same config and seeds must give the same metrics"
+    );
+
+    // The saved model, asked about the test samples' places and dates through GRIDMET, gives
+    // back the scores the experiment recorded for them.
+    let scores: BTreeMap<u32, f64> = p
+        .read("experiments/runs/cli-exp/predictions.csv")
+        .lines()
+        .skip(1)
+        .filter(|l| l.starts_with("paper,logistic_regression,0,"))
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f[3].parse().unwrap(), f[5].parse().unwrap())
+        })
+        .collect();
+    assert!(!scores.is_empty());
+    let ids: Vec<String> = scores.keys().take(5).map(u32::to_string).collect();
+    let rows = p.json(&[
+        "query",
+        &format!(
+            "select sample_id, latitude, longitude, strftime(event_date, '%Y-%m-%d') as d \
+             from read_parquet('data/a/samples.parquet') where sample_id in ({}) order by sample_id",
+            ids.join(",")
+        ),
+    ]);
+    let mut csv = String::from("lat,lon,date\n");
+    let mut want = Vec::new();
+    for r in rows.as_array().unwrap() {
+        csv.push_str(&format!(
+            "{},{},{}\n",
+            r["latitude"],
+            r["longitude"],
+            r["d"].as_str().unwrap()
+        ));
+        want.push(scores[&(r["sample_id"].as_u64().unwrap() as u32)]);
+    }
+    p.write("points.csv", &csv);
+    let answers = p.json(&[
+        "forecast",
+        "predict",
+        "--model",
+        "experiments/runs/cli-exp/models/paper/logistic_regression/seed-0",
+        "--gridmet",
+        "src/gridmet",
+        "--points",
+        "points.csv",
+        "--device",
+        "cpu",
+    ]);
+    let got: Vec<f64> = answers
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["probability"].as_f64().unwrap())
+        .collect();
+    assert_eq!(got.len(), want.len());
+    for (g, w) in got.iter().zip(&want) {
+        assert!((g - w).abs() < 1e-9, "predict {g} vs experiment {w}");
+    }
+    assert_eq!(answers[0]["model"], "logistic_regression");
+    assert_eq!(answers[0]["input_days"], serde_json::json!([-60, 14]));
+
+    // compare reads reports back and writes the combined table.
+    p.ok(&[
+        "experiment",
+        "compare",
+        "experiments/runs/cli-exp",
+        "--out",
+        "cmp",
+    ]);
+    assert!(p.path("cmp/table3.csv").is_file());
+}
+
+#[test]
+fn bad_experiments_name_the_file_line_and_key() {
+    let p = Project::new();
+    let err = |text: &str| {
+        p.write("experiments/bad.yaml", text);
+        let out = p
+            .firecast()
+            .args(["experiment", "run", "experiments/bad.yaml"])
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let base = "name: x\ndataset: data/a\nmodels:\n  - {kind: majority}\n";
+    let e = err(&format!("{base}colour: red\n"));
+    assert!(e.contains("experiments/bad.yaml") && e.contains("colour"), "{e}");
+    let e = err("name: x\ndataset: data/a\nmodels:\n  - {kind: majority}\n  - {kind: svm}\n");
+    assert!(
+        e.contains("models[1].kind") && e.contains("unknown model `svm`"),
+        "{e}"
+    );
+    let e = err("name: x\ndataset: data/a\nmodels:\n  - {kind: random_forest, params: {n_trees: 3}}\n");
+    assert!(e.contains("models[0].params") && e.contains("n_trees"), "{e}");
+    let e = err("name: x\ndataset: data/a\nmodels:\n  - {kind: firecast, params: {max_epochs: 0}}\n");
+    assert!(e.contains("max_epochs"), "{e}");
+    let e = err(base);
+    assert!(e.contains("data/a") && e.contains("dataset.json"), "{e}");
+}
