@@ -104,7 +104,14 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
     let truth = &first["true_probability"];
     assert_eq!(truth["column"], "true_ignition_probability", "{first}");
     assert_eq!(truth["samples_with_value"], first["samples"]);
-    assert!(truth["mean_positive"].as_f64().unwrap() > truth["mean_negative"].as_f64().unwrap());
+    // This small box yields no negatives (the forecasting tests build a denser dataset and
+    // check the separation there): the negative mean is null exactly when there are none.
+    assert!(truth["mean_positive"].as_f64().unwrap() > 0.0, "{first}");
+    assert_eq!(
+        truth["mean_negative"].is_null(),
+        first["samples"] == first["positives"],
+        "{first}"
+    );
     assert!(
         !first["features"]
             .as_array()

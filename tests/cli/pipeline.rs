@@ -172,7 +172,7 @@ fn strict_yaml_errors_name_file_line_and_key_path() {
         ),
         (
             "stages:\n  a:\n    uses: gridmet.nope\n",
-            "error: pipelines/bad.yaml:3:5: stages.a.uses: unknown stage kind `gridmet.nope` (known: cmd, data.dataset, data.ignitions, data.import_kaggle, data.negatives, data.synthesize, data.windows, sim.episodes, sim.render, sql)",
+            "error: pipelines/bad.yaml:3:5: stages.a.uses: unknown stage kind `gridmet.nope` (known: cmd, data.dataset, data.ignitions, data.import_kaggle, data.negatives, data.synthesize, data.windows, forecast.experiment, sim.episodes, sim.render, sql)",
         ),
         (
             "stages:\n  a:\n    uses: cmd\n    params: {command: \"echo ${nope}\"}\n",
@@ -426,8 +426,17 @@ fn demo_pipeline_runs_then_skips_everything() {
             std::fs::copy(entry.path(), p.path(&format!("pipelines/{name}"))).unwrap();
         }
     }
-    let first = p.run_pipeline("pipelines/demo.yaml", &[]);
+    // The forecasting experiment with two cheap models: the full one takes minutes and is
+    // covered by the experiment tests.
+    let quick = [
+        "-S",
+        "forecast_table3.models=[{kind: majority}, {kind: logistic_regression}]",
+        "-S",
+        "forecast_table3.evaluation={bootstrap: 50}",
+    ];
+    let first = p.run_pipeline("pipelines/demo.yaml", &quick);
     assert!(first.values().all(|o| o == "ran"), "{first:?}");
-    let second = p.run_pipeline("pipelines/demo.yaml", &[]);
+    assert!(p.path("build/demo/table3/table3.md").is_file());
+    let second = p.run_pipeline("pipelines/demo.yaml", &quick);
     assert!(second.values().all(|o| o == "up_to_date"), "{second:?}");
 }
