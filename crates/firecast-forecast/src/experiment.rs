@@ -125,6 +125,9 @@ pub struct ExperimentResult {
     pub seconds: f64,
 }
 
+/// A model's test scores: (label, kind, scores per seed, threshold per seed).
+type ModelScores = (String, String, Vec<Vec<f64>>, Vec<f64>);
+
 /// Where the run reports: progress lines and metrics (the registry, Rerun).
 pub trait Sink: Sync {
     fn progress(&self, _what: &str, _done: u64, _total: u64) {}
@@ -305,7 +308,7 @@ pub fn run(
             positives,
             split.dropped.len()
         ));
-        let mut test_scores: Vec<(String, String, Vec<Vec<f64>>, Vec<f64>)> = Vec::new();
+        let mut test_scores: Vec<ModelScores> = Vec::new();
         for (entry, config) in spec.models.iter().zip(&configs) {
             let label = entry.label();
             let seeds: Vec<u64> = if config.is_stochastic() {
@@ -640,7 +643,7 @@ fn breakdown_by_tier(
 fn paired_test(
     protocol: &str,
     results: &[ModelResult],
-    scores: &[(String, String, Vec<Vec<f64>>, Vec<f64>)],
+    scores: &[ModelScores],
     y: &[bool],
     clusters: &[u64],
     spec: &ExperimentSpec,
@@ -676,7 +679,7 @@ fn paired_test(
         spec.evaluation.bootstrap,
         spec.evaluation.seed,
         spec.evaluation.level,
-        |y, p| firecast_eval::metrics::average_precision(y, p),
+        firecast_eval::metrics::average_precision,
     )
     .ok()?;
     Some(PairedTest {

@@ -47,10 +47,10 @@ pub enum ForecastError {
     Dataset {
         path: PathBuf,
         #[source]
-        source: firecast_dataset::DatasetError,
+        source: Box<firecast_dataset::DatasetError>,
     },
     #[error(transparent)]
-    Spec(#[from] firecast_pipeline::SpecError),
+    Spec(Box<firecast_pipeline::SpecError>),
     #[error("`{key}`: {message}")]
     Config { key: String, message: String },
     #[error("unknown model kind `{kind}`")]
@@ -80,7 +80,7 @@ impl ForecastError {
     pub(crate) fn dataset(path: &Path, source: firecast_dataset::DatasetError) -> Self {
         ForecastError::Dataset {
             path: path.to_path_buf(),
-            source,
+            source: Box::new(source),
         }
     }
 
@@ -90,6 +90,12 @@ impl ForecastError {
             model: model.into(),
             source: Box::new(self),
         }
+    }
+}
+
+impl From<firecast_pipeline::SpecError> for ForecastError {
+    fn from(e: firecast_pipeline::SpecError) -> Self {
+        ForecastError::Spec(Box::new(e))
     }
 }
 

@@ -130,7 +130,7 @@ impl MiniRocket {
             if counts[di] == 0 {
                 continue;
             }
-            for k in 0..kernels.len() {
+            for (k, positions) in kernels.iter().enumerate() {
                 let exponent = rng.random_range(0.0..((max_channels + 1) as f64).log2());
                 let take = (2f64.powf(exponent).floor() as usize).clamp(1, max_channels);
                 let mut all: Vec<usize> = (0..c).collect();
@@ -156,7 +156,7 @@ impl MiniRocket {
                     &mean,
                     &std,
                 );
-                let mut conv = convolve(&series, &kernels[k], dilation, true);
+                let mut conv = convolve(&series, positions, dilation, true);
                 conv.sort_by(f32::total_cmp);
                 for _ in 0..counts[di] {
                     feature_index += 1;
@@ -210,7 +210,7 @@ impl MiniRocket {
                     }
                 }
                 let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                if k % 256 == 0 || k as usize == n {
+                if k.is_multiple_of(256) || k as usize == n {
                     progress(k, n as u64, "minirocket");
                 }
                 out

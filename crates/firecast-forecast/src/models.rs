@@ -280,6 +280,7 @@ pub struct Inputs<'a> {
 
 /// A fitted model.
 #[derive(Serialize, Deserialize)]
+#[allow(clippy::large_enum_variant)] // one value per fitted model; boxing buys nothing
 #[serde(rename_all = "snake_case", tag = "kind")]
 pub enum Trained {
     Majority {

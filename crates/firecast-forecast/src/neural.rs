@@ -820,7 +820,7 @@ fn loss_of(cfg: &NeuralConfig, logits: &Tensor, y: &Tensor) -> Tensor {
             let one_minus: Tensor = p_t.neg() + 1.0;
             let mut loss: Tensor = one_minus.pow_tensor_scalar(gamma) * bce;
             if let Some(a) = alpha {
-                loss = loss * (y * a + (1.0 - y) * (1.0 - a));
+                loss *= y * a + (1.0 - y) * (1.0 - a);
             }
             loss.mean(Kind::Float)
         }
@@ -962,7 +962,7 @@ pub fn train(cfg: &NeuralConfig, ctx: &FitContext<'_>) -> Result<NeuralModel, Fo
                     .iter()
                     .map(|w| w.pow_tensor_scalar(2).sum(Kind::Float))
                     .sum();
-                loss = loss + l2 * (0.5 * cfg.weight_decay / batch.len() as f64);
+                loss += l2 * (0.5 * cfg.weight_decay / batch.len() as f64);
             }
             opt.zero_grad();
             loss.backward();
