@@ -12,6 +12,7 @@ use anyhow::Context as _;
 use clap::{Args, Subcommand};
 use firecast_forecast::experiment::ExperimentResult;
 use firecast_forecast::spec::ExperimentSpec;
+use firecast_forecast::table::shown_threshold;
 use firecast_pipeline::{RunObserver, RunOptions};
 
 use crate::output;
@@ -271,7 +272,7 @@ fn print_tables(result: &ExperimentResult) -> anyhow::Result<()> {
                 cell(r, "brier", false),
                 r.runs
                     .first()
-                    .map_or(String::new(), |s| format!("{:.3}", s.threshold + 0.0)),
+                    .map_or(String::new(), |s| format!("{:.3}", shown_threshold(s.threshold))),
                 r.seeds.len().to_string(),
                 r.skill_vs_oracle
                     .as_ref()

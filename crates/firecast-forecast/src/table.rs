@@ -7,6 +7,12 @@ use std::path::Path;
 use crate::ForecastError;
 use crate::experiment::{ExperimentResult, ModelResult, ProtocolInfo};
 
+/// A threshold for display: the "everything is a fire" threshold sits one ulp below the
+/// lowest score (e.g. −5e-324), which would print as −0.000.
+pub fn shown_threshold(t: f64) -> f64 {
+    if t.abs() < 5e-4 { 0.0 } else { t }
+}
+
 fn fmt_ci(v: f64, ci: Option<&(f64, f64)>, pct: bool) -> String {
     let s = if pct { 100.0 } else { 1.0 };
     let digits = if pct { 1 } else { 3 };
@@ -111,9 +117,9 @@ pub fn markdown(result: &ExperimentResult) -> String {
             let ci = |k: &str| r.intervals.get(k);
             let thr = r.runs.first().map_or(String::new(), |s| {
                 if r.runs.len() > 1 {
-                    format!("{:.3}… ({})", s.threshold + 0.0, s.threshold_rule)
+                    format!("{:.3}… ({})", shown_threshold(s.threshold), s.threshold_rule)
                 } else {
-                    format!("{:.3} ({})", s.threshold + 0.0, s.threshold_rule)
+                    format!("{:.3} ({})", shown_threshold(s.threshold), s.threshold_rule)
                 }
             });
             let _ = writeln!(
