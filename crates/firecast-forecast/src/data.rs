@@ -33,6 +33,27 @@ pub struct SampleMeta {
     pub true_probability: Option<f32>,
 }
 
+impl SampleMeta {
+    /// The facts of a dataset sample (`split`: the dataset's own, when it has one).
+    pub fn of(s: &firecast_dataset::windows::WindowSample, split: Option<String>) -> Self {
+        let (year, month, _) = firecast_data::gridmet::day_to_ymd(s.event_day);
+        let jan1 = firecast_data::gridmet::ymd_to_day(year, 1, 1).unwrap_or(s.event_day);
+        SampleMeta {
+            sample_id: s.sample_id,
+            event_day: s.event_day,
+            year,
+            month,
+            day_of_year: (s.event_day - jan1 + 1) as u32,
+            lat: s.lat,
+            lon: s.lon,
+            cell: s.cell,
+            tier: s.tier,
+            dataset_split: split,
+            true_probability: s.true_probability,
+        }
+    }
+}
+
 /// A dataset in memory.
 #[derive(Debug, Clone)]
 pub struct Windows {
@@ -100,23 +121,8 @@ impl Windows {
         let mut meta = Vec::with_capacity(table.samples.len());
         let mut labels = Vec::with_capacity(table.samples.len());
         for (i, s) in table.samples.iter().enumerate() {
-            let (year, month, day) = firecast_data::gridmet::day_to_ymd(s.event_day);
-            let jan1 = firecast_data::gridmet::ymd_to_day(year, 1, 1).unwrap_or(s.event_day);
             labels.push(s.tier.is_positive());
-            meta.push(SampleMeta {
-                sample_id: s.sample_id,
-                event_day: s.event_day,
-                year,
-                month,
-                day_of_year: (s.event_day - jan1 + 1) as u32,
-                lat: s.lat,
-                lon: s.lon,
-                cell: s.cell,
-                tier: s.tier,
-                dataset_split: stored.splits.as_ref().map(|v| v[i].clone()),
-                true_probability: s.true_probability,
-            });
-            let _ = day;
+            meta.push(SampleMeta::of(s, stored.splits.as_ref().map(|v| v[i].clone())));
         }
         Ok(Self {
             manifest,

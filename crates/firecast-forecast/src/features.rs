@@ -141,56 +141,30 @@ pub fn window_statistics(block: &Block, features: &[String]) -> Result<Matrix, F
     Matrix::new(block.rows(), cols, data).map_err(|e| ForecastError::Model(e.to_string()))
 }
 
-/// Column means and population standard deviations of training rows (sklearn's
-/// StandardScaler; a constant column is left unscaled).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Scaler {
-    pub mean: Vec<f64>,
-    pub scale: Vec<f64>,
-}
-
-impl Scaler {
-    pub fn fit(x: &Matrix) -> Self {
-        let mut mean = vec![0.0f64; x.cols];
-        let mut sq = vec![0.0f64; x.cols];
-        for r in 0..x.rows {
-            for (c, v) in x.row(r).iter().enumerate() {
-                mean[c] += f64::from(*v);
-            }
-        }
-        let n = x.rows.max(1) as f64;
-        for m in &mut mean {
-            *m /= n;
-        }
-        for r in 0..x.rows {
-            for (c, v) in x.row(r).iter().enumerate() {
-                let d = f64::from(*v) - mean[c];
-                sq[c] += d * d;
-            }
-        }
-        let scale = sq
-            .iter()
-            .map(|s| {
-                let sd = (s / n).sqrt();
-                if sd > 0.0 { sd } else { 1.0 }
-            })
-            .collect();
-        Self { mean, scale }
+/// Per-variable mean and population standard deviation over every day of `[.., variable]`
+/// values with `nf` variables (a constant variable gets scale 1): the sequence models and
+/// MiniRocket scale each variable, not each (day, variable) column.
+pub fn channel_moments(data: &[f32], nf: usize) -> (Vec<f32>, Vec<f32>) {
+    let mut mean = vec![0.0f64; nf];
+    let mut sq = vec![0.0f64; nf];
+    let n = (data.len() / nf.max(1)).max(1) as f64;
+    for (i, v) in data.iter().enumerate() {
+        mean[i % nf] += f64::from(*v);
     }
-
-    pub fn transform(&self, x: &Matrix) -> Matrix {
-        let mut data = Vec::with_capacity(x.data.len());
-        for r in 0..x.rows {
-            for (c, v) in x.row(r).iter().enumerate() {
-                data.push(((f64::from(*v) - self.mean[c]) / self.scale[c]) as f32);
-            }
-        }
-        Matrix {
-            rows: x.rows,
-            cols: x.cols,
-            data,
-        }
+    for m in &mut mean {
+        *m /= n;
     }
+    for (i, v) in data.iter().enumerate() {
+        sq[i % nf] += (f64::from(*v) - mean[i % nf]).powi(2);
+    }
+    let std = sq
+        .iter()
+        .map(|s| {
+            let sd = (s / n).sqrt();
+            if sd > 0.0 { sd as f32 } else { 1.0 }
+        })
+        .collect();
+    (mean.iter().map(|m| *m as f32).collect(), std)
 }
 
 /// Logistic regression on one variable (Newton's method on standardised x), so a raw

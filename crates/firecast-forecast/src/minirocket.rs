@@ -72,27 +72,7 @@ impl MiniRocket {
         let idx = crate::features::flatten(block, features)?;
         let c = features.len();
         let n = block.rows();
-        // Per-variable moments over every training day.
-        let mut mean = vec![0.0f64; c];
-        let mut sq = vec![0.0f64; c];
-        for (i, v) in idx.data.iter().enumerate() {
-            mean[i % c] += f64::from(*v);
-        }
-        let cnt = (n * days).max(1) as f64;
-        for m in &mut mean {
-            *m /= cnt;
-        }
-        for (i, v) in idx.data.iter().enumerate() {
-            sq[i % c] += (f64::from(*v) - mean[i % c]).powi(2);
-        }
-        let std: Vec<f32> = sq
-            .iter()
-            .map(|s| {
-                let sd = (s / cnt).sqrt();
-                if sd > 0.0 { sd as f32 } else { 1.0 }
-            })
-            .collect();
-        let mean: Vec<f32> = mean.iter().map(|m| *m as f32).collect();
+        let (mean, std) = crate::features::channel_moments(&idx.data, c);
         let kernels = kernel_positions();
         let per_kernel = (num_features / kernels.len()).max(1);
         let max_exponent = (((days - 1) as f64) / (KERNEL_LEN - 1) as f64).log2().max(0.0);

@@ -5,8 +5,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::ForecastError;
 use crate::data::{Block, SampleMeta};
-use crate::features::{FeatureSet, Scaler, window_statistics};
+use crate::features::{FeatureSet, window_statistics};
 use crate::neural::{NeuralConfig, NeuralKind, NeuralModel};
+use firecast_baselines::Standardizer as Scaler;
 
 /// Model kinds, in the order tables list them when an experiment does not say otherwise.
 pub const KINDS: &[&str] = &[
@@ -372,9 +373,12 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
             let features = inputs.features.resolve(&ctx.train.block.features)?;
             let x = crate::features::flatten(ctx.train.block, &features)?;
             let standardize = inputs.standardize.unwrap_or_else(|| spec.wants_standardized());
-            let scaler = standardize.then(|| Scaler::fit(&x));
+            let scaler = standardize
+                .then(|| Scaler::fit(&x))
+                .transpose()
+                .map_err(model_err)?;
             let x = match &scaler {
-                Some(s) => s.transform(&x),
+                Some(s) => s.transform(&x).map_err(model_err)?,
                 None => x,
             };
             let report = |done: usize, total: usize| (ctx.progress)(done as u64, total as u64, "fit");
@@ -413,8 +417,8 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
             let rocket =
                 crate::minirocket::MiniRocket::fit(ctx.train.block, &features, p.num_features, ctx.seed)?;
             let x = rocket.transform(ctx.train.block, ctx.progress)?;
-            let scaler = Scaler::fit(&x);
-            let x = scaler.transform(&x);
+            let scaler = Scaler::fit(&x).map_err(model_err)?;
+            let x = scaler.transform(&x).map_err(model_err)?;
             let spec = firecast_baselines::BaselineSpec::from_kind(
                 "logistic_regression",
                 &serde_json::json!({"c": p.c, "max_iter": p.max_iter}),
@@ -431,6 +435,10 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
         }
         ModelConfig::Neural(n) => Trained::Neural(crate::neural::train(n, ctx)?),
     })
+}
+
+fn model_err(e: firecast_baselines::BaselineError) -> ForecastError {
+    ForecastError::Model(e.to_string())
 }
 
 fn block_of(m: &SampleMeta, deg: f64) -> (i64, i64) {
@@ -508,7 +516,7 @@ impl Trained {
             } => {
                 let x = crate::features::flatten(inputs.block, features)?;
                 let x = match scaler {
-                    Some(s) => s.transform(&x),
+                    Some(s) => s.transform(&x).map_err(model_err)?,
                     None => x,
                 };
                 model
@@ -535,8 +543,8 @@ impl Trained {
                 rocket, scaler, head, ..
             } => {
                 let x = rocket.transform(inputs.block, &|_, _, _| {})?;
-                head.predict_proba(&scaler.transform(&x))
-                    .map_err(|e| ForecastError::Model(e.to_string()))?
+                head.predict_proba(&scaler.transform(&x).map_err(model_err)?)
+                    .map_err(model_err)?
             }
             Trained::Neural(m) => m.predict(inputs, device)?,
         })

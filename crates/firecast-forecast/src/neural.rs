@@ -748,29 +748,8 @@ fn input_tensor(
 }
 
 fn fit_scaler(data: &[f32], nf: usize) -> SeqScaler {
-    let mut mean = vec![0.0f64; nf];
-    let mut sq = vec![0.0f64; nf];
-    let n = (data.len() / nf).max(1) as f64;
-    for (i, v) in data.iter().enumerate() {
-        mean[i % nf] += f64::from(*v);
-    }
-    for m in &mut mean {
-        *m /= n;
-    }
-    for (i, v) in data.iter().enumerate() {
-        let d = f64::from(*v) - mean[i % nf];
-        sq[i % nf] += d * d;
-    }
-    SeqScaler {
-        mean: mean.iter().map(|m| *m as f32).collect(),
-        std: sq
-            .iter()
-            .map(|s| {
-                let sd = (s / n).sqrt();
-                if sd > 0.0 { sd as f32 } else { 1.0 }
-            })
-            .collect(),
-    }
+    let (mean, std) = crate::features::channel_moments(data, nf);
+    SeqScaler { mean, std }
 }
 
 // ---------------------------------------------------------------------------------------

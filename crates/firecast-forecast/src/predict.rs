@@ -39,17 +39,6 @@ pub struct Prediction {
     pub input_days: (i32, i32),
 }
 
-fn parse_day(date: &str) -> Option<(i32, u32, u32)> {
-    let mut it = date.split('-');
-    let y = it.next()?.parse().ok()?;
-    let m = it.next()?.parse().ok()?;
-    let d = it.next()?.parse().ok()?;
-    if it.next().is_some() {
-        return None;
-    }
-    firecast_data::gridmet::ymd_to_day(y, m, d).map(|_| (y, m, d))
-}
-
 /// Scores `queries` with `bundle`, reading weather from the GRIDMET folder `gridmet`.
 pub fn predict(
     bundle: &Bundle,
@@ -59,7 +48,7 @@ pub fn predict(
 ) -> Result<Vec<Prediction>, ForecastError> {
     let mut samples = Vec::with_capacity(queries.len());
     for (i, q) in queries.iter().enumerate() {
-        let (y, m, d) = parse_day(&q.date).ok_or_else(|| ForecastError::Config {
+        let day = firecast_dataset::time::parse_date(&q.date).ok_or_else(|| ForecastError::Config {
             key: format!("date[{i}]"),
             message: format!("`{}` is not a YYYY-MM-DD date", q.date),
         })?;
@@ -69,14 +58,12 @@ pub fn predict(
                 message: format!("({}, {}) is not a latitude/longitude", q.lat, q.lon),
             });
         }
-        let day = firecast_data::gridmet::ymd_to_day(y, m, d).unwrap_or(0);
         // Noon in Mountain Standard Time: the GRIDMET day is the MST day.
-        let days_since_epoch = i64::from(day) - 25_567;
         samples.push(firecast_dataset::windows::SampleIn {
             sample_id: i as u32,
             lat: q.lat,
             lon: q.lon,
-            time_ms: (days_since_epoch * 86_400 + 19 * 3600) * 1000,
+            time_ms: firecast_dataset::time::day_start_ms(day) + 19 * 3_600_000,
             tier: firecast_dataset::Tier::Far,
             source_row: None,
         });
@@ -128,27 +115,7 @@ pub fn predict(
         n_days: table.n_days,
         values: table.values.clone(),
     };
-    let meta: Vec<SampleMeta> = table
-        .samples
-        .iter()
-        .map(|s| {
-            let (year, month, _) = firecast_data::gridmet::day_to_ymd(s.event_day);
-            let jan1 = firecast_data::gridmet::ymd_to_day(year, 1, 1).unwrap_or(s.event_day);
-            SampleMeta {
-                sample_id: s.sample_id,
-                event_day: s.event_day,
-                year,
-                month,
-                day_of_year: (s.event_day - jan1 + 1) as u32,
-                lat: s.lat,
-                lon: s.lon,
-                cell: s.cell,
-                tier: s.tier,
-                dataset_split: None,
-                true_probability: None,
-            }
-        })
-        .collect();
+    let meta: Vec<SampleMeta> = table.samples.iter().map(|s| SampleMeta::of(s, None)).collect();
     let inputs = Inputs {
         block: &block,
         meta: meta.iter().collect(),

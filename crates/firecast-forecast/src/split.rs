@@ -166,7 +166,7 @@ pub fn apply(w: &Windows, split: &Split, days: (i32, i32), key: &str) -> Result<
             seed,
         } => {
             let cutoff = match test_from {
-                Some(s) => parse_date(s).ok_or_else(|| ForecastError::Config {
+                Some(s) => firecast_dataset::time::parse_date(s).ok_or_else(|| ForecastError::Config {
                     key: format!("{key}.split.test_from"),
                     message: format!("`{s}` is not a YYYY-MM-DD date"),
                 })?,
@@ -204,7 +204,7 @@ pub fn apply(w: &Windows, split: &Split, days: (i32, i32), key: &str) -> Result<
                 dropped,
                 description: format!(
                     "temporal: test from {} on, val {:.0} % of earlier cell groups (seed {seed})",
-                    format_date(cutoff),
+                    firecast_dataset::time::format_date(cutoff),
                     val * 100.0
                 ),
             }
@@ -260,20 +260,4 @@ pub fn apply(w: &Windows, split: &Split, days: (i32, i32), key: &str) -> Result<
         }
     }
     Ok(out)
-}
-
-fn parse_date(s: &str) -> Option<i32> {
-    let mut it = s.split('-');
-    let y = it.next()?.parse().ok()?;
-    let m = it.next()?.parse().ok()?;
-    let d = it.next()?.parse().ok()?;
-    if it.next().is_some() {
-        return None;
-    }
-    firecast_data::gridmet::ymd_to_day(y, m, d)
-}
-
-pub fn format_date(day: i32) -> String {
-    let (y, m, d) = firecast_data::gridmet::day_to_ymd(day);
-    format!("{y:04}-{m:02}-{d:02}")
 }
