@@ -11,7 +11,7 @@ use firecast_pipeline::{
 };
 
 use crate::output;
-use crate::settings::Settings;
+use crate::settings::{ExecutorKind, Settings};
 
 #[derive(Debug, Subcommand)]
 pub enum PipelineCommand {
@@ -40,6 +40,27 @@ pub enum PipelineCommand {
     },
     /// List the stage kinds `uses:` can name.
     Kinds,
+    /// Worker entry point of remote executors: run one stage task from the artifact store
+    /// and write its result there (`--executor ray` submits this as the Ray job).
+    #[command(hide = true)]
+    StageExec(StageExecArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct StageExecArgs {
+    /// The task's key in the artifact store (`remote/<run>/task.json`).
+    #[arg(long)]
+    pub task: String,
+    /// Where to write the result (`remote/<run>/attempt-<n>/result.json`).
+    #[arg(long)]
+    pub result: String,
+    /// Where to unpack inputs and write outputs [default: the temporary folder].
+    #[arg(long)]
+    pub scratch: Option<PathBuf>,
+    /// Run only shard INDEX/COUNT of a sharded stage (a Slurm array task passes
+    /// `$SLURM_ARRAY_TASK_ID/N`, a Kubernetes indexed job `$JOB_COMPLETION_INDEX/N`).
+    #[arg(long, value_name = "INDEX/COUNT", value_parser = firecast_pipeline::Shard::parse)]
+    pub shard: Option<firecast_pipeline::Shard>,
 }
 
 #[derive(Debug, Args)]
@@ -68,6 +89,21 @@ pub struct RunArgs {
     /// must already exist.
     #[arg(long, value_name = "STAGE")]
     pub only: Vec<String>,
+    /// Where stages run: in this process, or one Ray job per stage on a Ray cluster
+    /// [default: `executor` in firecast.yaml, else local].
+    #[arg(long, value_enum, env = "FIRECAST_EXECUTOR")]
+    pub executor: Option<ExecutorKind>,
+    /// The Ray dashboard address, e.g. http://127.0.0.1:8265 [default: `ray.address` in
+    /// firecast.yaml].
+    #[arg(long, env = "FIRECAST_RAY_ADDRESS", value_name = "URL")]
+    pub ray_address: Option<String>,
+    /// Seconds a stage's Ray job may stay PENDING before it is stopped and reported
+    /// [default: `ray.pending_timeout_s`, else 120].
+    #[arg(long, value_name = "SECS")]
+    pub ray_pending_timeout: Option<f64>,
+    /// Submissions per stage run when its worker dies [default: `ray.attempts`, else 3].
+    #[arg(long, value_name = "N")]
+    pub ray_attempts: Option<u32>,
 }
 
 /// Every stage kind this binary knows.
@@ -78,6 +114,8 @@ pub fn stage_kinds() -> StageKinds {
     kinds.register(firecast_episodes::RenderStage);
     firecast_dataset::stage::register(&mut kinds);
     kinds.register(firecast_forecast::stage::ExperimentStage);
+    kinds.register(firecast_rl::stage::TrainStage);
+    kinds.register(firecast_rl::stage::EvaluateStage);
     kinds
 }
 
@@ -103,6 +141,7 @@ pub(crate) fn engine(settings: &Settings, observer: Arc<dyn RunObserver>) -> any
         observer,
         store: Some(Arc::new(store)),
         git_commit: git_commit(&settings.root),
+        executor: None,
     })
 }
 
@@ -115,7 +154,10 @@ pub fn run(settings: &Settings, command: PipelineCommand) -> anyhow::Result<Exit
             } else {
                 Arc::new(firecast_registry::Registry::open(&settings.registry)?)
             };
-            let engine = engine(settings, observer)?;
+            let mut engine = engine(settings, observer)?;
+            if !args.dry_run {
+                engine.executor = executor(settings, &args, engine.store.clone())?;
+            }
             let opts = RunOptions {
                 force: args.force,
                 dry_run: args.dry_run,
@@ -151,6 +193,7 @@ pub fn run(settings: &Settings, command: PipelineCommand) -> anyhow::Result<Exit
             Ok(ExitCode::SUCCESS)
         }
         PipelineCommand::ExportDvc { files, output, check } => export_dvc(settings, files, &output, check),
+        PipelineCommand::StageExec(args) => stage_exec(settings, &args),
         PipelineCommand::Kinds => {
             let kinds = stage_kinds();
             if settings.json {
@@ -183,6 +226,83 @@ pub fn run(settings: &Settings, command: PipelineCommand) -> anyhow::Result<Exit
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// The executor `pipeline run` uses: flag > environment > firecast.yaml > local.
+fn executor(
+    settings: &Settings,
+    args: &RunArgs,
+    store: Option<Arc<firecast_store::ArtifactStore>>,
+) -> anyhow::Result<Option<Arc<dyn firecast_pipeline::StageExecutor>>> {
+    match args.executor.unwrap_or(settings.executor) {
+        ExecutorKind::Local => Ok(None),
+        ExecutorKind::Ray => {
+            let ray = &settings.ray;
+            let address = args.ray_address.clone().or_else(|| ray.address.clone()).ok_or_else(|| {
+                anyhow::anyhow!(
+                    "--executor ray needs the cluster's dashboard address: --ray-address http://HEAD:8265, FIRECAST_RAY_ADDRESS, or `ray: {{address: …}}` in firecast.yaml"
+                )
+            })?;
+            let firecast_bin = match &ray.firecast_bin {
+                Some(bin) => bin.clone(),
+                None => std::env::current_exe().context("cannot find this firecast binary's path")?,
+            };
+            let mut opts = firecast_executor::RayOptions::new(&address, firecast_bin);
+            if let Some(secs) = args.ray_pending_timeout.or(ray.pending_timeout_s) {
+                anyhow::ensure!(
+                    secs.is_finite() && secs > 0.0,
+                    "the Ray pending timeout must be a number of seconds above 0, got {secs}"
+                );
+                opts.pending_timeout = std::time::Duration::from_secs_f64(secs);
+            }
+            if let Some(attempts) = args.ray_attempts.or(ray.attempts) {
+                opts.max_attempts = attempts;
+            }
+            opts.scratch = ray.scratch.clone();
+            // Where the store is and how to speak to it, not who may: credentials stay in the
+            // workers' own environment (runtime_env shows in Ray's dashboard).
+            for var in [
+                "AWS_ENDPOINT_URL",
+                "AWS_ALLOW_HTTP",
+                "AWS_REGION",
+                "AWS_DEFAULT_REGION",
+            ] {
+                if let Ok(value) = std::env::var(var) {
+                    opts.env.insert(var.to_string(), value);
+                }
+            }
+            opts.env.extend(ray.env.clone());
+            let store = store.ok_or_else(|| anyhow::anyhow!("--executor ray needs an artifact store"))?;
+            let executor = firecast_executor::RayExecutor::connect(opts, store)?;
+            Ok(Some(Arc::new(executor)))
+        }
+    }
+}
+
+/// `pipeline stage-exec`: the worker side of a remote executor.
+fn stage_exec(settings: &Settings, args: &StageExecArgs) -> anyhow::Result<ExitCode> {
+    let store = firecast_store::ArtifactStore::open(&settings.store, &settings.root)?;
+    let scratch = args.scratch.clone().unwrap_or_else(std::env::temp_dir);
+    let exit = firecast_executor::worker::exec(
+        &stage_kinds(),
+        &store,
+        &args.task,
+        &args.result,
+        &scratch,
+        args.shard,
+    )
+    .with_context(|| format!("task {} in {}", args.task, store.url()))?;
+    Ok(match exit {
+        firecast_executor::worker::WorkerExit::Succeeded => ExitCode::SUCCESS,
+        firecast_executor::worker::WorkerExit::StageFailed => {
+            eprintln!(
+                "error: stage task {} failed; see {}",
+                args.task,
+                store.uri_of(&args.result)
+            );
+            ExitCode::FAILURE
+        }
+    })
 }
 
 fn print_report(settings: &Settings, report: &RunReport, elapsed_secs: f64) -> anyhow::Result<()> {

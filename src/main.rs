@@ -5,6 +5,7 @@ mod cmd_artifacts;
 mod cmd_dataset;
 mod cmd_forecast;
 mod cmd_pipeline;
+mod cmd_rl;
 mod cmd_runs;
 mod cmd_sim;
 mod output;
@@ -55,6 +56,9 @@ enum Command {
     /// Ignition forecasts from trained models.
     #[command(subcommand)]
     Forecast(cmd_forecast::ForecastCommand),
+    /// Reinforcement learning: PPO helitack agents (train, resume) and Table IV.
+    #[command(subcommand)]
+    Rl(cmd_rl::RlCommand),
     /// Fire simulation: spread rates, suppression episodes with helitack agents.
     #[command(subcommand)]
     Sim(cmd_sim::SimCommand),
@@ -108,6 +112,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Dataset(command) => cmd_dataset::run(&settings, command),
         Command::Experiment(command) => cmd_forecast::run_experiment_command(&settings, command),
         Command::Forecast(command) => cmd_forecast::run_forecast_command(&settings, command),
+        Command::Rl(command) => cmd_rl::run(&settings, command),
         Command::Sim(command) => cmd_sim::run(&settings, command),
         Command::Bench(BenchCommand::Sim(args)) => cmd_sim::bench(&settings, &args),
         Command::Bench(BenchCommand::Gridmet(args)) => cmd_dataset::bench_gridmet(&settings, &args),

@@ -16,6 +16,40 @@ pub struct ProjectFile {
     pub store: Option<String>,
     /// Stages running at once.
     pub jobs: Option<usize>,
+    /// Where `pipeline run` runs stages: `local` (default) or `ray`.
+    pub executor: Option<ExecutorKind>,
+    /// The Ray executor's settings.
+    pub ray: Option<RaySettings>,
+}
+
+/// Where pipeline stages run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum ExecutorKind {
+    /// In this process (threads).
+    #[default]
+    Local,
+    /// One Ray job per stage run, through the cluster's Jobs REST API.
+    Ray,
+}
+
+/// `ray:` in `firecast.yaml`.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RaySettings {
+    /// The dashboard address (`http://head:8265`).
+    pub address: Option<String>,
+    /// Seconds a stage's job may stay PENDING before it is stopped and reported.
+    pub pending_timeout_s: Option<f64>,
+    /// Submissions per stage run when workers die.
+    pub attempts: Option<u32>,
+    /// The `firecast` binary's path on the workers [default: this binary's path].
+    pub firecast_bin: Option<PathBuf>,
+    /// Where workers unpack tasks [default: their temporary folder].
+    pub scratch: Option<PathBuf>,
+    /// Extra environment variables for the workers (no secrets: they show in Ray's dashboard).
+    #[serde(default)]
+    pub env: std::collections::BTreeMap<String, String>,
 }
 
 /// The resolved settings every command uses.
@@ -27,6 +61,9 @@ pub struct Settings {
     pub jobs: usize,
     pub json: bool,
     pub progress: bool,
+    /// From `firecast.yaml` (flags and environment variables of `pipeline run` override it).
+    pub executor: ExecutorKind,
+    pub ray: RaySettings,
 }
 
 /// Raw global flags (clap fills these; env vars are applied by clap's `env`).
@@ -77,6 +114,8 @@ impl Settings {
             jobs,
             json: args.json,
             progress: !args.no_progress && !args.json,
+            executor: project.executor.unwrap_or_default(),
+            ray: project.ray.unwrap_or_default(),
         })
     }
 }

@@ -5,7 +5,9 @@
 mod dataset;
 mod forecast;
 mod pipeline;
+mod ray;
 mod registry;
+mod rl;
 mod sim;
 mod store;
 

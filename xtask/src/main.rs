@@ -6,7 +6,9 @@
 //! Setup is idempotent: it installs the pinned Python packages (torch 2.13.0 brings
 //! libtorch for tch) into `.venv`, downloads the official `libduckdb.so` 1.5.1 into
 //! `.firecast/deps/duckdb`, and links `.firecast/deps/{libtorch,nvidia}` to the wheel's
-//! folders; `.cargo/config.toml` points the build at them. A second run reuses all of it.
+//! folders; `.cargo/config.toml` points the build at them. It builds the Python package
+//! `firecast` (crates/firecast-py) with maturin and installs it into `.venv` when its sources
+//! changed. A second run reuses all of it.
 //! No third-party crates: this must build before anything else exists.
 
 use std::env;
@@ -86,6 +88,7 @@ fn setup() -> Result<Context, String> {
     let venv_python = ensure_venv(&root)?;
     ensure_duckdb(&deps, &venv_python)?;
     link_libtorch(&deps, &venv_python)?;
+    ensure_python_package(&root, &target_dir, &venv_python)?;
     Ok(Context {
         root,
         target_dir,
@@ -178,6 +181,132 @@ fn link_libtorch(deps: &Path, python: &Path) -> Result<(), String> {
     let site_packages = torch_dir.parent().ok_or("torch has no parent folder")?;
     replace_symlink(&torch_dir, &deps.join("libtorch"))?;
     replace_symlink(&site_packages.join("nvidia"), &deps.join("nvidia"))
+}
+
+/// What the Python package `firecast` is built from: its crate (Rust and Python sources)
+/// and the crates it embeds. A change to any of them rebuilds and reinstalls the wheel.
+const PY_PACKAGE_SOURCES: [&str; 10] = [
+    "Cargo.toml",
+    "Cargo.lock",
+    "crates/firecast-py/Cargo.toml",
+    "crates/firecast-py/pyproject.toml",
+    "crates/firecast-py/src",
+    "crates/firecast-py/python",
+    "crates/firecast-sim/Cargo.toml",
+    "crates/firecast-sim/src",
+    "crates/firecast-landscape/Cargo.toml",
+    "crates/firecast-landscape/src",
+];
+
+/// Builds the Python package `firecast` (crates/firecast-py) with maturin into
+/// `$CARGO_TARGET_DIR/python-wheel` and installs the wheel into .venv; skipped while the
+/// stamp in .venv matches the hash of [`PY_PACKAGE_SOURCES`].
+fn ensure_python_package(root: &Path, target_dir: &Path, python: &Path) -> Result<(), String> {
+    let stamp = root.join(".venv/firecast-py.stamp");
+    let mut files = Vec::new();
+    for source in PY_PACKAGE_SOURCES {
+        collect_files(&root.join(source), &mut files)?;
+    }
+    files.sort();
+    // FNV-1a over (path, length, content) of every file: stable across toolchains.
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    for file in &files {
+        let content = std::fs::read(file).map_err(|e| format!("cannot read {}: {e}", file.display()))?;
+        let rel = file
+            .strip_prefix(root)
+            .unwrap_or(file)
+            .to_string_lossy()
+            .into_owned();
+        for chunk in [rel.as_bytes(), &content.len().to_le_bytes(), &content] {
+            for &b in chunk {
+                hash = (hash ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+            }
+        }
+    }
+    let wanted = format!("{hash:016x}\n");
+    let installed = || {
+        Command::new(python)
+            // -I: not the working directory's modules, only the venv's.
+            .args([
+                "-I",
+                "-c",
+                "import importlib.util as u, sys; sys.exit(u.find_spec('firecast') is None)",
+            ])
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if std::fs::read_to_string(&stamp).ok().as_deref() == Some(wanted.as_str()) && installed() {
+        return Ok(());
+    }
+    eprintln!("xtask: building the Python package firecast (crates/firecast-py) with maturin");
+    let build_dir = target_dir.join("python-wheel");
+    let wheels = build_dir.join("wheels");
+    let _ignored = std::fs::remove_dir_all(&wheels);
+    run(
+        Command::new(python)
+            .current_dir(root)
+            // Its own target folder: maturin's PyO3 settings differ from the plain build's,
+            // and sharing one would rebuild PyO3 back and forth.
+            .env("CARGO_TARGET_DIR", &build_dir)
+            .args([
+                "-m",
+                "maturin",
+                "build",
+                "--release",
+                "--locked",
+                "--manifest-path",
+            ])
+            .arg("crates/firecast-py/Cargo.toml")
+            .arg("--interpreter")
+            .arg(python)
+            .arg("--out")
+            .arg(&wheels)
+            // A wheel for this machine only: the native tag, no manylinux audit.
+            .args(["--compatibility", "linux", "--auditwheel", "skip"]),
+        "maturin build (crates/firecast-py)",
+    )?;
+    let wheel = std::fs::read_dir(&wheels)
+        .map_err(|e| format!("cannot list {}: {e}", wheels.display()))?
+        .filter_map(Result::ok)
+        .map(|entry| entry.path())
+        .find(|path| path.extension().is_some_and(|ext| ext == "whl"))
+        .ok_or_else(|| format!("maturin left no wheel in {}", wheels.display()))?;
+    run(
+        Command::new(python)
+            .args([
+                "-m",
+                "pip",
+                "install",
+                "--disable-pip-version-check",
+                "-q",
+                "--no-deps",
+                "--force-reinstall",
+            ])
+            .arg(&wheel),
+        "pip install the firecast wheel",
+    )?;
+    std::fs::write(&stamp, wanted).map_err(|e| format!("cannot write {}: {e}", stamp.display()))
+}
+
+/// Every file under `path` (or `path` itself), skipping caches.
+fn collect_files(path: &Path, out: &mut Vec<PathBuf>) -> Result<(), String> {
+    if path.is_file() {
+        out.push(path.to_path_buf());
+        return Ok(());
+    }
+    let entries = std::fs::read_dir(path).map_err(|e| format!("cannot list {}: {e}", path.display()))?;
+    for entry in entries {
+        let entry = entry.map_err(|e| format!("cannot list {}: {e}", path.display()))?;
+        let p = entry.path();
+        if p.is_dir() {
+            if entry.file_name() != "__pycache__" {
+                collect_files(&p, out)?;
+            }
+        } else if p.extension().is_none_or(|ext| ext != "pyc") {
+            out.push(p);
+        }
+    }
+    Ok(())
 }
 
 fn replace_symlink(target: &Path, link: &Path) -> Result<(), String> {

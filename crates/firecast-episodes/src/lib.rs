@@ -442,13 +442,30 @@ pub fn run(
     episodes: usize,
     seed: u64,
     outputs: &Outputs,
-    mut on_episode: impl FnMut(usize),
+    on_episode: impl FnMut(usize),
 ) -> Result<EpisodesSummary, EpisodeError> {
+    let (stats, first_episode) =
+        run_range(scenario, landscape, agent, 0..episodes, seed, outputs, on_episode)?;
+    Ok(summarize(scenario, agent, seed, stats, first_episode))
+}
+
+/// Run episodes `range` (episode `k` uses seed `seed + k`; each starts from a reset env and
+/// policy, so any split of `0..n` gives the same episodes). The first episode (`k == 0`)
+/// is traced when it is in the range.
+pub fn run_range(
+    scenario: &Scenario,
+    landscape: &Landscape,
+    agent: AgentKind,
+    range: std::ops::Range<usize>,
+    seed: u64,
+    outputs: &Outputs,
+    mut on_episode: impl FnMut(usize),
+) -> Result<(Vec<EpisodeStats>, Option<EpisodeTrace>), EpisodeError> {
     let mut env = WildfireEnv::new(landscape, &scenario.env)?;
     let mut policy = agent.policy();
-    let mut stats = Vec::with_capacity(episodes);
+    let mut stats = Vec::with_capacity(range.len());
     let mut first_episode = None;
-    for k in 0..episodes {
+    for k in range {
         let episode_seed = seed.wrapping_add(k as u64);
         let stat = if k == 0 {
             let mut recorder = Recorder {
@@ -474,14 +491,20 @@ pub fn run(
         stats.push(stat);
         on_episode(k);
     }
-    let report = EvalReport {
-        cells_burned: MeanStd::of(stats.iter().map(|s| f64::from(s.cells_burned))),
-        timesteps: MeanStd::of(stats.iter().map(|s| f64::from(s.timesteps))),
-        helitacks: MeanStd::of(stats.iter().map(|s| f64::from(s.helitacks))),
-        water_used_gal: MeanStd::of(stats.iter().map(|s| s.water_used_gal)),
-        episodes: stats,
-    };
-    Ok(EpisodesSummary {
+    Ok((stats, first_episode))
+}
+
+/// The summary of episodes `0..stats.len()` (Table IV columns as mean ± std, in episode
+/// order).
+pub fn summarize(
+    scenario: &Scenario,
+    agent: AgentKind,
+    seed: u64,
+    stats: Vec<EpisodeStats>,
+    first_episode: Option<EpisodeTrace>,
+) -> EpisodesSummary {
+    let report = eval_report(stats);
+    EpisodesSummary {
         agent: agent.name(),
         landscape: scenario.landscape.clone(),
         seed,
@@ -490,7 +513,18 @@ pub fn run(
         wind_measured_at: scenario.env.sim.wind.measured_at,
         report,
         first_episode,
-    })
+    }
+}
+
+/// Table IV columns as mean ± std over `stats`, in the given order.
+pub fn eval_report(stats: Vec<EpisodeStats>) -> EvalReport {
+    EvalReport {
+        cells_burned: MeanStd::of(stats.iter().map(|s| f64::from(s.cells_burned))),
+        timesteps: MeanStd::of(stats.iter().map(|s| f64::from(s.timesteps))),
+        helitacks: MeanStd::of(stats.iter().map(|s| f64::from(s.helitacks))),
+        water_used_gal: MeanStd::of(stats.iter().map(|s| s.water_used_gal)),
+        episodes: stats,
+    }
 }
 
 /// Collects the first episode into PNG frames, a GIF and a Rerun recording.

@@ -9,7 +9,10 @@
 //! Landscape and weather files (FireCastRL PNGs, GeoTIFFs, GRIDMET) are declared as the stages'
 //! inputs `land_cover`, `elevation` and `gridmet`, so they are part of the cache key.
 
-use firecast_pipeline::{ParamsError, Port, Ports, StageContext, StageError, StageKind, typed_params};
+use firecast_pipeline::stage::SHARD_OUTPUT;
+use firecast_pipeline::{
+    ParamsError, Port, Ports, Shard, ShardedKind, StageContext, StageError, StageKind, typed_params,
+};
 use firecast_sim::EnvConfig;
 use serde::{Deserialize, Serialize};
 
@@ -150,15 +153,7 @@ impl StageKind for EpisodesStage {
 
     fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
         let params: EpisodesParams = ctx.params()?;
-        let env = serde_path_to_error_env(&params.env).map_err(|e| StageError::msg(e.message))?;
-        let mut scenario = scenario_of(ctx, &params.landscape, env, params.weather_date.as_deref())?;
-        let (land, weather) = scenario.prepare(ctx.root())?;
-        if let Some(w) = &weather {
-            ctx.log(format!(
-                "wind from GRIDMET on {}: vs {:.2} m/s from {:.0}° at ({:.4}, {:.4})",
-                w.date, w.vs_m_s, w.th_deg, w.lat, w.lon
-            ));
-        }
+        let (scenario, land) = prepare_episodes(ctx, &params)?;
         let outputs = Outputs::default();
         let bar = ctx.progress_bar(params.episodes as u64, &format!("{} agent", params.agent.name()));
         let summary = crate::run(
@@ -173,32 +168,233 @@ impl StageKind for EpisodesStage {
             },
         )?;
         bar.finish_and_clear();
-        for (k, episode) in summary.report.episodes.iter().enumerate() {
-            ctx.metric("cells_burned", k as i64, f64::from(episode.cells_burned));
-            ctx.metric("timesteps", k as i64, f64::from(episode.timesteps));
-            ctx.metric("helitacks", k as i64, f64::from(episode.helitacks));
-            ctx.metric("water_used_gal", k as i64, episode.water_used_gal);
-        }
+        episode_metrics(ctx, 0, &summary.report.episodes);
         let json = serde_json::to_vec_pretty(&summary)?;
         std::fs::write(ctx.output("summary")?, json)?;
         if let Ok(path) = ctx.output("trace") {
-            let trace = TraceFile {
-                landscape: params.landscape.clone(),
-                env: params.env.clone(),
-                weather_date: params.weather_date.clone(),
-                episode: summary
-                    .first_episode
-                    .clone()
-                    .ok_or_else(|| StageError::msg("no episode was run"))?,
-            };
-            std::fs::write(path, serde_json::to_vec(&trace)?)?;
+            let episode = summary
+                .first_episode
+                .clone()
+                .ok_or_else(|| StageError::msg("no episode was run"))?;
+            std::fs::write(path, trace_bytes(&params, episode)?)?;
         }
-        ctx.log(format!(
-            "cells burned {:.1} ± {:.1} over {} episodes",
-            summary.report.cells_burned.mean, summary.report.cells_burned.std, params.episodes
-        ));
+        ctx.log(summary_line(&summary.report, params.episodes));
         Ok(())
     }
+
+    fn sharded(&self) -> Option<&dyn ShardedKind> {
+        Some(self)
+    }
+}
+
+/// `sim.episodes` shards by episode range: shard `i/N` runs episodes
+/// `[E·i/N, E·(i+1)/N)` (episode `k` is seeded `seed + k` whatever the split) and writes a
+/// part with its episodes; the merge concatenates them in order and computes the same
+/// summary and trace bytes as the unsharded run.
+impl ShardedKind for EpisodesStage {
+    fn unit_name(&self) -> &'static str {
+        "episodes"
+    }
+
+    fn units(&self, params: &serde_json::Value) -> Result<usize, ParamsError> {
+        let params: EpisodesParams = firecast_pipeline::stage::deserialize_params(params)?;
+        Ok(params.episodes)
+    }
+
+    fn run_shard(&self, ctx: &mut StageContext<'_>, shard: Shard) -> Result<(), StageError> {
+        let params: EpisodesParams = ctx.params()?;
+        let (scenario, land) = prepare_episodes(ctx, &params)?;
+        let range = shard.range(params.episodes);
+        let (stats, first) = crate::run_range(
+            &scenario,
+            &land,
+            params.agent,
+            range.clone(),
+            params.seed,
+            &Outputs::default(),
+            |_| {},
+        )?;
+        episode_metrics(ctx, range.start, &stats);
+        let trace = match first {
+            Some(episode) => Some(String::from_utf8(trace_bytes(&params, episode)?)?),
+            None => None,
+        };
+        let part = ShardPart {
+            shard,
+            start: range.start,
+            end: range.end,
+            landscape: scenario.landscape.clone(),
+            wind_speed_mph_bits: scenario.env.sim.wind.speed_mph.to_bits(),
+            wind_from_deg_bits: scenario.env.sim.wind.from_direction_deg.to_bits(),
+            wind_measured_at: scenario.env.sim.wind.measured_at,
+            episodes: stats.iter().map(PartEpisode::from).collect(),
+            trace,
+        };
+        ctx.log(format!("shard {shard}: episodes {}..{}", range.start, range.end));
+        std::fs::write(ctx.output(SHARD_OUTPUT)?, serde_json::to_vec(&part)?)?;
+        Ok(())
+    }
+
+    fn merge(
+        &self,
+        params: &serde_json::Value,
+        parts: &[std::path::PathBuf],
+        outputs: &std::collections::BTreeMap<String, std::path::PathBuf>,
+    ) -> Result<Vec<String>, StageError> {
+        let params: EpisodesParams = serde_json::from_value(params.clone())?;
+        let mut stats = Vec::with_capacity(params.episodes);
+        let mut first: Option<ShardPart> = None;
+        for (i, path) in parts.iter().enumerate() {
+            let part: ShardPart = serde_json::from_slice(&std::fs::read(path)?)
+                .map_err(|e| StageError::msg(format!("shard part {}: {e}", path.display())))?;
+            if part.shard.index as usize != i
+                || part.shard.count as usize != parts.len()
+                || part.start != stats.len()
+            {
+                return Err(StageError::msg(format!(
+                    "shard part {} is shard {} covering episodes {}..{}, expected shard {i}/{} starting at episode {}",
+                    path.display(),
+                    part.shard,
+                    part.start,
+                    part.end,
+                    parts.len(),
+                    stats.len()
+                )));
+            }
+            stats.extend(part.episodes.iter().map(PartEpisode::stats));
+            if i == 0 {
+                first = Some(part);
+            }
+        }
+        let head = first.ok_or_else(|| StageError::msg("no shard parts to merge"))?;
+        if stats.len() != params.episodes {
+            return Err(StageError::msg(format!(
+                "the shards cover {} episodes, the stage has {}",
+                stats.len(),
+                params.episodes
+            )));
+        }
+        let summary = crate::EpisodesSummary {
+            agent: params.agent.name(),
+            landscape: head.landscape,
+            seed: params.seed,
+            wind_speed_mph: f64::from_bits(head.wind_speed_mph_bits),
+            wind_from_deg: f64::from_bits(head.wind_from_deg_bits),
+            wind_measured_at: head.wind_measured_at,
+            report: crate::eval_report(stats),
+            first_episode: None,
+        };
+        let summary_path = outputs
+            .get("summary")
+            .ok_or_else(|| StageError::msg("output `summary` is not declared"))?;
+        std::fs::write(summary_path, serde_json::to_vec_pretty(&summary)?)?;
+        if let Some(path) = outputs.get("trace") {
+            let trace = head
+                .trace
+                .ok_or_else(|| StageError::msg("shard 0 carries no trace of episode 0"))?;
+            std::fs::write(path, trace)?;
+        }
+        Ok(vec![summary_line(&summary.report, params.episodes)])
+    }
+}
+
+/// What one shard of `sim.episodes` hands to the merge. Floats travel as their bits so
+/// the merged summary is byte-identical to the unsharded one.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ShardPart {
+    shard: Shard,
+    start: usize,
+    end: usize,
+    landscape: LandscapeSpec,
+    wind_speed_mph_bits: u64,
+    wind_from_deg_bits: u64,
+    wind_measured_at: firecast_sim::WindHeight,
+    episodes: Vec<PartEpisode>,
+    /// The trace output's exact bytes, from the shard that ran episode 0.
+    trace: Option<String>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PartEpisode {
+    seed: u64,
+    cells_burned: u32,
+    timesteps: u32,
+    helitacks: u32,
+    water_used_gal_bits: u64,
+    terminated: bool,
+}
+
+impl From<&firecast_sim::EpisodeStats> for PartEpisode {
+    fn from(s: &firecast_sim::EpisodeStats) -> Self {
+        Self {
+            seed: s.seed,
+            cells_burned: s.cells_burned,
+            timesteps: s.timesteps,
+            helitacks: s.helitacks,
+            water_used_gal_bits: s.water_used_gal.to_bits(),
+            terminated: s.terminated,
+        }
+    }
+}
+
+impl PartEpisode {
+    fn stats(&self) -> firecast_sim::EpisodeStats {
+        firecast_sim::EpisodeStats {
+            seed: self.seed,
+            cells_burned: self.cells_burned,
+            timesteps: self.timesteps,
+            helitacks: self.helitacks,
+            water_used_gal: f64::from_bits(self.water_used_gal_bits),
+            terminated: self.terminated,
+        }
+    }
+}
+
+/// The scenario (with the day's GRIDMET wind when asked) and its landscape.
+fn prepare_episodes(
+    ctx: &StageContext<'_>,
+    params: &EpisodesParams,
+) -> Result<(Scenario, firecast_landscape::Landscape), StageError> {
+    let env = serde_path_to_error_env(&params.env).map_err(|e| StageError::msg(e.message))?;
+    let mut scenario = scenario_of(ctx, &params.landscape, env, params.weather_date.as_deref())?;
+    let (land, weather) = scenario.prepare(ctx.root())?;
+    if let Some(w) = &weather {
+        ctx.log(format!(
+            "wind from GRIDMET on {}: vs {:.2} m/s from {:.0}° at ({:.4}, {:.4})",
+            w.date, w.vs_m_s, w.th_deg, w.lat, w.lon
+        ));
+    }
+    Ok((scenario, land))
+}
+
+/// Per-episode metrics, step = the episode's index in the whole stage.
+fn episode_metrics(ctx: &StageContext<'_>, first: usize, episodes: &[firecast_sim::EpisodeStats]) {
+    for (i, episode) in episodes.iter().enumerate() {
+        let k = (first + i) as i64;
+        ctx.metric("cells_burned", k, f64::from(episode.cells_burned));
+        ctx.metric("timesteps", k, f64::from(episode.timesteps));
+        ctx.metric("helitacks", k, f64::from(episode.helitacks));
+        ctx.metric("water_used_gal", k, episode.water_used_gal);
+    }
+}
+
+fn trace_bytes(params: &EpisodesParams, episode: EpisodeTrace) -> Result<Vec<u8>, StageError> {
+    let trace = TraceFile {
+        landscape: params.landscape.clone(),
+        env: params.env.clone(),
+        weather_date: params.weather_date.clone(),
+        episode,
+    };
+    Ok(serde_json::to_vec(&trace)?)
+}
+
+fn summary_line(report: &firecast_sim::EvalReport, episodes: usize) -> String {
+    format!(
+        "cells burned {:.1} ± {:.1} over {episodes} episodes",
+        report.cells_burned.mean, report.cells_burned.std
+    )
 }
 
 /// Deserialize the `env` block strictly, reporting the key path under `env.`.

@@ -99,33 +99,10 @@ impl From<firecast_pipeline::SpecError> for ForecastError {
     }
 }
 
-/// Parses `auto`, `cpu`, `cuda` or `cuda:N`. `cuda` without a GPU (or without libtorch's
-/// CUDA backend) is an error, never a silent fall-back to the CPU.
+/// Parses `auto`, `cpu`, `cuda` or `cuda:N` (see [`firecast_learn::parse_device`]).
 pub fn parse_device(s: &str) -> Result<tch::Device, ForecastError> {
-    let bad = |message: String| ForecastError::Config {
+    firecast_learn::parse_device(s).map_err(|message| ForecastError::Config {
         key: "device".into(),
         message,
-    };
-    match s {
-        "auto" => Ok(firecast_learn::default_device()),
-        "cpu" => Ok(tch::Device::Cpu),
-        _ => {
-            let index = match s.strip_prefix("cuda") {
-                Some("") => 0,
-                Some(rest) => rest
-                    .strip_prefix(':')
-                    .and_then(|n| n.parse::<usize>().ok())
-                    .ok_or_else(|| bad(format!("`{s}` is not auto, cpu, cuda or cuda:N")))?,
-                None => return Err(bad(format!("`{s}` is not auto, cpu, cuda or cuda:N"))),
-            };
-            let loaded = firecast_learn::load_cuda_backend();
-            let count = tch::Cuda::device_count();
-            if !loaded || (index as i64) >= count {
-                return Err(bad(format!(
-                    "`{s}` was asked for but libtorch sees {count} CUDA device(s) (CUDA backend loaded: {loaded})"
-                )));
-            }
-            Ok(tch::Device::Cuda(index))
-        }
-    }
+    })
 }

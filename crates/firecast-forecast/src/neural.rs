@@ -3,7 +3,7 @@
 //! network, scikit-learn's MLPClassifier, and FireCast's own forecaster.
 //!
 //! Two `tch` traps are avoided on purpose: `nn::lstm` initialises biases to zero and fixes
-//! inter-layer dropout when it is built (so it stays on at evaluation). [`Recurrent`] holds
+//! inter-layer dropout when it is built (so it stays on at evaluation). `Recurrent` (firecast-learn) holds
 //! PyTorch-named weights with PyTorch's U(±1/√h) initialisation and passes `train` to
 //! libtorch's fused LSTM/GRU on every call.
 
@@ -14,6 +14,8 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use tch::nn::{self, Module, ModuleT, OptimizerConfig};
 use tch::{Device, Kind, Tensor};
+
+use firecast_learn::layers::{Cell, Recurrent};
 
 use crate::ForecastError;
 use crate::data::Block;
@@ -344,105 +346,6 @@ fn kaiming_conv1d(p: nn::Path<'_>, i: i64, o: i64, k: i64, padding: i64) -> nn::
     )
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Cell {
-    Lstm,
-    Gru,
-}
-
-/// A (possibly bidirectional, multi-layer) LSTM or GRU over batch-first input, with
-/// PyTorch's parameter names and initialisation, and dropout between layers only when
-/// training.
-#[derive(Debug)]
-struct Recurrent {
-    cell: Cell,
-    params: Vec<Tensor>,
-    hidden: i64,
-    layers: i64,
-    bidirectional: bool,
-    dropout: f64,
-}
-
-impl Recurrent {
-    fn new(
-        p: nn::Path<'_>,
-        cell: Cell,
-        input: i64,
-        hidden: i64,
-        layers: i64,
-        bidirectional: bool,
-        dropout: f64,
-    ) -> Self {
-        let gates = match cell {
-            Cell::Lstm => 4,
-            Cell::Gru => 3,
-        };
-        let dirs = if bidirectional { 2 } else { 1 };
-        let b = 1.0 / (hidden as f64).sqrt();
-        let init = nn::Init::Uniform { lo: -b, up: b };
-        let mut params = Vec::new();
-        for layer in 0..layers {
-            let in_size = if layer == 0 { input } else { hidden * dirs };
-            for dir in 0..dirs {
-                let suffix = if dir == 1 { "_reverse" } else { "" };
-                params.push(p.var(
-                    &format!("weight_ih_l{layer}{suffix}"),
-                    &[gates * hidden, in_size],
-                    init,
-                ));
-                params.push(p.var(
-                    &format!("weight_hh_l{layer}{suffix}"),
-                    &[gates * hidden, hidden],
-                    init,
-                ));
-                params.push(p.var(&format!("bias_ih_l{layer}{suffix}"), &[gates * hidden], init));
-                params.push(p.var(&format!("bias_hh_l{layer}{suffix}"), &[gates * hidden], init));
-            }
-        }
-        Self {
-            cell,
-            params,
-            hidden,
-            layers,
-            bidirectional,
-            dropout,
-        }
-    }
-
-    /// `x`: [batch, time, input] → (output [batch, time, dirs·hidden], h_n [layers·dirs, batch, hidden]).
-    fn forward(&self, x: &Tensor, train: bool) -> (Tensor, Tensor) {
-        let dirs = if self.bidirectional { 2 } else { 1 };
-        let batch = x.size()[0];
-        let h0 = Tensor::zeros([self.layers * dirs, batch, self.hidden], (x.kind(), x.device()));
-        match self.cell {
-            Cell::Lstm => {
-                let c0 = h0.zeros_like();
-                let (out, h, _c) = x.lstm(
-                    &[&h0, &c0],
-                    &self.params.iter().collect::<Vec<_>>(),
-                    true,
-                    self.layers,
-                    self.dropout,
-                    train,
-                    self.bidirectional,
-                    true,
-                );
-                (out, h)
-            }
-            Cell::Gru => x.gru(
-                &h0,
-                &self.params,
-                true,
-                self.layers,
-                self.dropout,
-                train,
-                self.bidirectional,
-                true,
-            ),
-        }
-    }
-}
-
 /// The networks. Input `[batch, time, features]`, output logits `[batch]`.
 #[derive(Debug)]
 enum Net {
@@ -593,7 +496,7 @@ impl Net {
             Net::Mlp { hidden, out } => x.flatten(1, 2).apply(hidden).relu().apply(out).squeeze_dim(1),
             Net::Lstm2 { rnn, fc } => {
                 let (_, h) = rnn.forward(x, train);
-                h.get(rnn.layers - 1).apply(fc).squeeze_dim(1)
+                h.get(rnn.layers() - 1).apply(fc).squeeze_dim(1)
             }
             Net::LightTs {
                 chunk,

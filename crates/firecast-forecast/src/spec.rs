@@ -389,67 +389,10 @@ impl ExperimentSpec {
     }
 }
 
-/// `a.b.c=value`: sets a nested key (creating mappings), value parsed as YAML. List items
-/// are addressed by index: `models.2.params.max_epochs=5`.
+/// `a.b.c=value` (see [`firecast_pipeline::spec::apply_override`]).
 pub fn apply_override(root: &mut serde_yaml_ng::Value, text: &str) -> Result<(), ForecastError> {
-    use serde_yaml_ng::Value;
-    let (key, raw) = text.split_once('=').ok_or_else(|| ForecastError::Config {
-        key: text.into(),
-        message: "an override is KEY=VALUE".into(),
-    })?;
-    let value: Value = serde_yaml_ng::from_str(raw).map_err(|e| ForecastError::Config {
-        key: key.into(),
-        message: format!("the value is not YAML: {e}"),
-    })?;
-    let mut node = root;
-    let parts: Vec<&str> = key.split('.').collect();
-    for (i, part) in parts.iter().enumerate() {
-        let last = i + 1 == parts.len();
-        node = match node {
-            Value::Sequence(items) => {
-                let idx: usize = part.parse().map_err(|_| ForecastError::Config {
-                    key: key.into(),
-                    message: format!("`{part}` indexes a list: use a number"),
-                })?;
-                let len = items.len();
-                items.get_mut(idx).ok_or_else(|| ForecastError::Config {
-                    key: key.into(),
-                    message: format!("index {idx} is past the list's {len} items"),
-                })?
-            }
-            Value::Mapping(map) => {
-                let k = Value::String((*part).to_string());
-                if !map.contains_key(&k) {
-                    map.insert(k.clone(), Value::Mapping(Default::default()));
-                }
-                map.get_mut(&k).ok_or_else(|| ForecastError::Config {
-                    key: key.into(),
-                    message: "cannot set".into(),
-                })?
-            }
-            other => {
-                if matches!(other, Value::Null) {
-                    *other = Value::Mapping(Default::default());
-                    let Value::Mapping(map) = other else {
-                        unreachable!()
-                    };
-                    let k = Value::String((*part).to_string());
-                    map.insert(k.clone(), Value::Null);
-                    map.get_mut(&k).ok_or_else(|| ForecastError::Config {
-                        key: key.into(),
-                        message: "cannot set".into(),
-                    })?
-                } else {
-                    return Err(ForecastError::Config {
-                        key: key.into(),
-                        message: format!("`{part}` is inside a value that is not a mapping"),
-                    });
-                }
-            }
-        };
-        if last {
-            *node = value.clone();
-        }
-    }
-    Ok(())
+    firecast_pipeline::spec::apply_override(root, text).map_err(|e| ForecastError::Config {
+        key: e.path,
+        message: e.message,
+    })
 }

@@ -7,6 +7,8 @@
 //! first use rather than at program start: linking it eagerly doubles the start-up time
 //! of every `firecast` command (0.30 s to 0.67 s measured), most of which never train.
 
+pub mod layers;
+
 use std::sync::OnceLock;
 
 use serde::Serialize;
@@ -78,4 +80,41 @@ pub fn seed_everything(seed: u64) {
         tch::Cuda::manual_seed_all(seed);
         tch::Cuda::cudnn_set_benchmark(false);
     }
+}
+
+/// Parses `auto`, `cpu`, `cuda` or `cuda:N`. `cuda` without a GPU (or without libtorch's
+/// CUDA backend) is an error, never a silent fall-back to the CPU.
+pub fn parse_device(s: &str) -> Result<tch::Device, String> {
+    match s {
+        "auto" => Ok(default_device()),
+        "cpu" => Ok(tch::Device::Cpu),
+        _ => {
+            let index = match s.strip_prefix("cuda") {
+                Some("") => 0,
+                Some(rest) => rest
+                    .strip_prefix(':')
+                    .and_then(|n| n.parse::<usize>().ok())
+                    .ok_or_else(|| format!("`{s}` is not auto, cpu, cuda or cuda:N"))?,
+                None => return Err(format!("`{s}` is not auto, cpu, cuda or cuda:N")),
+            };
+            let loaded = load_cuda_backend();
+            let count = tch::Cuda::device_count();
+            if !loaded || (index as i64) >= count {
+                return Err(format!(
+                    "`{s}` was asked for but libtorch sees {count} CUDA device(s) (CUDA backend loaded: {loaded})"
+                ));
+            }
+            Ok(tch::Device::Cuda(index))
+        }
+    }
+}
+
+/// Runs `f` with libtorch's global generator seeded with `seed`, holding a process-wide lock
+/// so that weights drawn inside `f` do not depend on other threads drawing at the same time
+/// (libtorch has one CPU generator per process).
+pub fn with_seed<T>(seed: u64, f: impl FnOnce() -> T) -> T {
+    static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    tch::manual_seed(seed as i64);
+    f()
 }

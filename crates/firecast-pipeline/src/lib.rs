@@ -19,22 +19,28 @@
 pub mod cmd;
 pub mod dvc;
 pub mod error;
+pub mod executor;
 pub mod fsutil;
 pub mod hash;
 mod locate;
 pub mod lock;
 pub mod observer;
 pub mod plan;
+pub mod resources;
 pub mod runner;
 pub mod spec;
 pub mod stage;
 
 pub use error::{PipelineError, SpecError, StageError};
+pub use executor::{JobFailure, JobOutcome, StageExecutor, StageJob};
 pub use observer::{DatasetRecord, NoObserver, RunObserver, RunStatus};
 pub use plan::{Plan, load_plan};
+pub use resources::Resources;
 pub use runner::{Engine, Outcome, RunOptions, RunReport};
 pub use spec::Override;
-pub use stage::{ParamsError, Port, Ports, StageContext, StageKind, StageKinds, typed_params};
+pub use stage::{
+    ParamsError, Port, Ports, Shard, ShardedKind, StageContext, StageKind, StageKinds, typed_params,
+};
 
 /// The kinds every `firecast` knows, whatever crates are linked.
 pub fn builtin_kinds() -> StageKinds {

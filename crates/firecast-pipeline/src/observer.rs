@@ -71,7 +71,7 @@ pub struct LineageRecord {
 }
 
 /// A versioned dataset a stage produced.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct DatasetRecord {
     pub name: String,
     /// Content hash of data and config.

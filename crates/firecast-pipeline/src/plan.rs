@@ -53,6 +53,11 @@ pub struct PlannedStage {
     /// Indices (into `Plan::stages`) of the stages this one reads from.
     pub upstream: Vec<usize>,
     pub always_run: bool,
+    /// Cluster resources one run needs (remote executors only).
+    pub resources: crate::resources::Resources,
+    /// Shards the work is split into (`None`: one task). Not part of the cache key: the
+    /// merged outputs equal the unsharded ones.
+    pub shards: Option<u32>,
 }
 
 /// A checked, topologically ordered pipeline.
@@ -146,6 +151,41 @@ pub fn plan(pipeline: &ExpandedPipeline, kinds: &StageKinds) -> Result<Plan, Spe
             err(path, e.message)
         })?;
         let ports = kind.ports();
+        if let Some(shards) = stage.shards {
+            let shard_path = format!("{key_path}.shards");
+            let Some(sharded) = kind.sharded() else {
+                let able: Vec<&str> = kinds
+                    .iter()
+                    .filter(|k| k.sharded().is_some())
+                    .map(|k| k.name())
+                    .collect();
+                return Err(err(
+                    shard_path,
+                    format!(
+                        "stage kind `{}` cannot be sharded (kinds that can: {})",
+                        stage.uses,
+                        if able.is_empty() {
+                            "none".to_string()
+                        } else {
+                            able.join(", ")
+                        }
+                    ),
+                ));
+            };
+            let units = sharded
+                .units(&params)
+                .map_err(|e| err(format!("{key_path}.params.{}", e.path), e.message))?;
+            if shards == 0 || shards as usize > units {
+                return Err(err(
+                    shard_path,
+                    format!(
+                        "{shards} shards for {units} {}: use between 1 and {units} (one {} per shard at least)",
+                        sharded.unit_name(),
+                        sharded.unit_name().trim_end_matches('s')
+                    ),
+                ));
+            }
+        }
 
         let mut inputs = IndexMap::new();
         for (name, value) in &stage.inputs {
@@ -231,6 +271,8 @@ pub fn plan(pipeline: &ExpandedPipeline, kinds: &StageKinds) -> Result<Plan, Spe
             outputs,
             upstream: Vec::new(),
             always_run: stage.always_run,
+            resources: stage.resources.clone(),
+            shards: stage.shards,
         });
     }
 

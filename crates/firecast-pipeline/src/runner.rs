@@ -12,12 +12,13 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 
 use crate::error::{PipelineError, StageError};
+use crate::executor::{Invocation, JobInput, PendingArtifact, StageExecutor, StageJob};
 use crate::fsutil;
 use crate::hash::{ContentHash, HashCache, hash_json};
 use crate::lock::{CachedOutput, LockEntry, LockFile, LockedFile, RunCache};
 use crate::observer::{LineageRecord, PipelineRunInfo, RunObserver, RunStatus, StageRunInfo};
 use crate::plan::{Plan, PlannedStage, Source};
-use crate::stage::{StageContext, StageKinds};
+use crate::stage::StageKinds;
 
 /// Everything a run needs besides the plan.
 pub struct Engine {
@@ -26,6 +27,9 @@ pub struct Engine {
     pub observer: Arc<dyn RunObserver>,
     pub store: Option<Arc<firecast_store::ArtifactStore>>,
     pub git_commit: Option<String>,
+    /// Where stages run: `None` runs them in this process; a remote executor ships each
+    /// stage that must run (up-to-date and restorable stages never leave the driver).
+    pub executor: Option<Arc<dyn StageExecutor>>,
 }
 
 /// Flags of `firecast pipeline run`.
@@ -833,40 +837,100 @@ impl RunShared<'_> {
             .iter()
             .map(|(k, v)| (k.clone(), v.path.clone()))
             .collect();
-        let log = Mutex::new(Vec::new());
         let spinner = self.progress.add(indicatif::ProgressBar::new_spinner());
         spinner.set_message(format!("{} ({})", stage.name, stage.kind));
         spinner.enable_steady_tick(Duration::from_millis(120));
-        let result = {
-            let mut ctx = StageContext {
-                stage: &stage.name,
-                run_id: &run_id,
-                root,
-                params: &stage.params,
-                inputs: &input_paths,
-                outputs: &tmp_outputs,
-                final_outputs: &final_outputs,
-                progress: &self.progress,
-                observer: self.engine.observer.as_ref(),
-                store: self.engine.store.as_deref(),
-                log: &log,
-                warnings: &self.warnings,
-                jobs: self.opts.jobs,
-            };
-            kind.run(&mut ctx).and_then(|()| {
-                for (name, tmp) in &tmp_outputs {
-                    if !tmp.exists() {
-                        return Err(StageError::msg(format!(
-                            "stage finished but did not write output `{name}` ({})",
-                            stage.outputs[name].path.display()
-                        )));
-                    }
+        let (result, log, pending) = match &self.engine.executor {
+            None => {
+                let inv = Invocation {
+                    stage: &stage.name,
+                    run_id: &run_id,
+                    root,
+                    params: &stage.params,
+                    inputs: &input_paths,
+                    outputs: &tmp_outputs,
+                    final_outputs: &final_outputs,
+                    progress: &self.progress,
+                    observer: self.engine.observer.as_ref(),
+                    store: self.engine.store.as_deref(),
+                    jobs: self.opts.jobs,
+                    shard: None,
+                };
+                let (result, report) = match stage.shards {
+                    Some(count) => crate::executor::invoke_sharded(
+                        kind.as_ref(),
+                        &inv,
+                        count,
+                        &self.state_dir.join("shards").join(&run_id),
+                    ),
+                    None => crate::executor::invoke(kind.as_ref(), &inv),
+                };
+                self.warnings
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .extend(report.warnings);
+                (result, report.log, report.pending_artifacts)
+            }
+            Some(executor) => {
+                let mut inputs: BTreeMap<String, Vec<JobInput>> = BTreeMap::new();
+                for (name, paths) in &input_paths {
+                    let locks = input_locks.get(name).map_or(&[][..], Vec::as_slice);
+                    let list = paths
+                        .iter()
+                        .zip(locks)
+                        .map(|(local, lock)| JobInput {
+                            local: local.clone(),
+                            rel: job_relative_path(root, local, &lock.content.hash),
+                            content: lock.content.clone(),
+                        })
+                        .collect();
+                    inputs.insert(name.clone(), list);
                 }
-                Ok(())
-            })
+                let job = StageJob {
+                    pipeline: &self.plan.name,
+                    stage,
+                    kind: kind.as_ref(),
+                    run_id: &run_id,
+                    cache_key: &cache_key,
+                    root,
+                    inputs,
+                    tmp_outputs: &tmp_outputs,
+                    final_outputs: &final_outputs,
+                    hashes: &self.hashes,
+                    jobs: self.opts.jobs,
+                };
+                match executor.run(&job) {
+                    Ok(outcome) => {
+                        for event in &outcome.events {
+                            self.note(
+                                event.replay(self.engine.observer.as_ref(), &run_id),
+                                "remote stage event not registered",
+                            );
+                        }
+                        let mut log = outcome.log;
+                        if let Some(worker) = &outcome.worker {
+                            log.insert(0, format!("# ran on {worker}"));
+                        }
+                        self.warnings
+                            .lock()
+                            .unwrap_or_else(|e| e.into_inner())
+                            .extend(outcome.warnings);
+                        let missing = tmp_outputs.iter().find(|(_, tmp)| !tmp.exists());
+                        let result = match missing {
+                            Some((name, _)) => Err(StageError::msg(format!(
+                                "{} reported success but output `{name}` did not come back",
+                                executor.describe()
+                            ))),
+                            None => Ok(()),
+                        };
+                        (result, log, outcome.pending_artifacts)
+                    }
+                    Err(failure) => (Err(StageError::msg(failure.message)), failure.log, Vec::new()),
+                }
+            }
         };
         spinner.finish_and_clear();
-        self.write_log(&run_id, &stage.name, &log);
+        self.write_log(&run_id, &stage.name, &Mutex::new(log));
 
         if let Err(error) = result {
             for tmp in tmp_outputs.values() {
@@ -911,6 +975,7 @@ impl RunShared<'_> {
                 self.publish_artifact(&run_id, name, &root.join(&output.path));
             }
         }
+        self.publish_pending(stage, &run_id, &pending);
         let run = FinishedRun {
             run_id,
             cache_key,
@@ -958,6 +1023,43 @@ impl RunShared<'_> {
         }
     }
 
+    /// Artifacts a stage asked for from inside its outputs, now that they are published.
+    fn publish_pending(&self, stage: &PlannedStage, run_id: &str, pending: &[PendingArtifact]) {
+        if pending.is_empty() {
+            return;
+        }
+        let Some(store) = self.engine.store.as_deref() else {
+            self.note(Err("no artifact store is configured".into()), "artifacts");
+            return;
+        };
+        for artifact in pending {
+            let Some(output) = stage.outputs.get(&artifact.output) else {
+                continue;
+            };
+            let rel = artifact
+                .rel
+                .as_ref()
+                .map_or_else(|| output.path.clone(), |r| output.path.join(r));
+            let key = crate::stage::artifact_key(run_id, &artifact.name, &rel);
+            match store.put_file(&key, &self.engine.root.join(&rel)) {
+                Ok(stored) => self.note(
+                    self.engine.observer.artifact(
+                        run_id,
+                        &artifact.name,
+                        &stored.uri,
+                        &stored.hash,
+                        stored.size,
+                    ),
+                    "artifact not registered",
+                ),
+                Err(e) => self.note(
+                    Err(e.into()),
+                    &format!("artifact `{}` not uploaded", artifact.name),
+                ),
+            }
+        }
+    }
+
     fn write_log(&self, run_id: &str, stage: &str, log: &Mutex<Vec<String>>) {
         let lines = log.lock().unwrap_or_else(|e| e.into_inner());
         if lines.is_empty() {
@@ -971,6 +1073,22 @@ impl RunShared<'_> {
         }
         if let Err(e) = fsutil::write_atomically(&path, text.as_bytes()) {
             self.note(Err(e.to_string().into()), "stage log not written");
+        }
+    }
+}
+
+/// Where a job input goes under the worker's root: its path relative to the project root,
+/// or for a file outside it (an absolute path) `external/<hash>/<name>`.
+fn job_relative_path(root: &Path, local: &Path, hash: &str) -> PathBuf {
+    match local.strip_prefix(root) {
+        Ok(rel) if !rel.as_os_str().is_empty() => rel.to_path_buf(),
+        _ => {
+            let name = local
+                .file_name()
+                .map_or_else(|| "input".to_string(), |n| n.to_string_lossy().to_string());
+            PathBuf::from("external")
+                .join(&hash[..hash.len().min(16)])
+                .join(name)
         }
     }
 }

@@ -59,6 +59,14 @@ pub struct RawStage {
     /// Run every time, even when nothing changed (e.g. a stage that reads the clock).
     #[serde(default)]
     pub always_run: bool,
+    /// What one run of the stage needs on a cluster worker (`--executor ray`); not part of
+    /// the cache key, ignored by the local executor.
+    #[serde(default)]
+    pub resources: crate::resources::Resources,
+    /// Split the stage's work into this many shards (kinds that support it), run as
+    /// separate tasks and merged deterministically: the outputs equal the unsharded run's.
+    #[serde(default)]
+    pub shards: Option<u32>,
 }
 
 /// A `-S key=value` override from the command line.
@@ -114,6 +122,8 @@ pub struct ExpandedStage {
     pub inputs: IndexMap<String, Value>,
     pub outputs: IndexMap<String, Value>,
     pub always_run: bool,
+    pub resources: crate::resources::Resources,
+    pub shards: Option<u32>,
 }
 
 /// The pipeline after parsing, overrides and expansion.
@@ -294,6 +304,8 @@ pub fn parse(
                 inputs,
                 outputs,
                 always_run: raw_stage.always_run,
+                resources: raw_stage.resources.clone(),
+                shards: raw_stage.shards,
             });
         }
         if expanded {
@@ -679,6 +691,70 @@ fn set_path(target: &mut Value, segments: &[String], value: Value) {
         let child = map.entry(key).or_insert(Value::Null);
         set_path(child, &segments[1..], value);
     }
+}
+
+/// `a.b.c=value`: sets a nested key (creating mappings), value parsed as YAML. List items
+/// are addressed by index: `models.2.params.max_epochs=5`.
+pub fn apply_override(root: &mut Value, text: &str) -> Result<(), crate::ParamsError> {
+    let (key, raw) = text.split_once('=').ok_or_else(|| crate::ParamsError {
+        path: text.into(),
+        message: "an override is KEY=VALUE".into(),
+    })?;
+    let value: Value = serde_yaml_ng::from_str(raw).map_err(|e| crate::ParamsError {
+        path: key.into(),
+        message: format!("the value is not YAML: {e}"),
+    })?;
+    let mut node = root;
+    let parts: Vec<&str> = key.split('.').collect();
+    for (i, part) in parts.iter().enumerate() {
+        let last = i + 1 == parts.len();
+        node = match node {
+            Value::Sequence(items) => {
+                let idx: usize = part.parse().map_err(|_| crate::ParamsError {
+                    path: key.into(),
+                    message: format!("`{part}` indexes a list: use a number"),
+                })?;
+                let len = items.len();
+                items.get_mut(idx).ok_or_else(|| crate::ParamsError {
+                    path: key.into(),
+                    message: format!("index {idx} is past the list's {len} items"),
+                })?
+            }
+            Value::Mapping(map) => {
+                let k = Value::String((*part).to_string());
+                if !map.contains_key(&k) {
+                    map.insert(k.clone(), Value::Mapping(Default::default()));
+                }
+                map.get_mut(&k).ok_or_else(|| crate::ParamsError {
+                    path: key.into(),
+                    message: "cannot set".into(),
+                })?
+            }
+            other => {
+                if matches!(other, Value::Null) {
+                    *other = Value::Mapping(Default::default());
+                    let Value::Mapping(map) = other else {
+                        unreachable!()
+                    };
+                    let k = Value::String((*part).to_string());
+                    map.insert(k.clone(), Value::Null);
+                    map.get_mut(&k).ok_or_else(|| crate::ParamsError {
+                        path: key.into(),
+                        message: "cannot set".into(),
+                    })?
+                } else {
+                    return Err(crate::ParamsError {
+                        path: key.into(),
+                        message: format!("`{part}` is inside a value that is not a mapping"),
+                    });
+                }
+            }
+        };
+        if last {
+            *node = value.clone();
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -75,6 +75,67 @@ pub trait StageKind: Send + Sync {
     fn resolve_params(&self, raw: &serde_json::Value) -> Result<serde_json::Value, ParamsError>;
     /// Do the work: read inputs, write every declared output at `ctx.output(..)`.
     fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError>;
+    /// Kinds whose work splits into independent shards return their sharding here.
+    fn sharded(&self) -> Option<&dyn ShardedKind> {
+        None
+    }
+}
+
+/// One shard of a sharded stage: `index` of `count` (`--shard 2/8`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+pub struct Shard {
+    pub index: u32,
+    pub count: u32,
+}
+
+impl Shard {
+    /// `i/N` with `0 <= i < N`.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let bad = || format!("shard `{text}` is not INDEX/COUNT with 0 <= INDEX < COUNT, e.g. 0/4");
+        let (i, n) = text.split_once('/').ok_or_else(bad)?;
+        let index: u32 = i.trim().parse().map_err(|_| bad())?;
+        let count: u32 = n.trim().parse().map_err(|_| bad())?;
+        if count == 0 || index >= count {
+            return Err(bad());
+        }
+        Ok(Self { index, count })
+    }
+
+    /// The units (episodes, years, …) this shard covers out of `units`: contiguous,
+    /// in order, sizes differing by at most one.
+    pub fn range(&self, units: usize) -> std::ops::Range<usize> {
+        let at = |i: u32| units * i as usize / self.count as usize;
+        at(self.index)..at(self.index + 1)
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
+/// The output name a shard writes its part to.
+pub const SHARD_OUTPUT: &str = "shard";
+
+/// The sharding contract of a kind, independent of where shards run: shard `i/N` reads
+/// the stage's inputs and writes one part file (`ctx.output(SHARD_OUTPUT)`); `merge`
+/// turns the parts, in shard order, into the stage's outputs, byte for byte what the
+/// unsharded run writes.
+pub trait ShardedKind: Send + Sync {
+    /// What a shard splits, for messages (`episodes`).
+    fn unit_name(&self) -> &'static str;
+    /// How many units the resolved params have (shards split them).
+    fn units(&self, params: &serde_json::Value) -> Result<usize, ParamsError>;
+    /// Run one shard (`ctx.shard()` says which).
+    fn run_shard(&self, ctx: &mut StageContext<'_>, shard: Shard) -> Result<(), StageError>;
+    /// Merge the parts (shard 0 first) into the outputs; returns lines for the stage's log.
+    fn merge(
+        &self,
+        params: &serde_json::Value,
+        parts: &[PathBuf],
+        outputs: &BTreeMap<String, PathBuf>,
+    ) -> Result<Vec<String>, StageError>;
 }
 
 /// The kinds a `firecast` binary knows.
@@ -121,7 +182,9 @@ pub struct StageContext<'a> {
     pub(crate) store: Option<&'a firecast_store::ArtifactStore>,
     pub(crate) log: &'a Mutex<Vec<String>>,
     pub(crate) warnings: &'a Mutex<Vec<String>>,
+    pub(crate) pending_artifacts: &'a Mutex<Vec<crate::executor::PendingArtifact>>,
     pub(crate) jobs: usize,
+    pub(crate) shard: Option<Shard>,
 }
 
 impl StageContext<'_> {
@@ -137,6 +200,11 @@ impl StageContext<'_> {
     /// The project root all relative paths resolve against.
     pub fn root(&self) -> &Path {
         self.root
+    }
+
+    /// The shard this run covers, when the stage is sharded.
+    pub fn shard(&self) -> Option<Shard> {
+        self.shard
     }
 
     /// Threads this stage may use (the runner's `--jobs`).
@@ -221,16 +289,44 @@ impl StageContext<'_> {
         }
     }
 
-    /// Upload a local file to the artifact store under `runs/<run>/<name>` and register it.
+    /// Upload a local file to the artifact store under `runs/<run>/<name>/<file name>` and
+    /// register it; returns its URI.
+    ///
+    /// A file inside one of this stage's outputs (which are still being written under
+    /// temporary names) is uploaded by the runner once the output is published: from the
+    /// finished file, under its final name.
     pub fn artifact(&self, name: &str, file: &Path) -> Result<String, StageError> {
         let store = self
             .store
             .ok_or_else(|| StageError::msg("no artifact store is configured"))?;
-        let file_name = file
-            .file_name()
-            .map(|n| n.to_string_lossy().to_string())
-            .unwrap_or_else(|| name.to_string());
-        let key = format!("runs/{}/{name}/{file_name}", self.run_id);
+        for (output, tmp) in self.outputs {
+            let rel = if file == tmp.as_path() {
+                None
+            } else if let Ok(rel) = file.strip_prefix(tmp) {
+                Some(rel.to_string_lossy().to_string())
+            } else {
+                continue;
+            };
+            let final_path = self
+                .final_outputs
+                .get(output)
+                .cloned()
+                .unwrap_or_else(|| PathBuf::from(output));
+            let final_file = rel
+                .as_ref()
+                .map_or_else(|| final_path.clone(), |r| final_path.join(r));
+            let key = artifact_key(self.run_id, name, &final_file);
+            self.pending_artifacts
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .push(crate::executor::PendingArtifact {
+                    name: name.to_string(),
+                    output: output.clone(),
+                    rel,
+                });
+            return Ok(store.uri_of(&key));
+        }
+        let key = artifact_key(self.run_id, name, file);
         let stored = store.put_file(&key, file)?;
         if let Err(e) = self
             .observer
@@ -254,4 +350,13 @@ impl StageContext<'_> {
             .unwrap_or_else(|e| e.into_inner())
             .push(format!("{}: {message}", self.stage));
     }
+}
+
+/// `runs/<run>/<name>/<file name>`: where an artifact is stored.
+pub fn artifact_key(run_id: &str, name: &str, file: &Path) -> String {
+    let file_name = file
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_else(|| name.to_string());
+    format!("runs/{run_id}/{name}/{file_name}")
 }

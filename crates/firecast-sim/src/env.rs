@@ -547,6 +547,25 @@ impl EnvCore {
     pub fn helicopter(&self) -> [i32; 2] {
         [self.heli.0, self.heli.1]
     }
+    /// Moves the spark cell for the next reset (a fire pool varies ignitions this way while
+    /// its entries share one spread-rate cache).
+    pub fn set_ignition(&mut self, x: usize, y: usize) -> Result<(), SimError> {
+        let (w, h) = (self.sim.width(), self.sim.height());
+        if x >= w || y >= h {
+            return Err(SimError::OutOfBounds {
+                x: x as i64,
+                y: y as i64,
+                width: w,
+                height: h,
+            });
+        }
+        self.ignition = (x, y);
+        Ok(())
+    }
+    /// Grid (width, height).
+    pub fn grid_size(&self) -> (usize, usize) {
+        (self.sim.width(), self.sim.height())
+    }
     pub fn ignition_cell(&self) -> (usize, usize) {
         self.ignition
     }
@@ -622,13 +641,21 @@ fn mix_seed(base: u64, env: u64, episode: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// N environments stepped in parallel (rayon) with automatic reset. Observations live in one
-/// contiguous buffer `N × FRAME_STACK × H × W` (u8 codes), plus `N × 2` positions and `N`
-/// on-fire flags. On termination or truncation the environment is reset in the same call
-/// (SB3 style): `infos()` holds the finished episode's final info, the observation is the new
-/// episode's first. Episode k of env i uses seed `mix(seed, i, k)`.
+/// N environments stepped in parallel (rayon) with automatic reset, drawing each episode's
+/// fire from a pool. Observations live in one contiguous buffer `N × FRAME_STACK × H × W` (u8
+/// codes), plus `N × 2` positions and `N` on-fire flags. On termination or truncation the
+/// environment is reset in the same call (SB3 style): `infos()` holds the finished episode's
+/// final info, `terminal_*()` its final observation, and the observation is the new
+/// episode's first. Episode k of env i uses seed `mix(seed, i, k)` and fire
+/// `mix(seed, i, k) mod pool size`, so the stream is fixed by the seed alone and does not
+/// depend on thread scheduling.
 pub struct VecEnv {
+    /// Fire pool: each entry fixes landscape, weather and ignition cell. All entries share
+    /// one grid size.
+    fires: Vec<EnvCore>,
     envs: Vec<EnvCore>,
+    /// Pool index each environment is playing.
+    current: Vec<usize>,
     frames: Vec<u8>,
     agent: Vec<i32>,
     on_fire: Vec<u8>,
@@ -637,20 +664,56 @@ pub struct VecEnv {
     truncated: Vec<bool>,
     infos: Vec<StepInfo>,
     episodes: Vec<u64>,
+    terminal_frames: Vec<u8>,
+    terminal_agent: Vec<i32>,
+    terminal_on_fire: Vec<u8>,
     seed: u64,
     obs_len: usize,
 }
 
+/// One environment's mutable slots for a step, grouped so rayon can hand them out per env.
+struct Slot<'a> {
+    env: &'a mut EnvCore,
+    current: &'a mut usize,
+    frames: &'a mut [u8],
+    terminal_frames: &'a mut [u8],
+    terminal_agent: &'a mut [i32],
+    terminal_on_fire: &'a mut u8,
+    reward: &'a mut f64,
+    terminated: &'a mut bool,
+    truncated: &'a mut bool,
+    info: &'a mut StepInfo,
+    episode: &'a mut u64,
+}
+
 impl VecEnv {
     pub fn new(landscape: &Landscape, cfg: &EnvConfig, n: usize, seed: u64) -> Result<Self, SimError> {
+        Self::with_fires(vec![EnvCore::new(landscape, cfg)?], n, seed)
+    }
+
+    /// N environments drawing their episodes from `fires` (see the type's documentation).
+    pub fn with_fires(fires: Vec<EnvCore>, n: usize, seed: u64) -> Result<Self, SimError> {
         if n == 0 {
             return Err(SimError::Config("VecEnv needs at least one environment".into()));
         }
-        // Clones of one environment: they share its spread-rate cache.
-        let envs = vec![EnvCore::new(landscape, cfg)?; n];
-        let obs_len = envs[0].frames_len();
+        let Some(first) = fires.first() else {
+            return Err(SimError::Config("VecEnv needs at least one fire".into()));
+        };
+        let obs_len = first.frames_len();
+        if let Some(f) = fires.iter().find(|f| f.frames_len() != obs_len) {
+            return Err(SimError::Config(format!(
+                "fires of one VecEnv must share a grid size: {}×{} and {}×{}",
+                first.sim.width(),
+                first.sim.height(),
+                f.sim.width(),
+                f.sim.height()
+            )));
+        }
+        let envs = vec![first.clone(); n];
         let mut v = Self {
+            fires,
             envs,
+            current: vec![0; n],
             frames: vec![0; n * obs_len],
             agent: vec![0; 2 * n],
             on_fire: vec![0; n],
@@ -659,6 +722,9 @@ impl VecEnv {
             truncated: vec![false; n],
             infos: vec![StepInfo::default(); n],
             episodes: vec![0; n],
+            terminal_frames: vec![0; n * obs_len],
+            terminal_agent: vec![0; 2 * n],
+            terminal_on_fire: vec![0; n],
             seed,
             obs_len,
         };
@@ -666,19 +732,70 @@ impl VecEnv {
         Ok(v)
     }
 
+    fn slots(&mut self) -> Vec<Slot<'_>> {
+        let obs_len = self.obs_len;
+        let mut out = Vec::with_capacity(self.envs.len());
+        let iter = self
+            .envs
+            .iter_mut()
+            .zip(self.current.iter_mut())
+            .zip(self.frames.chunks_mut(obs_len))
+            .zip(self.terminal_frames.chunks_mut(obs_len))
+            .zip(self.terminal_agent.chunks_mut(2))
+            .zip(self.terminal_on_fire.iter_mut())
+            .zip(self.rewards.iter_mut())
+            .zip(self.terminated.iter_mut())
+            .zip(self.truncated.iter_mut())
+            .zip(self.infos.iter_mut())
+            .zip(self.episodes.iter_mut());
+        for (
+            (((((((((env, current), frames), tf), ta), to), reward), terminated), truncated), info),
+            episode,
+        ) in iter
+        {
+            out.push(Slot {
+                env,
+                current,
+                frames,
+                terminal_frames: tf,
+                terminal_agent: ta,
+                terminal_on_fire: to,
+                reward,
+                terminated,
+                truncated,
+                info,
+                episode,
+            });
+        }
+        out
+    }
+
+    /// Starts episode `slot.episode` of environment `i` on its fire from the pool.
+    fn start_episode(fires: &[EnvCore], seed: u64, i: usize, slot: &mut Slot<'_>) -> StepInfo {
+        let episode_seed = mix_seed(seed, i as u64, *slot.episode);
+        let fire = (episode_seed % fires.len() as u64) as usize;
+        if fire != *slot.current {
+            slot.env.clone_from(&fires[fire]);
+            *slot.current = fire;
+        }
+        slot.env.reset_into(episode_seed, slot.frames)
+    }
+
     /// Resets every environment.
     pub fn reset(&mut self, seed: u64) {
         self.seed = seed;
-        let obs_len = self.obs_len;
         self.episodes.fill(0);
-        self.envs
-            .par_iter_mut()
-            .zip(self.frames.par_chunks_mut(obs_len))
-            .zip(self.infos.par_iter_mut())
+        let fires = std::mem::take(&mut self.fires);
+        self.slots()
+            .into_par_iter()
             .enumerate()
-            .for_each(|(i, ((env, frames), info))| {
-                *info = env.reset_into(mix_seed(seed, i as u64, 0), frames);
+            .for_each(|(i, mut slot)| {
+                *slot.info = Self::start_episode(&fires, seed, i, &mut slot);
+                *slot.terminated = false;
+                *slot.truncated = false;
+                *slot.reward = 0.0;
             });
+        self.fires = fires;
         self.gather();
     }
 
@@ -700,40 +817,98 @@ impl VecEnv {
                 self.envs.len()
             )));
         }
-        let (obs_len, seed) = (self.obs_len, self.seed);
-        // One task per thread (a contiguous run of environments each), not one per
-        // environment: a step takes microseconds, so task overhead would dominate.
-        let per_task = self.envs.len().div_ceil(rayon::current_num_threads().max(1));
-        let frames = &mut self.frames;
-        self.envs
-            .par_chunks_mut(per_task)
-            .zip(frames.par_chunks_mut(obs_len * per_task))
-            .zip(self.rewards.par_chunks_mut(per_task))
-            .zip(self.terminated.par_chunks_mut(per_task))
-            .zip(self.truncated.par_chunks_mut(per_task))
-            .zip(self.infos.par_chunks_mut(per_task))
-            .zip(self.episodes.par_chunks_mut(per_task))
-            .zip(actions.par_chunks(per_task))
+        let seed = self.seed;
+        let fires = std::mem::take(&mut self.fires);
+        // One task per environment with work stealing: fires differ in size by orders of
+        // magnitude, so fixed chunks per thread leave one thread idle behind the big fire.
+        self.slots()
+            .into_par_iter()
+            .with_max_len(1)
             .enumerate()
-            .for_each(
-                |(t, (((((((envs, frames), rews), terms), truncs), infos), eps), acts))| {
-                    for (j, env) in envs.iter_mut().enumerate() {
-                        let i = t * per_task + j;
-                        let frames = &mut frames[j * obs_len..(j + 1) * obs_len];
-                        let (r, te, tr, inf) = env.step_into(acts[j], None, frames);
-                        rews[j] = r;
-                        terms[j] = te;
-                        truncs[j] = tr;
-                        infos[j] = inf;
-                        if te || tr {
-                            eps[j] += 1;
-                            env.reset_into(mix_seed(seed, i as u64, eps[j]), frames);
-                        }
-                    }
-                },
-            );
+            .for_each(|(i, mut slot)| {
+                let (r, te, tr, inf) = slot.env.step_into(actions[i], None, slot.frames);
+                *slot.reward = r;
+                *slot.terminated = te;
+                *slot.truncated = tr;
+                *slot.info = inf;
+                if te || tr {
+                    slot.terminal_frames.copy_from_slice(slot.frames);
+                    let [x, y] = slot.env.helicopter();
+                    slot.terminal_agent.copy_from_slice(&[x, y]);
+                    *slot.terminal_on_fire = u8::from(slot.env.on_fire());
+                    *slot.episode += 1;
+                    Self::start_episode(&fires, seed, i, &mut slot);
+                }
+            });
+        self.fires = fires;
         self.gather();
         Ok(())
+    }
+
+    /// The final observation of environment `i`'s episode that ended in the last step
+    /// (frames, helicopter cell, on-fire flag); meaningful only where `terminated()` or
+    /// `truncated()` is set.
+    pub fn terminal_observation(&self, i: usize) -> (&[u8], [i32; 2], bool) {
+        let n = self.obs_len;
+        (
+            &self.terminal_frames[i * n..(i + 1) * n],
+            [self.terminal_agent[2 * i], self.terminal_agent[2 * i + 1]],
+            self.terminal_on_fire[i] != 0,
+        )
+    }
+
+    /// Episodes environment `i` has finished since the last reset (its current episode's
+    /// index).
+    pub fn episode_index(&self, i: usize) -> u64 {
+        self.episodes[i]
+    }
+
+    /// Puts environment `i` into episode `episode` after `actions` (a checkpoint's state:
+    /// the episode is replayed, which is exact because it is a function of its seed and
+    /// actions). The actions must not end the episode.
+    pub fn restore_env(&mut self, i: usize, episode: u64, actions: &[Action]) -> Result<(), SimError> {
+        if i >= self.envs.len() {
+            return Err(SimError::Config(format!(
+                "no environment {i} in a VecEnv of {}",
+                self.envs.len()
+            )));
+        }
+        let fires = std::mem::take(&mut self.fires);
+        let seed = self.seed;
+        let result = {
+            let mut slots = self.slots();
+            let slot = &mut slots[i];
+            *slot.episode = episode;
+            *slot.info = Self::start_episode(&fires, seed, i, slot);
+            let mut out = Ok(());
+            for (k, &a) in actions.iter().enumerate() {
+                let (r, te, tr, inf) = slot.env.step_into(a, None, slot.frames);
+                *slot.reward = r;
+                *slot.info = inf;
+                if te || tr {
+                    out = Err(SimError::Config(format!(
+                        "replaying environment {i}: the episode ended at action {k} of {}",
+                        actions.len()
+                    )));
+                    break;
+                }
+            }
+            *slot.terminated = false;
+            *slot.truncated = false;
+            out
+        };
+        self.fires = fires;
+        self.gather();
+        result
+    }
+
+    /// Pool index of the fire environment `i` is playing.
+    pub fn fire_index(&self, i: usize) -> usize {
+        self.current[i]
+    }
+
+    pub fn num_fires(&self) -> usize {
+        self.fires.len()
     }
 
     pub fn num_envs(&self) -> usize {

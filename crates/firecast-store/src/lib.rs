@@ -202,6 +202,17 @@ impl ArtifactStore {
         self.put_bytes(key, bytes)
     }
 
+    /// Whether an object exists under `key` (or URL).
+    pub fn exists(&self, uri_or_key: &str) -> Result<bool, StoreError> {
+        let key = self.key_of(uri_or_key);
+        let path = self.full_path(&key);
+        match self.runtime.block_on(self.store.head(&path)) {
+            Ok(_) => Ok(true),
+            Err(object_store::Error::NotFound { .. }) => Ok(false),
+            Err(e) => Err(backend(&self.uri_of(&key), e)),
+        }
+    }
+
     /// Read an artifact's bytes by key or URL.
     pub fn get_bytes(&self, uri_or_key: &str) -> Result<Vec<u8>, StoreError> {
         let key = self.key_of(uri_or_key);
@@ -339,5 +350,7 @@ mod tests {
             store.get_bytes("a/missing"),
             Err(StoreError::NotFound(_))
         ));
+        assert!(store.exists("a/b.txt").unwrap());
+        assert!(!store.exists("a/missing").unwrap());
     }
 }

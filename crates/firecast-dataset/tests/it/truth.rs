@@ -305,6 +305,7 @@ stages:
             firecast_store::ArtifactStore::open("artifacts", root).unwrap(),
         )),
         git_commit: None,
+        executor: None,
     };
     let opts = firecast_pipeline::RunOptions {
         progress: false,

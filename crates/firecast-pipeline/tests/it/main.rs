@@ -1,6 +1,8 @@
 //! Library-level tests of the pipeline engine with an in-process stage kind.
 #![allow(clippy::unwrap_used)]
 
+mod artifacts;
+
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -85,6 +87,7 @@ fn engine(root: &Path, runs: &Arc<AtomicUsize>) -> Engine {
         observer: Arc::new(NoObserver),
         store: None,
         git_commit: None,
+        executor: None,
     }
 }
 

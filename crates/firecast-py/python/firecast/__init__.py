@@ -1,0 +1,40 @@
+"""FireCast's helitack environment for Gymnasium and Stable-Baselines3.
+
+The simulator is FireCast's Rust crate ``firecast-sim`` (extension module
+``firecast._firecast``); this package adds the Python interfaces:
+
+- :class:`HelitackEnv`, a ``gymnasium.Env`` (registered as ``firecast/Helitack-v0``);
+- :class:`HelitackVecEnv`, a Stable-Baselines3 ``VecEnv`` over the Rust ``VecEnv``
+  (imported on first use, so ``import firecast`` does not import SB3 or torch).
+
+Example::
+
+    import gymnasium, firecast
+    env = gymnasium.make("firecast/Helitack-v0", landscape={"procedural": {"seed": 3}})
+    obs, info = env.reset(seed=0)
+"""
+
+from __future__ import annotations
+
+import gymnasium
+
+from . import _firecast
+from .env import HelitackEnv
+
+__version__ = _firecast.__version__
+PROFILES: tuple[str, ...] = tuple(_firecast.PROFILES)
+ENV_ID = "firecast/Helitack-v0"
+
+__all__ = ["ENV_ID", "PROFILES", "HelitackEnv", "HelitackVecEnv", "__version__"]
+
+if ENV_ID not in gymnasium.registry:
+    # Episodes truncate inside the environment (config `max_steps`), so no TimeLimit wrapper.
+    gymnasium.register(id=ENV_ID, entry_point="firecast.env:HelitackEnv", nondeterministic=False)
+
+
+def __getattr__(name: str):
+    if name == "HelitackVecEnv":
+        from .vec_env import HelitackVecEnv
+
+        return HelitackVecEnv
+    raise AttributeError(f"module 'firecast' has no attribute {name!r}")

@@ -1,0 +1,167 @@
+//! The rollout buffer and GAE(λ) exactly as SB3's `RolloutBuffer` computes them (float32,
+//! same operation order), and minibatches over SB3's env-major flattening.
+
+use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
+
+use crate::env::{ObsBatch, ObsSpace};
+
+/// `n_steps × n_envs` transitions, stored step-major.
+#[derive(Debug, Clone)]
+pub struct RolloutBuffer {
+    pub n_steps: usize,
+    pub n_envs: usize,
+    pub space: ObsSpace,
+    pub images: Vec<u8>,
+    pub vectors: Vec<f32>,
+    pub actions: Vec<u8>,
+    pub rewards: Vec<f32>,
+    pub episode_starts: Vec<f32>,
+    pub values: Vec<f32>,
+    pub log_probs: Vec<f32>,
+    pub advantages: Vec<f32>,
+    pub returns: Vec<f32>,
+    pos: usize,
+}
+
+/// One minibatch, gathered.
+#[derive(Debug, Clone)]
+pub struct Minibatch {
+    pub obs: ObsBatch,
+    pub actions: Vec<u8>,
+    pub values: Vec<f32>,
+    pub log_probs: Vec<f32>,
+    pub advantages: Vec<f32>,
+    pub returns: Vec<f32>,
+}
+
+impl RolloutBuffer {
+    pub fn new(n_steps: usize, n_envs: usize, space: ObsSpace) -> Self {
+        let n = n_steps * n_envs;
+        Self {
+            n_steps,
+            n_envs,
+            space,
+            images: vec![0; n * space.image_len()],
+            vectors: vec![0.0; n * space.vector],
+            actions: vec![0; n],
+            rewards: vec![0.0; n],
+            episode_starts: vec![0.0; n],
+            values: vec![0.0; n],
+            log_probs: vec![0.0; n],
+            advantages: vec![0.0; n],
+            returns: vec![0.0; n],
+            pos: 0,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.n_steps * self.n_envs
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    pub fn is_full(&self) -> bool {
+        self.pos == self.n_steps
+    }
+    pub fn reset(&mut self) {
+        self.pos = 0;
+    }
+
+    /// Adds one step of all environments (`obs` are the observations the actions were
+    /// chosen on; `episode_starts` whether each was an episode's first).
+    pub fn add(
+        &mut self,
+        obs: &ObsBatch,
+        actions: &[u8],
+        rewards: &[f32],
+        episode_starts: &[bool],
+        values: &[f32],
+        log_probs: &[f32],
+    ) {
+        let (t, n) = (self.pos, self.n_envs);
+        let il = self.space.image_len();
+        let vl = self.space.vector;
+        self.images[t * n * il..(t + 1) * n * il].copy_from_slice(&obs.image);
+        self.vectors[t * n * vl..(t + 1) * n * vl].copy_from_slice(&obs.vector);
+        let row = t * n..(t + 1) * n;
+        self.actions[row.clone()].copy_from_slice(actions);
+        self.rewards[row.clone()].copy_from_slice(rewards);
+        for (d, &s) in self.episode_starts[row.clone()].iter_mut().zip(episode_starts) {
+            *d = if s { 1.0 } else { 0.0 };
+        }
+        self.values[row.clone()].copy_from_slice(values);
+        self.log_probs[row].copy_from_slice(log_probs);
+        self.pos += 1;
+    }
+
+    /// GAE(λ) and returns (SB3's `compute_returns_and_advantage`): `last_values` = V of the
+    /// observations after the last step, `dones` = whether each env's last step ended its
+    /// episode. Float32, in SB3's operation order.
+    pub fn compute_returns_and_advantage(
+        &mut self,
+        last_values: &[f32],
+        dones: &[bool],
+        gamma: f64,
+        lambda: f64,
+    ) {
+        let n = self.n_envs;
+        let g = gamma as f32;
+        let gl = (gamma * lambda) as f32;
+        let mut last_gae = vec![0.0f32; n];
+        for t in (0..self.n_steps).rev() {
+            for e in 0..n {
+                let (next_non_terminal, next_value) = if t == self.n_steps - 1 {
+                    (1.0 - if dones[e] { 1.0 } else { 0.0 }, last_values[e])
+                } else {
+                    (
+                        1.0 - self.episode_starts[(t + 1) * n + e],
+                        self.values[(t + 1) * n + e],
+                    )
+                };
+                let i = t * n + e;
+                let delta = self.rewards[i] + g * next_value * next_non_terminal - self.values[i];
+                last_gae[e] = delta + gl * next_non_terminal * last_gae[e];
+                self.advantages[i] = last_gae[e];
+            }
+        }
+        for i in 0..self.len() {
+            self.returns[i] = self.advantages[i] + self.values[i];
+        }
+    }
+
+    /// A new permutation of SB3's flat env-major indices (k = env · n_steps + step).
+    pub fn permutation(&self, rng: &mut ChaCha8Rng) -> Vec<usize> {
+        let mut idx: Vec<usize> = (0..self.len()).collect();
+        idx.shuffle(rng);
+        idx
+    }
+
+    /// Gathers the transitions of flat env-major indices `idx`.
+    pub fn gather(&self, idx: &[usize]) -> Minibatch {
+        let mut obs = ObsBatch::new(self.space, idx.len());
+        let il = self.space.image_len();
+        let vl = self.space.vector;
+        let mut mb = Minibatch {
+            obs: ObsBatch::new(self.space, 0),
+            actions: Vec::with_capacity(idx.len()),
+            values: Vec::with_capacity(idx.len()),
+            log_probs: Vec::with_capacity(idx.len()),
+            advantages: Vec::with_capacity(idx.len()),
+            returns: Vec::with_capacity(idx.len()),
+        };
+        for (r, &k) in idx.iter().enumerate() {
+            let (env, step) = (k / self.n_steps, k % self.n_steps);
+            let i = step * self.n_envs + env;
+            obs.image[r * il..(r + 1) * il].copy_from_slice(&self.images[i * il..(i + 1) * il]);
+            obs.vector[r * vl..(r + 1) * vl].copy_from_slice(&self.vectors[i * vl..(i + 1) * vl]);
+            mb.actions.push(self.actions[i]);
+            mb.values.push(self.values[i]);
+            mb.log_probs.push(self.log_probs[i]);
+            mb.advantages.push(self.advantages[i]);
+            mb.returns.push(self.returns[i]);
+        }
+        mb.obs = obs;
+        mb
+    }
+}

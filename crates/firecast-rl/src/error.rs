@@ -1,0 +1,55 @@
+use std::path::PathBuf;
+
+/// Errors of training, checkpoints and evaluation. Paths come last in messages.
+#[derive(Debug, thiserror::Error)]
+pub enum RlError {
+    /// A setting is wrong; `key` is its path in the config (e.g. `ppo.batch_size`).
+    #[error("{key}: {message}")]
+    Config { key: String, message: String },
+    #[error(transparent)]
+    Torch(#[from] tch::TchError),
+    #[error(transparent)]
+    Sim(#[from] firecast_sim::SimError),
+    #[error(transparent)]
+    Landscape(#[from] firecast_landscape::LandscapeError),
+    #[error(transparent)]
+    Render(#[from] firecast_render::RenderError),
+    #[error(
+        "training diverged at update {update}: {what} is not finite; the last good checkpoint is kept{}",
+        checkpoint.as_ref().map(|p| format!(" at {}", p.display())).unwrap_or_default()
+    )]
+    NonFinite {
+        update: u64,
+        what: String,
+        checkpoint: Option<PathBuf>,
+    },
+    #[error("checkpoint {path}: {message}")]
+    Checkpoint { path: PathBuf, message: String },
+    #[error("{context}: {path}: {source}")]
+    Io {
+        context: &'static str,
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Spec(#[from] firecast_pipeline::SpecError),
+    #[error("interrupted")]
+    Interrupted,
+}
+
+impl RlError {
+    pub fn config(key: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::Config {
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+    pub(crate) fn io(context: &'static str, path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Self::Io {
+            context,
+            path: path.into(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,577 @@
+//! Table IV measured properly: every agent on the same held-out fires (paired), the PPO
+//! agent once per training seed; mean and IQM with 95 % stratified bootstrap intervals
+//! (strata = training seeds, resampling fires; Agarwal et al. 2021), the paired difference
+//! against the rule-based agent and the probability that PPO burns less.
+
+use std::path::Path;
+
+use firecast_eval::bootstrap::{Interval, iqm, stratified_bootstrap};
+use firecast_sim::env::EnvCore;
+use firecast_sim::{Action, EpisodeContext, NoSuppression, Observation, Policy as SimPolicy, RuleBasedAgent};
+use rand_chacha::ChaCha8Rng;
+use rand_chacha::rand_core::SeedableRng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use tch::Device;
+
+use crate::RlError;
+use crate::env::ObsBatch;
+use crate::helitack::{self, FireDraw};
+use crate::policy::Policy;
+use crate::spec::FiresSpec;
+use crate::train::{POLICY_FILE, policy_actions};
+
+/// One episode's outcome.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Episode {
+    pub agent: String,
+    /// Training seed of a PPO agent; `None` for the baselines.
+    pub train_seed: Option<u64>,
+    pub fire: usize,
+    pub cells_burned: u32,
+    /// Unsuppressed cells burned minus this agent's, on the same fire and seed.
+    pub cells_saved: f64,
+    pub timesteps: u32,
+    pub helitacks: u32,
+    pub water_used_gal: f64,
+    /// The fire went out before the step limit.
+    pub contained: bool,
+}
+
+/// One metric of one agent.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MetricSummary {
+    pub mean: Interval,
+    pub iqm: Interval,
+}
+
+/// One agent's row of Table IV.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AgentSummary {
+    pub agent: String,
+    pub runs: usize,
+    pub episodes: usize,
+    pub cells_burned: MetricSummary,
+    pub cells_saved: MetricSummary,
+    pub timesteps: MetricSummary,
+    pub helitacks: MetricSummary,
+    pub water_used_gal: MetricSummary,
+    pub contained_rate: Interval,
+}
+
+/// The PPO agent against a baseline, paired by fire.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PairedComparison {
+    pub agent: String,
+    pub baseline: String,
+    /// Mean of (agent − baseline) cells burned over (seed, fire) pairs.
+    pub cells_burned_diff: Interval,
+    /// 1 − mean(agent)/mean(baseline): the paper's "69 % fewer cells".
+    pub relative_reduction: Interval,
+    /// P(agent burns fewer cells than the baseline on a fire), ties counted ½.
+    pub probability_better: Interval,
+}
+
+/// `evaluation.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EvalReport {
+    pub fires: Vec<FireDraw>,
+    pub deterministic: bool,
+    pub resamples: usize,
+    pub agents: Vec<AgentSummary>,
+    pub comparisons: Vec<PairedComparison>,
+    pub episodes: Vec<Episode>,
+}
+
+/// Settings of an evaluation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EvalConfig {
+    /// Greedy PPO actions (SB3's `deterministic=True`); otherwise sampled with `seed`.
+    pub deterministic: bool,
+    pub resamples: usize,
+    pub level: f64,
+    pub seed: u64,
+}
+
+impl Default for EvalConfig {
+    fn default() -> Self {
+        Self {
+            deterministic: true,
+            resamples: 10_000,
+            level: 0.95,
+            seed: 0,
+        }
+    }
+}
+
+/// A trained PPO policy loaded from a checkpoint folder.
+pub fn load_policy(dir: &Path, device: Device) -> Result<Policy, RlError> {
+    #[derive(Deserialize)]
+    struct Head {
+        policy: crate::policy::PolicyConfig,
+        space: crate::env::ObsSpace,
+        num_actions: usize,
+    }
+    let state = dir.join("trainer.json");
+    let text = std::fs::read(&state).map_err(|e| RlError::io("reading the policy", &state, e))?;
+    let head: Head = serde_json::from_slice(&text).map_err(|e| RlError::Checkpoint {
+        path: dir.to_path_buf(),
+        message: format!("trainer.json: {e}"),
+    })?;
+    let mut p = Policy::new(&head.policy, head.space, head.num_actions, device)?;
+    p.vs.load(dir.join(POLICY_FILE))
+        .map_err(|e| RlError::Checkpoint {
+            path: dir.to_path_buf(),
+            message: format!("{POLICY_FILE}: {e}"),
+        })?;
+    Ok(p)
+}
+
+fn episode_seed(base: u64, fire: usize) -> u64 {
+    base.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        ^ (fire as u64).wrapping_add(1).wrapping_mul(0xBF58_476D_1CE4_E5B9)
+}
+
+struct Raw {
+    fire: usize,
+    cells_burned: u32,
+    timesteps: u32,
+    helitacks: u32,
+    water: f64,
+    contained: bool,
+}
+
+/// A baseline on every fire (in parallel).
+fn run_baseline(cores: &[EnvCore], make: &(dyn Fn() -> Box<dyn SimPolicy> + Sync), seed: u64) -> Vec<Raw> {
+    cores
+        .par_iter()
+        .enumerate()
+        .map(|(f, proto)| {
+            let mut env = proto.clone();
+            let mut frames = vec![0u8; env.frames_len()];
+            let mut agent = make();
+            env.reset_into(episode_seed(seed, f), &mut frames);
+            let (w, h) = env.grid_size();
+            agent.reset(&EpisodeContext {
+                width: w,
+                height: h,
+                ignition: env.ignition_cell(),
+            });
+            loop {
+                let obs = Observation {
+                    frames: &frames,
+                    width: w,
+                    height: h,
+                    agent: env.helicopter(),
+                    on_fire: env.on_fire(),
+                };
+                let d = agent.act(&obs);
+                let (_, te, tr, info) = env.step_into(d.action, d.teleport, &mut frames);
+                if te || tr {
+                    return Raw {
+                        fire: f,
+                        cells_burned: info.cells_burnt + info.cells_burning,
+                        timesteps: info.step,
+                        helitacks: info.drops,
+                        water: info.water_used_gal,
+                        contained: te,
+                    };
+                }
+            }
+        })
+        .collect()
+}
+
+/// The PPO policy on every fire, all fires stepped together with one batched forward.
+fn run_ppo(
+    cores: &[EnvCore],
+    policy: &Policy,
+    cfg: &EvalConfig,
+    train_seed: u64,
+) -> Result<Vec<Raw>, RlError> {
+    let n = cores.len();
+    let mut envs: Vec<EnvCore> = cores.to_vec();
+    let mut frames: Vec<Vec<u8>> = envs.iter().map(|e| vec![0u8; e.frames_len()]).collect();
+    for (f, (env, fr)) in envs.iter_mut().zip(frames.iter_mut()).enumerate() {
+        env.reset_into(episode_seed(cfg.seed, f), fr);
+    }
+    let (w, h) = envs[0].grid_size();
+    let space = helitack::space(w, h);
+    if policy.space != space {
+        return Err(RlError::config(
+            "policy",
+            format!(
+                "the policy was trained on observations {:?}, these fires give {space:?}",
+                policy.space
+            ),
+        ));
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed ^ train_seed.rotate_left(17));
+    let mut done: Vec<Option<Raw>> = (0..n).map(|_| None).collect();
+    let il = space.image_len();
+    loop {
+        let active: Vec<usize> = (0..n).filter(|&f| done[f].is_none()).collect();
+        if active.is_empty() {
+            break;
+        }
+        let mut obs = ObsBatch::new(space, active.len());
+        for (row, &f) in active.iter().enumerate() {
+            let (img, vec) = (
+                &mut obs.image[row * il..(row + 1) * il],
+                &mut obs.vector[row * 3..(row + 1) * 3],
+            );
+            helitack::encode(
+                &frames[f],
+                envs[f].helicopter(),
+                envs[f].on_fire(),
+                w,
+                h,
+                img,
+                vec,
+            );
+        }
+        let actions = policy_actions(policy, &obs, cfg.deterministic, &mut rng);
+        // Environments and frames are disjoint: step the active ones in parallel.
+        let mut stepped: Vec<(usize, Option<Raw>)> = envs
+            .par_iter_mut()
+            .zip(frames.par_iter_mut())
+            .enumerate()
+            .filter_map(|(f, (env, fr))| {
+                let row = active.binary_search(&f).ok()?;
+                let action = Action::try_from(actions[row]).unwrap_or(Action::Down);
+                let (_, te, tr, info) = env.step_into(action, None, fr);
+                Some((
+                    f,
+                    (te || tr).then(|| Raw {
+                        fire: f,
+                        cells_burned: info.cells_burnt + info.cells_burning,
+                        timesteps: info.step,
+                        helitacks: info.drops,
+                        water: info.water_used_gal,
+                        contained: te,
+                    }),
+                ))
+            })
+            .collect();
+        for (f, r) in stepped.drain(..) {
+            if r.is_some() {
+                done[f] = r;
+            }
+        }
+    }
+    Ok(done.into_iter().flatten().collect())
+}
+
+fn metric(groups: &[Vec<f64>], cfg: &EvalConfig, salt: u64) -> Result<MetricSummary, RlError> {
+    let mean = |g: &[Vec<f64>]| {
+        let v: Vec<f64> = g.iter().flatten().copied().collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    let iqm_of = |g: &[Vec<f64>]| {
+        let v: Vec<f64> = g.iter().flatten().copied().collect();
+        (!v.is_empty()).then(|| iqm(&v))
+    };
+    let err = |e: firecast_eval::EvalError| RlError::config("evaluation", e.to_string());
+    Ok(MetricSummary {
+        mean: stratified_bootstrap(groups, cfg.resamples, cfg.seed ^ salt, cfg.level, mean).map_err(err)?,
+        iqm: stratified_bootstrap(groups, cfg.resamples, cfg.seed ^ salt, cfg.level, iqm_of).map_err(err)?,
+    })
+}
+
+fn summarize(agent: &str, eps: &[&Episode], cfg: &EvalConfig) -> Result<AgentSummary, RlError> {
+    // Strata: training seeds (one stratum for a baseline); values: fires.
+    let mut seeds: Vec<Option<u64>> = eps.iter().map(|e| e.train_seed).collect();
+    seeds.sort_unstable();
+    seeds.dedup();
+    let groups = |f: &dyn Fn(&Episode) -> f64| -> Vec<Vec<f64>> {
+        seeds
+            .iter()
+            .map(|s| eps.iter().filter(|e| e.train_seed == *s).map(|e| f(e)).collect())
+            .collect()
+    };
+    let rate = metric(&groups(&|e| if e.contained { 1.0 } else { 0.0 }), cfg, 6)?.mean;
+    Ok(AgentSummary {
+        agent: agent.to_string(),
+        runs: seeds.len(),
+        episodes: eps.len(),
+        cells_burned: metric(&groups(&|e| f64::from(e.cells_burned)), cfg, 1)?,
+        cells_saved: metric(&groups(&|e| e.cells_saved), cfg, 2)?,
+        timesteps: metric(&groups(&|e| f64::from(e.timesteps)), cfg, 3)?,
+        helitacks: metric(&groups(&|e| f64::from(e.helitacks)), cfg, 4)?,
+        water_used_gal: metric(&groups(&|e| e.water_used_gal), cfg, 5)?,
+        contained_rate: rate,
+    })
+}
+
+fn compare(
+    agent: &str,
+    baseline: &str,
+    episodes: &[Episode],
+    cfg: &EvalConfig,
+) -> Result<PairedComparison, RlError> {
+    let base: std::collections::BTreeMap<usize, f64> = episodes
+        .iter()
+        .filter(|e| e.agent == baseline)
+        .map(|e| (e.fire, f64::from(e.cells_burned)))
+        .collect();
+    let mut seeds: Vec<Option<u64>> = episodes
+        .iter()
+        .filter(|e| e.agent == agent)
+        .map(|e| e.train_seed)
+        .collect();
+    seeds.sort_unstable();
+    seeds.dedup();
+    // Per stratum: (agent, baseline) pairs over fires, encoded as 2 values per fire.
+    let pairs: Vec<Vec<(f64, f64)>> = seeds
+        .iter()
+        .map(|s| {
+            episodes
+                .iter()
+                .filter(|e| e.agent == agent && e.train_seed == *s)
+                .filter_map(|e| base.get(&e.fire).map(|&b| (f64::from(e.cells_burned), b)))
+                .collect()
+        })
+        .collect();
+    // stratified_bootstrap resamples values; resample pair indices instead.
+    let index_groups: Vec<Vec<f64>> = pairs
+        .iter()
+        .map(|g| (0..g.len()).map(|i| i as f64).collect())
+        .collect();
+    let stat = |g: &[Vec<f64>], f: &dyn Fn(&[(f64, f64)]) -> Option<f64>| {
+        let chosen: Vec<(f64, f64)> = g
+            .iter()
+            .zip(&pairs)
+            .flat_map(|(idx, p)| idx.iter().map(move |&i| p[i as usize]))
+            .collect();
+        f(&chosen)
+    };
+    let diff = |c: &[(f64, f64)]| {
+        (!c.is_empty()).then(|| c.iter().map(|(a, b)| a - b).sum::<f64>() / c.len() as f64)
+    };
+    let reduction = |c: &[(f64, f64)]| {
+        let (a, b): (f64, f64) = c.iter().fold((0.0, 0.0), |(x, y), (a, b)| (x + a, y + b));
+        (b > 0.0).then(|| 1.0 - a / b)
+    };
+    let better = |c: &[(f64, f64)]| {
+        (!c.is_empty()).then(|| {
+            c.iter()
+                .map(|(a, b)| {
+                    if a < b {
+                        1.0
+                    } else if a == b {
+                        0.5
+                    } else {
+                        0.0
+                    }
+                })
+                .sum::<f64>()
+                / c.len() as f64
+        })
+    };
+    let err = |e: firecast_eval::EvalError| RlError::config("evaluation", e.to_string());
+    let run = |f: &dyn Fn(&[(f64, f64)]) -> Option<f64>, salt: u64| {
+        stratified_bootstrap(&index_groups, cfg.resamples, cfg.seed ^ salt, cfg.level, |g| {
+            stat(g, f)
+        })
+        .map_err(err)
+    };
+    Ok(PairedComparison {
+        agent: agent.to_string(),
+        baseline: baseline.to_string(),
+        cells_burned_diff: run(&diff, 11)?,
+        relative_reduction: run(&reduction, 11)?,
+        probability_better: run(&better, 11)?,
+    })
+}
+
+/// Agent names in Table IV order.
+pub const PPO: &str = "ppo";
+pub const RULE: &str = "rule";
+pub const RULE_CONCENTRIC: &str = "rule-concentric";
+pub const NONE: &str = "none";
+
+/// Evaluates the PPO policies (one per training seed) and the baselines on the held-out
+/// fires of `fires`.
+pub fn evaluate(
+    fires: &FiresSpec,
+    policies: &[(u64, Policy)],
+    cfg: &EvalConfig,
+    progress: &dyn Fn(&str),
+) -> Result<EvalReport, RlError> {
+    let (draws, cores) = fires.evaluate.build("evaluate")?;
+    let mut raw: Vec<(String, Option<u64>, Vec<Raw>)> = Vec::new();
+    progress("no suppression");
+    let none = run_baseline(&cores, &|| Box::new(NoSuppression), cfg.seed);
+    progress("rule-based agent (one circle)");
+    let rule = run_baseline(&cores, &|| Box::new(RuleBasedAgent::single_circle()), cfg.seed);
+    progress("rule-based agent (concentric circles)");
+    let conc = run_baseline(
+        &cores,
+        &|| Box::new(RuleBasedAgent::concentric_circles()),
+        cfg.seed,
+    );
+    for (seed, p) in policies {
+        progress(&format!("PPO (training seed {seed})"));
+        raw.push((PPO.into(), Some(*seed), run_ppo(&cores, p, cfg, *seed)?));
+    }
+    raw.push((RULE.into(), None, rule));
+    raw.push((RULE_CONCENTRIC.into(), None, conc));
+    let unsuppressed: Vec<f64> = {
+        let mut v = vec![0.0; cores.len()];
+        for r in &none {
+            v[r.fire] = f64::from(r.cells_burned);
+        }
+        v
+    };
+    raw.push((NONE.into(), None, none));
+    let mut episodes = Vec::new();
+    for (agent, seed, rs) in raw {
+        for r in rs {
+            episodes.push(Episode {
+                agent: agent.clone(),
+                train_seed: seed,
+                fire: r.fire,
+                cells_burned: r.cells_burned,
+                cells_saved: unsuppressed[r.fire] - f64::from(r.cells_burned),
+                timesteps: r.timesteps,
+                helitacks: r.helitacks,
+                water_used_gal: r.water,
+                contained: r.contained,
+            });
+        }
+    }
+    let mut agents = Vec::new();
+    for name in [PPO, RULE, RULE_CONCENTRIC, NONE] {
+        let eps: Vec<&Episode> = episodes.iter().filter(|e| e.agent == name).collect();
+        if !eps.is_empty() {
+            agents.push(summarize(name, &eps, cfg)?);
+        }
+    }
+    let mut comparisons = Vec::new();
+    if !policies.is_empty() {
+        for base in [RULE, RULE_CONCENTRIC, NONE] {
+            comparisons.push(compare(PPO, base, &episodes, cfg)?);
+        }
+    }
+    Ok(EvalReport {
+        fires: draws,
+        deterministic: cfg.deterministic,
+        resamples: cfg.resamples,
+        agents,
+        comparisons,
+        episodes,
+    })
+}
+
+/// Table IV as markdown.
+pub fn markdown(report: &EvalReport) -> String {
+    let f = |i: &Interval, d: usize| format!("{:.d$} [{:.d$}, {:.d$}]", i.estimate, i.low, i.high);
+    let mut s = String::new();
+    s.push_str(&format!(
+        "Table IV over {} held-out fires ({} actions; 95 % stratified bootstrap, {} resamples)\n\n",
+        report.fires.len(),
+        if report.deterministic {
+            "greedy PPO"
+        } else {
+            "sampled PPO"
+        },
+        report.resamples
+    ));
+    s.push_str("| agent | runs × fires | cells burned, mean | cells burned, IQM | cells saved vs none, mean | timesteps, mean | helitacks, mean | water (gal), mean | contained |\n|---|---|---|---|---|---|---|---|---|\n");
+    for a in &report.agents {
+        s.push_str(&format!(
+            "| {} | {} × {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            a.agent,
+            a.runs,
+            a.episodes / a.runs.max(1),
+            f(&a.cells_burned.mean, 0),
+            f(&a.cells_burned.iqm, 0),
+            f(&a.cells_saved.mean, 0),
+            f(&a.timesteps.mean, 0),
+            f(&a.helitacks.mean, 1),
+            f(&a.water_used_gal.mean, 0),
+            f(&a.contained_rate, 2),
+        ));
+    }
+    if !report.comparisons.is_empty() {
+        s.push_str("\n| PPO vs | Δ cells burned (PPO − baseline) | reduction | P(PPO burns less) |\n|---|---|---|---|\n");
+        for c in &report.comparisons {
+            s.push_str(&format!(
+                "| {} | {} | {} | {} |\n",
+                c.baseline,
+                f(&c.cells_burned_diff, 0),
+                f(&c.relative_reduction, 3),
+                f(&c.probability_better, 3)
+            ));
+        }
+    }
+    s
+}
+
+/// `table4.png`: cells burned per agent (mean with its interval, IQM marked), and the
+/// per-fire burned cells of PPO against the rule-based agent.
+pub fn plot(report: &EvalReport, out: &Path) -> Result<(), RlError> {
+    use firecast_render::chart::{Chart, LegendPosition, Marker, OKABE_ITO, Series};
+    let mut chart = Chart::new(900, 420)
+        .title("Table IV: cells burned on held-out fires (mean, 95 % interval; IQM diamond)")
+        .x_label("agent")
+        .y_label("cells burned")
+        .legend(Some(LegendPosition::TopRight));
+    for (k, a) in report.agents.iter().enumerate() {
+        let x = k as f64 + 1.0;
+        let c = OKABE_ITO[k % OKABE_ITO.len()];
+        let m = &a.cells_burned.mean;
+        chart = chart
+            .series(Series::segment((x, m.low), (x, m.high)).color(c).width(3.0))
+            .series(
+                Series::scatter([(x, m.estimate)])
+                    .color(c)
+                    .marker(Marker::Circle, 8.0)
+                    .label(a.agent.clone()),
+            )
+            .series(
+                Series::scatter([(x, a.cells_burned.iqm.estimate)])
+                    .color(c)
+                    .marker(Marker::Diamond, 8.0),
+            );
+    }
+    chart = chart.x_range(0.0, report.agents.len() as f64 + 1.0);
+    chart.save_png(out.join("table4.png"))?;
+    // PPO (mean over seeds) vs rule, per fire.
+    let per_fire = |agent: &str| -> std::collections::BTreeMap<usize, f64> {
+        let mut m: std::collections::BTreeMap<usize, (f64, f64)> = Default::default();
+        for e in report.episodes.iter().filter(|e| e.agent == agent) {
+            let s = m.entry(e.fire).or_default();
+            s.0 += f64::from(e.cells_burned);
+            s.1 += 1.0;
+        }
+        m.into_iter().map(|(k, (s, n))| (k, s / n)).collect()
+    };
+    let (ppo, rule) = (per_fire(PPO), per_fire(RULE));
+    if !ppo.is_empty() {
+        let pts: Vec<(f64, f64)> = rule
+            .iter()
+            .filter_map(|(f, r)| ppo.get(f).map(|p| (*r, *p)))
+            .collect();
+        let max = pts.iter().map(|(a, b)| a.max(*b)).fold(1.0, f64::max);
+        Chart::new(640, 600)
+            .title("cells burned per held-out fire: PPO (mean over seeds) vs rule-based")
+            .x_label("rule-based agent")
+            .y_label("PPO agent")
+            .x_range(0.0, max * 1.05)
+            .y_range(0.0, max * 1.05)
+            .series(
+                Series::segment((0.0, 0.0), (max, max))
+                    .dashed(true)
+                    .color([120, 120, 120]),
+            )
+            .series(
+                Series::scatter(pts)
+                    .color(OKABE_ITO[1])
+                    .marker(Marker::Circle, 4.0),
+            )
+            .save_png(out.join("ppo_vs_rule.png"))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,387 @@
+//! The helitack environment as a [`VecEnvironment`]: fire pools drawn from a [`FireSet`]
+//! (procedural landscapes, wind, fuel moisture, ignition cells), observations of 4 stacked
+//! frames plus a helicopter channel (image) and `[x, y, on_fire]` (vector).
+
+use firecast_landscape::{Landscape, procedural};
+use firecast_sim::automaton::KernelConfig;
+use firecast_sim::env::{CODE_MAX, EnvCore, FRAME_STACK};
+use firecast_sim::{Action, EnvConfig, FuelMoisture, RewardWeights, VecEnv};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::RlError;
+use crate::env::{ObsBatch, ObsSpace, VecEnvironment};
+
+/// Image channels: the frame stack, then the helicopter cell.
+pub const CHANNELS: usize = FRAME_STACK + 1;
+
+/// A distribution of fires and the draws from it.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FireSet {
+    /// Seeds of the procedural landscapes fires burn on.
+    pub landscape_seeds: Vec<u64>,
+    #[serde(default = "default_width")]
+    pub width: usize,
+    #[serde(default = "default_height")]
+    pub height: usize,
+    /// How many fires to draw.
+    pub fires: usize,
+    /// Seed of the draws (landscape, wind, moisture and ignition of each fire).
+    pub seed: u64,
+    /// Midflame wind speed, uniform in [lo, hi] mi/h.
+    pub wind_speed_mph: [f64; 2],
+    /// Direction the wind blows from, uniform in [lo, hi] degrees.
+    #[serde(default = "full_circle")]
+    pub wind_from_deg: [f64; 2],
+    /// Dead 1-h fuel moisture (fraction), uniform in [lo, hi]; the 10-h and 100-h classes
+    /// are drier-lagged at +0.01 and +0.02.
+    pub dead_1h_frac: [f64; 2],
+    #[serde(default = "default_live_herb")]
+    pub live_herb_frac: f64,
+    #[serde(default = "default_live_woody")]
+    pub live_woody_frac: f64,
+    /// Ignitions are drawn on burnable cells at least this far from every edge.
+    #[serde(default = "default_margin")]
+    pub ignition_margin_cells: usize,
+    /// Environment settings shared by every fire (reward, max_steps, helicopter…); wind,
+    /// moisture and ignition are replaced per fire.
+    #[serde(default)]
+    pub env: EnvConfig,
+}
+
+fn default_width() -> usize {
+    240
+}
+fn default_height() -> usize {
+    160
+}
+fn full_circle() -> [f64; 2] {
+    [0.0, 360.0]
+}
+fn default_live_herb() -> f64 {
+    0.6
+}
+fn default_live_woody() -> f64 {
+    0.9
+}
+fn default_margin() -> usize {
+    40
+}
+
+/// One drawn fire.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FireDraw {
+    pub index: usize,
+    pub landscape_seed: u64,
+    pub wind_speed_mph: f64,
+    pub wind_from_deg: f64,
+    pub dead_1h_frac: f64,
+    pub ignition: [usize; 2],
+}
+
+impl FireSet {
+    pub fn validate(&self, key: &str) -> Result<(), RlError> {
+        let bad = |k: &str, m: String| Err(RlError::config(format!("{key}.{k}"), m));
+        if self.landscape_seeds.is_empty() {
+            return bad("landscape_seeds", "needs at least one seed".into());
+        }
+        if self.fires == 0 {
+            return bad("fires", "must be at least 1".into());
+        }
+        if self.width % 8 != 0 || self.height % 8 != 0 || self.width < 16 || self.height < 16 {
+            return bad(
+                "width",
+                format!(
+                    "{}×{}: width and height must be multiples of 8, at least 16",
+                    self.width, self.height
+                ),
+            );
+        }
+        for (k, [lo, hi]) in [
+            ("wind_speed_mph", self.wind_speed_mph),
+            ("wind_from_deg", self.wind_from_deg),
+            ("dead_1h_frac", self.dead_1h_frac),
+        ] {
+            if !(lo <= hi) || lo < 0.0 {
+                return bad(k, format!("[{lo}, {hi}] is not a range of non-negative values"));
+            }
+        }
+        if 2 * self.ignition_margin_cells >= self.width.min(self.height) {
+            return bad(
+                "ignition_margin_cells",
+                format!("{} leaves no room on the grid", self.ignition_margin_cells),
+            );
+        }
+        Ok(())
+    }
+
+    fn landscape(&self, seed: u64) -> Result<Landscape, RlError> {
+        let opts = procedural::ProceduralOptions {
+            width: self.width,
+            height: self.height,
+            ..procedural::ProceduralOptions::with_seed(seed)
+        };
+        Ok(procedural::generate(&opts)?)
+    }
+
+    /// The draws and their environments (fires on one landscape with the same weather share
+    /// a spread-rate cache).
+    pub fn build(&self, key: &str) -> Result<(Vec<FireDraw>, Vec<EnvCore>), RlError> {
+        self.validate(key)?;
+        let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
+        let landscapes: Vec<Landscape> = self
+            .landscape_seeds
+            .iter()
+            .map(|&s| self.landscape(s))
+            .collect::<Result<_, _>>()?;
+        let mut draws = Vec::with_capacity(self.fires);
+        let mut cores = Vec::with_capacity(self.fires);
+        let m = self.ignition_margin_cells;
+        for index in 0..self.fires {
+            let li = rng.random_range(0..landscapes.len());
+            let speed = uniform(&mut rng, self.wind_speed_mph);
+            let dir = uniform(&mut rng, self.wind_from_deg);
+            let d1 = uniform(&mut rng, self.dead_1h_frac);
+            let mut cfg = self.env.clone();
+            cfg.sim.wind.speed_mph = speed;
+            cfg.sim.wind.from_direction_deg = dir;
+            cfg.sim.kernel = KernelConfig::Rothermel {
+                moisture: FuelMoisture {
+                    dead_1h_frac: d1,
+                    dead_10h_frac: d1 + 0.01,
+                    dead_100h_frac: d1 + 0.02,
+                    live_herb_frac: self.live_herb_frac,
+                    live_woody_frac: self.live_woody_frac,
+                },
+                drop_moisture_increment: match &self.env.sim.kernel {
+                    KernelConfig::Rothermel {
+                        drop_moisture_increment,
+                        ..
+                    } => *drop_moisture_increment,
+                    KernelConfig::Concord { .. } => 0.05,
+                },
+            };
+            cfg.ignition = None;
+            let mut core = EnvCore::new(&landscapes[li], &cfg)?;
+            // A burnable ignition cell away from the edges (at most 1000 tries, then any).
+            let mut ignition = [self.width / 2, self.height / 2];
+            for _ in 0..1000 {
+                let x = rng.random_range(m..self.width - m);
+                let y = rng.random_range(m..self.height - m);
+                if !core.automaton().is_non_burnable(y * self.width + x) {
+                    ignition = [x, y];
+                    break;
+                }
+            }
+            core.set_ignition(ignition[0], ignition[1])?;
+            draws.push(FireDraw {
+                index,
+                landscape_seed: self.landscape_seeds[li],
+                wind_speed_mph: speed,
+                wind_from_deg: dir,
+                dead_1h_frac: d1,
+                ignition,
+            });
+            cores.push(core);
+        }
+        Ok((draws, cores))
+    }
+}
+
+fn uniform(rng: &mut ChaCha8Rng, [lo, hi]: [f64; 2]) -> f64 {
+    if hi > lo { rng.random_range(lo..hi) } else { lo }
+}
+
+/// The reward presets by profile name.
+pub fn reward_profile(name: &str) -> Result<RewardWeights, RlError> {
+    RewardWeights::preset(name).ok_or_else(|| {
+        RlError::config(
+            "profile",
+            format!("unknown profile `{name}` (use p2, websocket_t or p1_improved)"),
+        )
+    })
+}
+
+/// Writes one observation: image = frames then the helicopter channel (value 9 on its
+/// cell), vector = [x, y, on_fire].
+pub fn encode(
+    frames: &[u8],
+    agent: [i32; 2],
+    on_fire: bool,
+    w: usize,
+    h: usize,
+    image: &mut [u8],
+    vector: &mut [f32],
+) {
+    let n = w * h;
+    image[..FRAME_STACK * n].copy_from_slice(frames);
+    let heli = &mut image[FRAME_STACK * n..];
+    heli.fill(0);
+    let (x, y) = (
+        agent[0].clamp(0, w as i32 - 1) as usize,
+        agent[1].clamp(0, h as i32 - 1) as usize,
+    );
+    heli[y * w + x] = CODE_MAX;
+    vector[0] = agent[0] as f32;
+    vector[1] = agent[1] as f32;
+    vector[2] = if on_fire { 1.0 } else { 0.0 };
+}
+
+/// The observation space on a `w × h` grid.
+pub fn space(w: usize, h: usize) -> ObsSpace {
+    ObsSpace {
+        image: Some([CHANNELS, h, w]),
+        vector: 3,
+    }
+}
+
+/// `n` helitack environments over a fire pool.
+pub struct HelitackVec {
+    vec: VecEnv,
+    width: usize,
+    height: usize,
+    /// Actions since each environment's episode started (checkpoint replay).
+    actions: Vec<Vec<u8>>,
+    seed: u64,
+}
+
+#[derive(Serialize, Deserialize)]
+struct Snapshot {
+    seed: u64,
+    episodes: Vec<u64>,
+    actions: Vec<Vec<u8>>,
+}
+
+impl HelitackVec {
+    pub fn new(fires: Vec<EnvCore>, n: usize, seed: u64) -> Result<Self, RlError> {
+        let (width, height) = fires.first().map_or((0, 0), EnvCore::grid_size);
+        let vec = VecEnv::with_fires(fires, n, seed)?;
+        Ok(Self {
+            vec,
+            width,
+            height,
+            actions: vec![Vec::new(); n],
+            seed,
+        })
+    }
+    pub fn inner(&self) -> &VecEnv {
+        &self.vec
+    }
+}
+
+impl VecEnvironment for HelitackVec {
+    fn num_envs(&self) -> usize {
+        self.vec.num_envs()
+    }
+    fn space(&self) -> ObsSpace {
+        space(self.width, self.height)
+    }
+    fn num_actions(&self) -> usize {
+        Action::ALL.len()
+    }
+    fn reset(&mut self, seed: u64) {
+        self.seed = seed;
+        self.vec.reset(seed);
+        for a in &mut self.actions {
+            a.clear();
+        }
+    }
+    fn step(&mut self, actions: &[u8]) -> Result<(), RlError> {
+        let acts: Vec<Action> = actions
+            .iter()
+            .map(|&a| Action::try_from(a))
+            .collect::<Result<_, _>>()?;
+        self.vec.step(&acts)?;
+        for (i, &a) in actions.iter().enumerate() {
+            if self.vec.terminated()[i] || self.vec.truncated()[i] {
+                self.actions[i].clear();
+            } else {
+                self.actions[i].push(a);
+            }
+        }
+        Ok(())
+    }
+    fn observe(&self, out: &mut ObsBatch) {
+        let l = self.vec.obs_len();
+        let frames = self.vec.frames();
+        let pos = self.vec.agent_positions();
+        let fire = self.vec.on_fire();
+        let il = out.space.image_len();
+        for i in 0..self.vec.num_envs() {
+            let (img, vecs) = (
+                &mut out.image[i * il..(i + 1) * il],
+                &mut out.vector[i * 3..(i + 1) * 3],
+            );
+            encode(
+                &frames[i * l..(i + 1) * l],
+                [pos[2 * i], pos[2 * i + 1]],
+                fire[i] != 0,
+                self.width,
+                self.height,
+                img,
+                vecs,
+            );
+        }
+    }
+    fn terminal_observation(&self, i: usize, out: &mut ObsBatch, row: usize) {
+        let (frames, agent, on_fire) = self.vec.terminal_observation(i);
+        let il = out.space.image_len();
+        let img = &mut out.image[row * il..(row + 1) * il];
+        let vecs = &mut out.vector[row * 3..(row + 1) * 3];
+        encode(frames, agent, on_fire, self.width, self.height, img, vecs);
+    }
+    fn rewards(&self) -> &[f64] {
+        self.vec.rewards()
+    }
+    fn terminated(&self) -> &[bool] {
+        self.vec.terminated()
+    }
+    fn truncated(&self) -> &[bool] {
+        self.vec.truncated()
+    }
+    fn episode_extras(&self, i: usize) -> Vec<(&'static str, f64)> {
+        let info = self.vec.infos()[i];
+        vec![
+            ("cells_burned", f64::from(info.cells_burnt + info.cells_burning)),
+            ("helitacks", f64::from(info.drops)),
+            ("contained", if self.vec.terminated()[i] { 1.0 } else { 0.0 }),
+        ]
+    }
+    fn snapshot(&self) -> serde_json::Value {
+        let snap = Snapshot {
+            seed: self.seed,
+            episodes: (0..self.vec.num_envs())
+                .map(|i| self.vec.episode_index(i))
+                .collect(),
+            actions: self.actions.clone(),
+        };
+        serde_json::to_value(snap).unwrap_or_default()
+    }
+    fn restore(&mut self, snapshot: &serde_json::Value) -> Result<(), RlError> {
+        let snap: Snapshot = serde_json::from_value(snapshot.clone())
+            .map_err(|e| RlError::config("env", format!("bad helitack snapshot: {e}")))?;
+        if snap.episodes.len() != self.vec.num_envs() || snap.actions.len() != self.vec.num_envs() {
+            return Err(RlError::config(
+                "ppo.n_envs",
+                format!(
+                    "the snapshot has {} environments, this run {}",
+                    snap.episodes.len(),
+                    self.vec.num_envs()
+                ),
+            ));
+        }
+        self.vec.reset(snap.seed);
+        self.seed = snap.seed;
+        for (i, (ep, acts)) in snap.episodes.iter().zip(&snap.actions).enumerate() {
+            let a: Vec<Action> = acts
+                .iter()
+                .map(|&a| Action::try_from(a))
+                .collect::<Result<_, _>>()?;
+            self.vec.restore_env(i, *ep, &a)?;
+        }
+        self.actions = snap.actions;
+        Ok(())
+    }
+}

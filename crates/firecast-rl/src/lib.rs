@@ -1,0 +1,31 @@
+//! Reinforcement learning for FireCast: PPO with Stable-Baselines3's semantics in `tch`.
+//!
+//! - [`ppo`]: hyper-parameters and presets (`sb3`, `paper`, `websocket`, `cartpole_zoo`),
+//!   the minibatch loss, PyTorch's Adam and gradient-norm clipping;
+//! - [`buffer`]: the rollout buffer and GAE(λ) as SB3 computes them;
+//! - [`normalize`]: `VecNormalize` (observation and return statistics);
+//! - [`policy`]: actor-critic networks (`mlp`, `compact`, `paper`);
+//! - [`train`]: the learning loop, checkpoints and exact resumption;
+//! - [`env`]: the batched-environment interface, with [`cartpole`] (the correctness gate).
+
+pub mod buffer;
+pub mod cartpole;
+pub mod env;
+mod error;
+pub mod evaluate;
+pub mod helitack;
+pub mod normalize;
+pub mod policy;
+pub mod ppo;
+pub mod rng;
+pub mod run;
+pub mod spec;
+pub mod stage;
+pub mod train;
+
+pub use error::RlError;
+
+/// Parses `auto`, `cpu`, `cuda` or `cuda:N` (see [`firecast_learn::parse_device`]).
+pub fn parse_device(s: &str) -> Result<tch::Device, RlError> {
+    firecast_learn::parse_device(s).map_err(|m| RlError::config("device", m))
+}

@@ -1,0 +1,534 @@
+//! Actor-critic policies with SB3's `ActorCriticPolicy` layout: a shared features extractor,
+//! separate policy and value MLPs (`pi`, `vf`, Tanh by default), `action_net` and `value_net`;
+//! orthogonal initialisation with SB3's gains (extractor and MLPs √2, `action_net` 0.01,
+//! `value_net` 1, biases 0). Parameter names follow SB3's `state_dict`, so SB3 weights load
+//! directly (golden tests).
+//!
+//! - `mlp`: flattened vector observations (CartPole).
+//! - `compact` (helitack default): the authors' three convolution branches and spatial
+//!   attention on a 2×-pooled input, then a 1×1 reduction and average pooling to 2,400
+//!   features, fused with the helicopter vector; a frame stack instead of the LSTM.
+//! - `paper`: the authors' `FireEnvLSTMCNN` as specified (learning.md §3.1), with the
+//!   275,515,392-parameter LSTM input projection.
+
+use firecast_learn::layers::{Cell, Recurrent};
+use serde::{Deserialize, Serialize};
+use tch::nn::{self, Module, ModuleT};
+use tch::{Device, Kind, Tensor};
+
+use crate::RlError;
+use crate::env::{ObsBatch, ObsSpace};
+
+/// Which policy network.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PolicyKind {
+    Mlp,
+    Compact,
+    Paper,
+}
+
+/// Policy settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PolicyConfig {
+    pub kind: PolicyKind,
+    /// Hidden sizes of the policy MLP after the extractor.
+    pub pi: Vec<i64>,
+    /// Hidden sizes of the value MLP.
+    pub vf: Vec<i64>,
+    pub activation: Activation,
+    pub ortho_init: bool,
+    /// Batch normalisation in the convolution branches (the authors' extractor has it; off
+    /// in `compact` because rollouts run it in eval mode and updates in train mode, so the
+    /// PPO ratio starts away from 1).
+    pub batch_norm: bool,
+}
+
+impl Default for PolicyConfig {
+    fn default() -> Self {
+        Self {
+            kind: PolicyKind::Mlp,
+            pi: vec![64, 64],
+            vf: vec![64, 64],
+            activation: Activation::Tanh,
+            ortho_init: true,
+            batch_norm: false,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Activation {
+    Tanh,
+    Relu,
+}
+
+impl Activation {
+    fn apply(self, x: &Tensor) -> Tensor {
+        match self {
+            Self::Tanh => x.tanh(),
+            Self::Relu => x.relu(),
+        }
+    }
+}
+
+/// Observations as tensors: the image part as u8 (converted inside the extractor).
+#[derive(Debug)]
+pub struct ObsTensors {
+    pub image: Option<Tensor>,
+    pub vector: Tensor,
+}
+
+impl ObsTensors {
+    pub fn from_batch(b: &ObsBatch, device: Device) -> Self {
+        let n = b.n as i64;
+        let image = b.space.image.map(|[c, h, w]| {
+            Tensor::from_slice(&b.image)
+                .view([n, c as i64, h as i64, w as i64])
+                .to_device(device)
+        });
+        let vector = Tensor::from_slice(&b.vector)
+            .view([n, b.space.vector as i64])
+            .to_device(device);
+        Self { image, vector }
+    }
+}
+
+fn linear(p: nn::Path<'_>, i: i64, o: i64, gain: Option<f64>) -> nn::Linear {
+    let cfg = match gain {
+        Some(gain) => nn::LinearConfig {
+            ws_init: nn::Init::Orthogonal { gain },
+            bs_init: Some(nn::Init::Const(0.0)),
+            bias: true,
+        },
+        None => nn::LinearConfig::default(),
+    };
+    nn::linear(p, i, o, cfg)
+}
+
+fn conv(p: nn::Path<'_>, i: i64, o: i64, k: i64, stride: i64, padding: i64, gain: Option<f64>) -> nn::Conv2D {
+    let mut cfg = nn::ConvConfig {
+        stride,
+        padding,
+        ..Default::default()
+    };
+    if let Some(gain) = gain {
+        cfg.ws_init = nn::Init::Orthogonal { gain };
+        cfg.bs_init = nn::Init::Const(0.0);
+    }
+    nn::conv2d(p, i, o, k, cfg)
+}
+
+/// An MLP of `sizes` with `activation` after every layer (SB3's `mlp_extractor` nets).
+#[derive(Debug)]
+struct Mlp {
+    layers: Vec<nn::Linear>,
+    activation: Activation,
+}
+
+impl Mlp {
+    /// Layers are named 0, 2, 4, … as in SB3's `nn.Sequential` (activations take odd slots).
+    fn new(
+        p: nn::Path<'_>,
+        input: i64,
+        sizes: &[i64],
+        activation: Activation,
+        gain: Option<f64>,
+    ) -> (Self, i64) {
+        let mut layers = Vec::new();
+        let mut last = input;
+        for (k, &s) in sizes.iter().enumerate() {
+            layers.push(linear(&p / (2 * k).to_string(), last, s, gain));
+            last = s;
+        }
+        (Self { layers, activation }, last)
+    }
+    fn forward(&self, x: &Tensor) -> Tensor {
+        let mut h = x.shallow_clone();
+        for l in &self.layers {
+            h = self.activation.apply(&l.forward(&h));
+        }
+        h
+    }
+}
+
+/// A conv branch step: Conv → (BN) → ReLU.
+#[derive(Debug)]
+struct ConvBlock {
+    conv: nn::Conv2D,
+    bn: Option<nn::BatchNorm>,
+}
+
+impl ConvBlock {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        p: &nn::Path<'_>,
+        name: usize,
+        i: i64,
+        o: i64,
+        k: i64,
+        s: i64,
+        pad: i64,
+        bn: bool,
+        gain: Option<f64>,
+    ) -> Self {
+        // Named as SB3 would see an nn.Sequential: conv at `name`, BN at `name + 1`.
+        let conv = conv(p / name.to_string(), i, o, k, s, pad, gain);
+        let bn = bn.then(|| nn::batch_norm2d(p / (name + 1).to_string(), o, Default::default()));
+        Self { conv, bn }
+    }
+    fn forward(&self, x: &Tensor, train: bool) -> Tensor {
+        let h = self.conv.forward(x);
+        let h = match &self.bn {
+            Some(bn) => bn.forward_t(&h, train),
+            None => h,
+        };
+        h.relu()
+    }
+}
+
+/// The authors' three-branch trunk with spatial attention (learning.md §3.1).
+#[derive(Debug)]
+struct Trunk {
+    a: [ConvBlock; 2],
+    b: [ConvBlock; 2],
+    c: [ConvBlock; 2],
+    att1: nn::Conv2D,
+    att_bn: Option<nn::BatchNorm>,
+    att2: nn::Conv2D,
+    /// Output size of branches a and b (branch c is upsampled to it).
+    size: [i64; 2],
+    pool_input: bool,
+}
+
+impl Trunk {
+    /// `widths` = channels of (a1, a2, b1, b2, c1, c2); the attention's middle width is 32.
+    fn new(
+        p: nn::Path<'_>,
+        c_in: i64,
+        hw: [i64; 2],
+        widths: [i64; 6],
+        bn: bool,
+        pool_input: bool,
+        gain: Option<f64>,
+    ) -> (Self, i64) {
+        let [a1, a2, b1, b2, c1, c2] = widths;
+        let pa = &p / "branch_a";
+        let pb = &p / "branch_b";
+        let pc = &p / "branch_c";
+        let step = if bn { 3 } else { 2 };
+        let a = [
+            ConvBlock::new(&pa, 0, c_in, a1, 3, 1, 1, bn, gain),
+            ConvBlock::new(&pa, step + 1, a1, a2, 3, 1, 1, bn, gain),
+        ];
+        let b = [
+            ConvBlock::new(&pb, 0, c_in, b1, 5, 2, 2, bn, gain),
+            ConvBlock::new(&pb, step, b1, b2, 5, 2, 2, bn, gain),
+        ];
+        let c = [
+            ConvBlock::new(&pc, 0, c_in, c1, 11, 4, 5, bn, gain),
+            ConvBlock::new(&pc, step, c1, c2, 7, 2, 3, bn, gain),
+        ];
+        let total = a2 + b2 + c2;
+        let pt = &p / "attention";
+        let att1 = conv(&pt / "0", total, 32, 1, 1, 0, gain);
+        let att_bn = bn.then(|| nn::batch_norm2d(&pt / "1", 32, Default::default()));
+        let att2 = conv(&pt / if bn { "3" } else { "2" }, 32, 1, 1, 1, 0, gain);
+        let (h, w) = if pool_input {
+            (hw[0] / 2, hw[1] / 2)
+        } else {
+            (hw[0], hw[1])
+        };
+        // Branch a: two 2× max pools; branch b: two stride-2 convs.
+        let size = [h / 4, w / 4];
+        (
+            Self {
+                a,
+                b,
+                c,
+                att1,
+                att_bn,
+                att2,
+                size,
+                pool_input,
+            },
+            total,
+        )
+    }
+
+    fn forward(&self, x: &Tensor, train: bool) -> Tensor {
+        let x = if self.pool_input {
+            x.avg_pool2d([2, 2], [2, 2], [0, 0], false, true, None::<i64>)
+        } else {
+            x.shallow_clone()
+        };
+        let a = self.a[0]
+            .forward(&x, train)
+            .max_pool2d([2, 2], [2, 2], [0, 0], [1, 1], false);
+        let a = self.a[1]
+            .forward(&a, train)
+            .max_pool2d([2, 2], [2, 2], [0, 0], [1, 1], false);
+        let b = self.b[1].forward(&self.b[0].forward(&x, train), train);
+        let c = self.c[1].forward(&self.c[0].forward(&x, train), train);
+        let c = c.upsample_bilinear2d(self.size, false, None::<f64>, None::<f64>);
+        let f = Tensor::cat(&[a, b, c], 1);
+        let h = self.att1.forward(&f);
+        let h = match &self.att_bn {
+            Some(bn) => bn.forward_t(&h, train),
+            None => h,
+        };
+        let att = self.att2.forward(&h.relu()).sigmoid();
+        &f * &att + &f
+    }
+}
+
+#[derive(Debug)]
+enum Extractor {
+    /// Flattened vector observation.
+    Flatten,
+    Compact {
+        trunk: Trunk,
+        reduce: nn::Conv2D,
+        pooled: [i64; 2],
+        vector_net: nn::Linear,
+        fuse: nn::Linear,
+    },
+    Paper {
+        trunk: Trunk,
+        lstm: Recurrent,
+        coord_net: [nn::Linear; 2],
+        fire_net: nn::Linear,
+        fc: [nn::Linear; 2],
+    },
+}
+
+/// Image codes are 0..=9 (`firecast_sim::env::CODE_MAX`); the helicopter channel is 9 too.
+const IMAGE_SCALE: f64 = 9.0;
+
+/// Features of the compact extractor.
+const COMPACT_FEATURES: i64 = 256;
+
+/// An actor-critic network.
+#[derive(Debug)]
+pub struct Policy {
+    pub config: PolicyConfig,
+    pub space: ObsSpace,
+    pub num_actions: usize,
+    pub vs: nn::VarStore,
+    extractor: Extractor,
+    pi: Mlp,
+    vf: Mlp,
+    action_net: nn::Linear,
+    value_net: nn::Linear,
+}
+
+impl Policy {
+    pub fn new(
+        config: &PolicyConfig,
+        space: ObsSpace,
+        num_actions: usize,
+        device: Device,
+    ) -> Result<Self, RlError> {
+        let vs = nn::VarStore::new(device);
+        let root = vs.root();
+        let ortho = config.ortho_init;
+        let g = |gain: f64| ortho.then_some(gain);
+        let sqrt2 = std::f64::consts::SQRT_2;
+        let fx = &root / "features_extractor";
+        let (extractor, features) = match config.kind {
+            PolicyKind::Mlp => {
+                if space.image.is_some() {
+                    return Err(RlError::config(
+                        "policy.kind",
+                        "`mlp` takes vector observations; use `compact` or `paper` for images",
+                    ));
+                }
+                (Extractor::Flatten, space.vector as i64)
+            }
+            PolicyKind::Compact | PolicyKind::Paper => {
+                let Some([c, h, w]) = space.image else {
+                    return Err(RlError::config(
+                        "policy.kind",
+                        "`compact` and `paper` need image observations (the helitack environment)",
+                    ));
+                };
+                let (c, hw) = (c as i64, [h as i64, w as i64]);
+                if config.kind == PolicyKind::Compact {
+                    let (trunk, ch) = Trunk::new(
+                        &fx / "cnn",
+                        c,
+                        hw,
+                        [16, 32, 8, 16, 8, 16],
+                        config.batch_norm,
+                        true,
+                        g(sqrt2),
+                    );
+                    let reduce = conv(&fx / "reduce", ch, 16, 1, 1, 0, g(sqrt2));
+                    let pooled = [trunk.size[0].min(10), trunk.size[1].min(15)];
+                    let vector_net = linear(&fx / "vector_net", space.vector as i64, 64, g(sqrt2));
+                    let fuse = linear(
+                        &fx / "fuse",
+                        16 * pooled[0] * pooled[1] + 64,
+                        COMPACT_FEATURES,
+                        g(sqrt2),
+                    );
+                    (
+                        Extractor::Compact {
+                            trunk,
+                            reduce,
+                            pooled,
+                            vector_net,
+                            fuse,
+                        },
+                        COMPACT_FEATURES,
+                    )
+                } else {
+                    if space.vector < 3 {
+                        return Err(RlError::config(
+                            "policy.kind",
+                            "`paper` needs the helicopter cell and the on-fire flag in the vector observation",
+                        ));
+                    }
+                    let (trunk, ch) =
+                        Trunk::new(&fx / "cnn", c, hw, [32, 64, 16, 32, 8, 16], true, false, g(sqrt2));
+                    let flat = ch * trunk.size[0] * trunk.size[1];
+                    // SB3's init_weights touches Linear and Conv2d only: the LSTM keeps
+                    // PyTorch's default U(±1/√h).
+                    let lstm = Recurrent::new(&fx / "lstm", Cell::Lstm, flat, 256, 2, false, 0.2);
+                    let coord_net = [
+                        linear(&fx / "coord_net" / "0", 4, 32, g(sqrt2)),
+                        linear(&fx / "coord_net" / "2", 32, 64, g(sqrt2)),
+                    ];
+                    let fire_net = linear(&fx / "fire_net" / "0", 2, 16, g(sqrt2));
+                    let fc = [
+                        linear(&fx / "fc" / "0", 256 + 64 + 16, 512, g(sqrt2)),
+                        linear(&fx / "fc" / "2", 512, 512, g(sqrt2)),
+                    ];
+                    (
+                        Extractor::Paper {
+                            trunk,
+                            lstm,
+                            coord_net,
+                            fire_net,
+                            fc,
+                        },
+                        512,
+                    )
+                }
+            }
+        };
+        let me = &root / "mlp_extractor";
+        let (pi, pi_out) = Mlp::new(
+            &me / "policy_net",
+            features,
+            &config.pi,
+            config.activation,
+            g(sqrt2),
+        );
+        let (vf, vf_out) = Mlp::new(
+            &me / "value_net",
+            features,
+            &config.vf,
+            config.activation,
+            g(sqrt2),
+        );
+        let action_net = linear(&root / "action_net", pi_out, num_actions as i64, g(0.01));
+        let value_net = linear(&root / "value_net", vf_out, 1, g(1.0));
+        Ok(Self {
+            config: config.clone(),
+            space,
+            num_actions,
+            vs,
+            extractor,
+            pi,
+            vf,
+            action_net,
+            value_net,
+        })
+    }
+
+    pub fn device(&self) -> Device {
+        self.vs.device()
+    }
+
+    fn features(&self, obs: &ObsTensors, train: bool) -> Tensor {
+        match &self.extractor {
+            Extractor::Flatten => obs.vector.shallow_clone(),
+            Extractor::Compact {
+                trunk,
+                reduce,
+                pooled,
+                vector_net,
+                fuse,
+            } => {
+                let img = image_float(obs);
+                let f = trunk.forward(&img, train);
+                let f = reduce
+                    .forward(&f)
+                    .relu()
+                    .adaptive_avg_pool2d([pooled[0], pooled[1]]);
+                let f = f.flatten(1, -1);
+                let v = vector_net.forward(&obs.vector).relu();
+                fuse.forward(&Tensor::cat(&[f, v], 1)).relu()
+            }
+            Extractor::Paper {
+                trunk,
+                lstm,
+                coord_net,
+                fire_net,
+                fc,
+            } => {
+                let img = image_float(obs);
+                let f = trunk.forward(&img, train).flatten(1, -1).unsqueeze(1);
+                // Sequence length 1 from a zero state: what the authors' updates see (their
+                // extractor resets its state whenever the batch size changes).
+                let (out, _) = lstm.forward(&f, train);
+                let out = out.squeeze_dim(1);
+                // Vector part: [x, y, on_fire]; coord_net takes [x, y, x − cx, y − cy].
+                let xy = obs.vector.narrow(1, 0, 2);
+                let size = self
+                    .space
+                    .image
+                    .map_or([0.0, 0.0], |[_, h, w]| [w as f64 / 2.0, h as f64 / 2.0]);
+                let centre = Tensor::from_slice(&[size[0] as f32, size[1] as f32]).to_device(xy.device());
+                let coords = Tensor::cat(&[xy.shallow_clone(), &xy - centre], 1);
+                let c = coord_net[1].forward(&coord_net[0].forward(&coords).relu()).relu();
+                let on_fire = obs.vector.narrow(1, 2, 1);
+                let onehot = Tensor::cat(&[1.0 - &on_fire, on_fire], 1);
+                let fire = fire_net.forward(&onehot).relu();
+                let h = Tensor::cat(&[out, c, fire], 1);
+                fc[1].forward(&fc[0].forward(&h).relu())
+            }
+        }
+    }
+
+    /// Action logits `[n, actions]` and values `[n]`.
+    pub fn forward(&self, obs: &ObsTensors, train: bool) -> (Tensor, Tensor) {
+        let f = self.features(obs, train);
+        let logits = self.action_net.forward(&self.pi.forward(&f));
+        let values = self.value_net.forward(&self.vf.forward(&f)).squeeze_dim(-1);
+        (logits, values)
+    }
+
+    pub fn values(&self, obs: &ObsTensors) -> Tensor {
+        let f = self.features(obs, false);
+        self.value_net.forward(&self.vf.forward(&f)).squeeze_dim(-1)
+    }
+
+    pub fn parameter_count(&self) -> i64 {
+        self.vs
+            .trainable_variables()
+            .iter()
+            .map(Tensor::numel)
+            .sum::<usize>() as i64
+    }
+}
+
+fn image_float(obs: &ObsTensors) -> Tensor {
+    match &obs.image {
+        Some(img) => img.to_kind(Kind::Float) / IMAGE_SCALE,
+        None => Tensor::zeros([0], (Kind::Float, obs.vector.device())),
+    }
+}

@@ -1,0 +1,216 @@
+//! Training specs (`experiments/rl/*.yaml`, strict) and fire files (`experiments/rl/*fires*.yaml`).
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::RlError;
+use crate::helitack::FireSet;
+use crate::policy::{PolicyConfig, PolicyKind};
+use crate::ppo::PpoConfig;
+
+/// Which environment to train on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, tag = "kind", rename_all = "snake_case")]
+pub enum EnvSpec {
+    /// CartPole-v1 (the trainer's correctness gate).
+    Cartpole,
+    /// The helitack environment on the `train` fires of a fire file.
+    Helitack {
+        /// The fire file, relative to the repository root (a stage takes it from its `fires`
+        /// input instead).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        fires: Option<PathBuf>,
+    },
+}
+
+/// `ppo:` — a preset and overrides of any [`PpoConfig`] field.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PpoSpec {
+    #[serde(default = "default_preset")]
+    pub preset: String,
+    #[serde(flatten)]
+    pub overrides: serde_json::Map<String, serde_json::Value>,
+}
+
+fn default_preset() -> String {
+    "paper".into()
+}
+
+impl Default for PpoSpec {
+    fn default() -> Self {
+        Self {
+            preset: default_preset(),
+            overrides: serde_json::Map::new(),
+        }
+    }
+}
+
+/// A training run: environment, policy, PPO settings and the training seeds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainSpec {
+    pub name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+    pub env: EnvSpec,
+    /// Default: `mlp` for CartPole, `compact` for the helitack environment.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub policy: Option<PolicyConfig>,
+    #[serde(default)]
+    pub ppo: PpoSpec,
+    /// One run per seed (torch weights, environments, minibatches and actions).
+    #[serde(default = "default_seeds")]
+    pub seeds: Vec<u64>,
+    /// Checkpoint every this many iterations (rollout + update); the last is always kept.
+    #[serde(default = "default_checkpoint_every")]
+    pub checkpoint_every: u64,
+    /// `auto` (CUDA when present), `cpu`, `cuda` or `cuda:N`.
+    #[serde(default = "default_device")]
+    pub device: String,
+}
+
+fn default_seeds() -> Vec<u64> {
+    vec![0]
+}
+fn default_checkpoint_every() -> u64 {
+    20
+}
+fn default_device() -> String {
+    "auto".into()
+}
+
+impl TrainSpec {
+    /// Reads a spec strictly; `overrides` are `key.path=value` (value as YAML).
+    pub fn load(root: &Path, file: &Path, overrides: &[String]) -> Result<Self, RlError> {
+        let path = root.join(file);
+        let text =
+            std::fs::read_to_string(&path).map_err(|e| RlError::io("reading the training spec", &path, e))?;
+        let spec: Self = if overrides.is_empty() {
+            firecast_pipeline::spec::deserialize_mapping_enums(file, &text)?
+        } else {
+            let mut value: serde_yaml_ng::Value = firecast_pipeline::spec::deserialize_located(file, &text)?;
+            for o in overrides {
+                firecast_pipeline::spec::apply_override(&mut value, o)
+                    .map_err(|e| RlError::config(e.path, e.message))?;
+            }
+            let merged = serde_yaml_ng::to_string(&value).map_err(|e| RlError::config("", e.to_string()))?;
+            firecast_pipeline::spec::deserialize_mapping_enums(file, &merged)?
+        };
+        spec.validate()?;
+        Ok(spec)
+    }
+
+    pub fn policy(&self) -> PolicyConfig {
+        self.policy.clone().unwrap_or_else(|| PolicyConfig {
+            kind: match self.env {
+                EnvSpec::Cartpole => PolicyKind::Mlp,
+                EnvSpec::Helitack { .. } => PolicyKind::Compact,
+            },
+            ..PolicyConfig::default()
+        })
+    }
+
+    pub fn ppo(&self) -> Result<PpoConfig, RlError> {
+        PpoConfig::resolve(&self.ppo.preset, &self.ppo.overrides)
+    }
+
+    pub fn validate(&self) -> Result<(), RlError> {
+        if self.name.is_empty()
+            || !self
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+        {
+            return Err(RlError::config(
+                "name",
+                format!("`{}`: use letters, digits, -, _ or .", self.name),
+            ));
+        }
+        if self.seeds.is_empty() {
+            return Err(RlError::config("seeds", "needs at least one seed"));
+        }
+        let mut s = self.seeds.clone();
+        s.sort_unstable();
+        s.dedup();
+        if s.len() != self.seeds.len() {
+            return Err(RlError::config("seeds", "seeds repeat"));
+        }
+        self.ppo()?;
+        crate::parse_device(&self.device)?;
+        let p = self.policy();
+        match (&self.env, p.kind) {
+            (EnvSpec::Cartpole, PolicyKind::Mlp)
+            | (EnvSpec::Helitack { .. }, PolicyKind::Compact | PolicyKind::Paper) => {}
+            (EnvSpec::Cartpole, k) => {
+                return Err(RlError::config(
+                    "policy.kind",
+                    format!("{k:?} needs images; CartPole takes `mlp`"),
+                ));
+            }
+            (EnvSpec::Helitack { .. }, _) => {
+                return Err(RlError::config(
+                    "policy.kind",
+                    "the helitack environment takes `compact` or `paper`",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A fire file: the reward profile and the training and evaluation fire sets.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FiresSpec {
+    /// Reward profile: `p2`, `websocket_t` or `p1_improved`.
+    #[serde(default = "default_profile")]
+    pub profile: String,
+    pub train: FireSet,
+    pub evaluate: FireSet,
+}
+
+fn default_profile() -> String {
+    "p2".into()
+}
+
+impl FiresSpec {
+    pub fn load(path: &Path) -> Result<Self, RlError> {
+        let text =
+            std::fs::read_to_string(path).map_err(|e| RlError::io("reading the fire file", path, e))?;
+        let mut spec: Self = firecast_pipeline::spec::deserialize_mapping_enums(path, &text)?;
+        let reward = crate::helitack::reward_profile(&spec.profile)?;
+        spec.train.env.reward = reward.clone();
+        spec.evaluate.env.reward = reward;
+        spec.train.validate("train")?;
+        spec.evaluate.validate("evaluate")?;
+        if spec.train.width != spec.evaluate.width || spec.train.height != spec.evaluate.height {
+            return Err(RlError::config(
+                "evaluate.width",
+                "training and evaluation grids must have the same size",
+            ));
+        }
+        let shared: Vec<u64> = spec
+            .evaluate
+            .landscape_seeds
+            .iter()
+            .copied()
+            .filter(|s| spec.train.landscape_seeds.contains(s))
+            .collect();
+        if !shared.is_empty() {
+            return Err(RlError::config(
+                "evaluate.landscape_seeds",
+                format!("{shared:?} are also training landscapes: evaluation fires must be held out"),
+            ));
+        }
+        Ok(spec)
+    }
+}
+
+/// Where a spec's fire file is.
+pub fn fires_path(spec: &TrainSpec) -> Option<&PathBuf> {
+    match &spec.env {
+        EnvSpec::Helitack { fires } => fires.as_ref(),
+        EnvSpec::Cartpole => None,
+    }
+}

@@ -1,0 +1,694 @@
+//! The PPO training loop (SB3's `learn` / `collect_rollouts` / `train`), checkpoints and
+//! exact resumption.
+
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use rand_chacha::rand_core::SeedableRng;
+use serde::{Deserialize, Serialize};
+use tch::{Device, Kind, Tensor};
+
+use crate::RlError;
+use crate::buffer::{Minibatch, RolloutBuffer};
+use crate::env::{ObsBatch, ObsSpace, VecEnvironment};
+use crate::normalize::VecNormalize;
+use crate::policy::{ObsTensors, Policy, PolicyConfig};
+use crate::ppo::{Adam, MinibatchTensors, PpoConfig, clip_grad_norm, log_prob_entropy, ppo_losses};
+use crate::rng::RngState;
+
+/// Finished episodes remembered for `rollout/ep_*_mean` (SB3's `stats_window_size`).
+const STATS_WINDOW: usize = 100;
+
+/// A finished training episode (raw rewards, before normalisation).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeRecord {
+    pub reward: f64,
+    pub length: u64,
+    #[serde(default)]
+    pub extras: Vec<(String, f64)>,
+}
+
+/// Receives per-update metrics (SB3's logger keys) and progress.
+pub trait TrainSink {
+    fn update(&self, _timesteps: u64, _metrics: &[(String, f64)]) {}
+    fn progress(&self, _timesteps: u64, _total: u64, _fps: f64, _ep_rew_mean: f64) {}
+    /// A checkpoint was written.
+    fn checkpoint(&self, _dir: &Path, _timesteps: u64) {}
+}
+
+/// A sink that ignores everything.
+pub struct NoSink;
+impl TrainSink for NoSink {}
+
+/// What a checkpoint stores besides tensors.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct TrainerState {
+    format: u32,
+    policy: PolicyConfig,
+    space: ObsSpace,
+    num_actions: usize,
+    ppo: PpoConfig,
+    seed: u64,
+    num_timesteps: u64,
+    n_updates: u64,
+    iterations: u64,
+    adam_step: u64,
+    rng: RngState,
+    normalize: VecNormalize,
+    last_episode_starts: Vec<bool>,
+    running: Vec<(f64, u64)>,
+    episodes: VecDeque<EpisodeRecord>,
+    env: serde_json::Value,
+}
+
+const CHECKPOINT_FORMAT: u32 = 1;
+pub const POLICY_FILE: &str = "policy.safetensors";
+const OPTIMIZER_FILE: &str = "optimizer.safetensors";
+const STATE_FILE: &str = "trainer.json";
+
+/// A PPO learner bound to its environments.
+pub struct Trainer {
+    pub ppo: PpoConfig,
+    pub policy: Policy,
+    adam: Adam,
+    /// Names of `adam.params`, sorted (checkpoint keys).
+    param_names: Vec<String>,
+    env: Box<dyn VecEnvironment>,
+    pub normalize: VecNormalize,
+    buffer: RolloutBuffer,
+    rng: ChaCha8Rng,
+    seed: u64,
+    pub num_timesteps: u64,
+    /// SB3's `_n_updates`: epochs run.
+    pub n_updates: u64,
+    pub iterations: u64,
+    last_obs: ObsBatch,
+    last_episode_starts: Vec<bool>,
+    running: Vec<(f64, u64)>,
+    pub episodes: VecDeque<EpisodeRecord>,
+    /// Every finished episode of this process (not only the window).
+    pub all_episodes: Vec<EpisodeRecord>,
+    last_checkpoint: Option<PathBuf>,
+}
+
+impl Trainer {
+    /// A fresh learner: torch is seeded with `seed` before the weights are drawn, the
+    /// environments are reset with `seed`, and minibatches and actions come from a ChaCha8
+    /// stream seeded with `seed`.
+    pub fn new(
+        ppo: PpoConfig,
+        policy: &PolicyConfig,
+        mut env: Box<dyn VecEnvironment>,
+        seed: u64,
+        device: Device,
+    ) -> Result<Self, RlError> {
+        ppo.validate()?;
+        if env.num_envs() != ppo.n_envs {
+            return Err(RlError::config(
+                "ppo.n_envs",
+                format!("{} but the environment has {}", ppo.n_envs, env.num_envs()),
+            ));
+        }
+        let space = env.space();
+        let num_actions = env.num_actions();
+        let policy = firecast_learn::with_seed(seed, || Policy::new(policy, space, num_actions, device))?;
+        let (param_names, params) = trainable(&policy);
+        let adam = Adam::new(params, ppo.adam_eps);
+        let normalize = VecNormalize::new(ppo.normalize.clone(), ppo.gamma, space.vector, ppo.n_envs);
+        env.reset(seed);
+        let mut t = Self {
+            buffer: RolloutBuffer::new(ppo.n_steps, ppo.n_envs, space),
+            last_obs: ObsBatch::new(space, ppo.n_envs),
+            last_episode_starts: vec![true; ppo.n_envs],
+            running: vec![(0.0, 0); ppo.n_envs],
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            ppo,
+            policy,
+            adam,
+            param_names,
+            env,
+            normalize,
+            seed,
+            num_timesteps: 0,
+            n_updates: 0,
+            iterations: 0,
+            episodes: VecDeque::new(),
+            all_episodes: Vec::new(),
+            last_checkpoint: None,
+        };
+        t.env.observe(&mut t.last_obs);
+        t.normalize.observe(&mut t.last_obs.vector);
+        Ok(t)
+    }
+
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// Trains until `ppo.total_timesteps` (SB3 `learn`: whole rollouts, so it may overshoot
+    /// by less than one rollout). With `checkpoint_every` (iterations) and a folder, a
+    /// checkpoint `step-<timesteps>` is written there every so often and at the end.
+    pub fn learn(&mut self, sink: &dyn TrainSink, checkpoints: Option<(&Path, u64)>) -> Result<(), RlError> {
+        self.learn_until(sink, checkpoints, None)
+    }
+
+    /// As [`learn`](Self::learn), stopping (with a checkpoint) once `stop_after` steps are
+    /// done: the run is interrupted, not shortened — schedules still run over
+    /// `total_timesteps`, so a resume continues exactly where a straight run would be.
+    pub fn learn_until(
+        &mut self,
+        sink: &dyn TrainSink,
+        checkpoints: Option<(&Path, u64)>,
+        stop_after: Option<u64>,
+    ) -> Result<(), RlError> {
+        let total = self.ppo.total_timesteps;
+        let stop = stop_after.unwrap_or(total).min(total);
+        let started = Instant::now();
+        let start_steps = self.num_timesteps;
+        while self.num_timesteps < stop {
+            self.collect_rollouts()?;
+            self.iterations += 1;
+            let progress_remaining = 1.0 - self.num_timesteps as f64 / total as f64;
+            let mut metrics = self.train(progress_remaining)?;
+            let elapsed = started.elapsed().as_secs_f64().max(1e-9);
+            let fps = (self.num_timesteps - start_steps) as f64 / elapsed;
+            let ep_rew = self.ep_mean(|e| e.reward);
+            metrics.push(("rollout/ep_rew_mean".into(), ep_rew));
+            metrics.push(("rollout/ep_len_mean".into(), self.ep_mean(|e| e.length as f64)));
+            let mut extra_names: Vec<String> = Vec::new();
+            for e in &self.episodes {
+                for (k, _) in &e.extras {
+                    if !extra_names.contains(k) {
+                        extra_names.push(k.clone());
+                    }
+                }
+            }
+            for k in extra_names {
+                let v = self.ep_mean(|e| {
+                    e.extras
+                        .iter()
+                        .find(|(n, _)| *n == k)
+                        .map_or(f64::NAN, |(_, v)| *v)
+                });
+                metrics.push((format!("rollout/{k}"), v));
+            }
+            metrics.push(("time/fps".into(), fps));
+            metrics.push(("time/iterations".into(), self.iterations as f64));
+            metrics.push(("time/total_timesteps".into(), self.num_timesteps as f64));
+            sink.update(self.num_timesteps, &metrics);
+            sink.progress(self.num_timesteps, total, fps, ep_rew);
+            if let Some((dir, every)) = checkpoints {
+                let last = self.num_timesteps >= stop;
+                if last || (every > 0 && self.iterations % every == 0) {
+                    let path = dir.join(format!("step-{:09}", self.num_timesteps));
+                    self.save(&path)?;
+                    sink.checkpoint(&path, self.num_timesteps);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn ep_mean(&self, f: impl Fn(&EpisodeRecord) -> f64) -> f64 {
+        let vals: Vec<f64> = self.episodes.iter().map(f).filter(|v| v.is_finite()).collect();
+        if vals.is_empty() {
+            f64::NAN
+        } else {
+            vals.iter().sum::<f64>() / vals.len() as f64
+        }
+    }
+
+    /// Actions for a batch of (already normalised) observations: sampled from the policy
+    /// with this trainer's stream, or greedy.
+    fn act(&mut self, obs: &ObsBatch, deterministic: bool) -> (Vec<u8>, Vec<f32>, Vec<f32>) {
+        let device = self.policy.device();
+        let (logits, values) =
+            tch::no_grad(|| self.policy.forward(&ObsTensors::from_batch(obs, device), false));
+        let logp_all = logits.log_softmax(-1, Kind::Float).to_device(Device::Cpu);
+        let a = self.policy.num_actions;
+        let logp: Vec<f32> = Vec::<f32>::try_from(logp_all.flatten(0, -1)).unwrap_or_default();
+        let values: Vec<f32> = Vec::<f32>::try_from(values.to_device(Device::Cpu)).unwrap_or_default();
+        let mut actions = Vec::with_capacity(obs.n);
+        let mut chosen = Vec::with_capacity(obs.n);
+        for row in logp.chunks(a) {
+            let k = if deterministic {
+                argmax(row)
+            } else {
+                sample(row, self.rng.random::<f64>())
+            };
+            actions.push(k as u8);
+            chosen.push(row[k]);
+        }
+        (actions, values, chosen)
+    }
+
+    /// Runs one rollout (SB3's `collect_rollouts`: actions, time-limit bootstrap, GAE) and
+    /// returns the filled buffer, without training on it. For golden tests against SB3's
+    /// rollout buffer; [`learn`](Self::learn) does this and then updates the policy.
+    pub fn collect_rollout(&mut self) -> Result<&RolloutBuffer, RlError> {
+        self.collect_rollouts()?;
+        Ok(&self.buffer)
+    }
+
+    fn collect_rollouts(&mut self) -> Result<(), RlError> {
+        self.buffer.reset();
+        let n = self.ppo.n_envs;
+        let mut new_obs = ObsBatch::new(self.env.space(), n);
+        let mut dones = vec![false; n];
+        while !self.buffer.is_full() {
+            let obs = self.last_obs.clone();
+            let (actions, values, log_probs) = self.act(&obs, false);
+            self.env.step(&actions)?;
+            self.num_timesteps += n as u64;
+            let raw = self.env.rewards().to_vec();
+            for i in 0..n {
+                dones[i] = self.env.terminated()[i] || self.env.truncated()[i];
+            }
+            self.env.observe(&mut new_obs);
+            self.normalize.observe(&mut new_obs.vector);
+            let mut rewards = self.normalize.rewards(&raw, &dones);
+            // Episode bookkeeping on raw rewards (Monitor).
+            for i in 0..n {
+                self.running[i].0 += raw[i];
+                self.running[i].1 += 1;
+                if dones[i] {
+                    let (reward, length) = self.running[i];
+                    let extras = self
+                        .env
+                        .episode_extras(i)
+                        .into_iter()
+                        .map(|(k, v)| (k.to_string(), v))
+                        .collect();
+                    let rec = EpisodeRecord {
+                        reward,
+                        length,
+                        extras,
+                    };
+                    self.all_episodes.push(rec.clone());
+                    self.episodes.push_back(rec);
+                    if self.episodes.len() > STATS_WINDOW {
+                        self.episodes.pop_front();
+                    }
+                    self.running[i] = (0.0, 0);
+                }
+            }
+            // Time-limit bootstrap: r += γ·V(terminal observation) where truncated.
+            let truncated: Vec<usize> = (0..n)
+                .filter(|&i| self.env.truncated()[i] && !self.env.terminated()[i])
+                .collect();
+            if !truncated.is_empty() {
+                let mut term = ObsBatch::new(self.env.space(), truncated.len());
+                for (row, &i) in truncated.iter().enumerate() {
+                    self.env.terminal_observation(i, &mut term, row);
+                }
+                self.normalize.normalize_obs(&mut term.vector);
+                let device = self.policy.device();
+                let v = tch::no_grad(|| self.policy.values(&ObsTensors::from_batch(&term, device)));
+                let v: Vec<f32> = Vec::<f32>::try_from(v.to_device(Device::Cpu)).unwrap_or_default();
+                for (row, &i) in truncated.iter().enumerate() {
+                    rewards[i] += self.ppo.gamma as f32 * v[row];
+                }
+            }
+            self.buffer.add(
+                &obs,
+                &actions,
+                &rewards,
+                &self.last_episode_starts,
+                &values,
+                &log_probs,
+            );
+            std::mem::swap(&mut self.last_obs, &mut new_obs);
+            self.last_episode_starts.copy_from_slice(&dones);
+        }
+        let device = self.policy.device();
+        let last_values = tch::no_grad(|| {
+            self.policy
+                .values(&ObsTensors::from_batch(&self.last_obs, device))
+        });
+        let last_values: Vec<f32> =
+            Vec::<f32>::try_from(last_values.to_device(Device::Cpu)).unwrap_or_default();
+        self.buffer
+            .compute_returns_and_advantage(&last_values, &dones, self.ppo.gamma, self.ppo.gae_lambda);
+        Ok(())
+    }
+
+    fn minibatch_tensors(&self, mb: &Minibatch) -> MinibatchTensors {
+        let device = self.policy.device();
+        let t = |v: &[f32]| Tensor::from_slice(v).to_device(device);
+        MinibatchTensors {
+            obs: ObsTensors::from_batch(&mb.obs, device),
+            actions: Tensor::from_slice(&mb.actions)
+                .to_kind(Kind::Int64)
+                .to_device(device),
+            old_values: t(&mb.values),
+            old_log_probs: t(&mb.log_probs),
+            advantages: t(&mb.advantages),
+            returns: t(&mb.returns),
+        }
+    }
+
+    /// One update over the buffer (SB3 `train`); returns the `train/*` metrics.
+    fn train(&mut self, progress_remaining: f64) -> Result<Vec<(String, f64)>, RlError> {
+        let lr = self.ppo.learning_rate.at(progress_remaining);
+        let clip = self.ppo.clip_range.at(progress_remaining);
+        let (mut pg, mut vl, mut ent, mut cf) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut approx_kls = Vec::new();
+        let mut last_loss = f64::NAN;
+        let mut continue_training = true;
+        for _epoch in 0..self.ppo.n_epochs {
+            approx_kls.clear();
+            let perm = self.buffer.permutation(&mut self.rng);
+            for chunk in perm.chunks(self.ppo.batch_size) {
+                let mb = self.buffer.gather(chunk);
+                let mbt = self.minibatch_tensors(&mb);
+                let losses = ppo_losses(
+                    &self.policy,
+                    &mbt,
+                    clip,
+                    self.ppo.clip_range_vf,
+                    self.ppo.ent_coef,
+                    self.ppo.vf_coef,
+                    self.ppo.normalize_advantage,
+                );
+                let loss_value = f64::try_from(losses.loss.detach()).unwrap_or(f64::NAN);
+                if !loss_value.is_finite() {
+                    return Err(RlError::NonFinite {
+                        update: self.iterations,
+                        what: "the PPO loss".into(),
+                        checkpoint: self.last_checkpoint.clone(),
+                    });
+                }
+                pg.push(losses.policy_loss);
+                vl.push(losses.value_loss);
+                ent.push(losses.entropy_loss);
+                cf.push(losses.clip_fraction);
+                approx_kls.push(losses.approx_kl);
+                last_loss = loss_value;
+                if let Some(target) = self.ppo.target_kl
+                    && losses.approx_kl > 1.5 * target
+                {
+                    continue_training = false;
+                    break;
+                }
+                self.adam.zero_grad();
+                losses.loss.backward();
+                let norm = clip_grad_norm(&self.adam.params, self.ppo.max_grad_norm);
+                if !norm.is_finite() {
+                    return Err(RlError::NonFinite {
+                        update: self.iterations,
+                        what: "the gradient norm".into(),
+                        checkpoint: self.last_checkpoint.clone(),
+                    });
+                }
+                self.adam.step(lr);
+            }
+            self.n_updates += 1;
+            if !continue_training {
+                break;
+            }
+        }
+        let mean = |v: &[f64]| {
+            if v.is_empty() {
+                f64::NAN
+            } else {
+                v.iter().sum::<f64>() / v.len() as f64
+            }
+        };
+        Ok(vec![
+            ("train/entropy_loss".into(), mean(&ent)),
+            ("train/policy_gradient_loss".into(), mean(&pg)),
+            ("train/value_loss".into(), mean(&vl)),
+            ("train/approx_kl".into(), mean(&approx_kls)),
+            ("train/clip_fraction".into(), mean(&cf)),
+            ("train/loss".into(), last_loss),
+            (
+                "train/explained_variance".into(),
+                explained_variance(&self.buffer.values, &self.buffer.returns),
+            ),
+            ("train/n_updates".into(), self.n_updates as f64),
+            ("train/clip_range".into(), clip),
+            ("train/learning_rate".into(), lr),
+        ])
+    }
+
+    /// Writes a checkpoint folder atomically (a temporary sibling renamed into place).
+    pub fn save(&mut self, dir: &Path) -> Result<(), RlError> {
+        let parent = dir.parent().unwrap_or(Path::new("."));
+        std::fs::create_dir_all(parent)
+            .map_err(|e| RlError::io("creating the checkpoint folder", parent, e))?;
+        let name = dir
+            .file_name()
+            .map_or_else(|| "checkpoint".into(), |n| n.to_string_lossy().into_owned());
+        let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&tmp);
+        std::fs::create_dir_all(&tmp).map_err(|e| RlError::io("creating the checkpoint folder", &tmp, e))?;
+        self.policy.vs.save(tmp.join(POLICY_FILE))?;
+        let mut named = Vec::new();
+        for ((n, m), v) in self
+            .param_names
+            .iter()
+            .zip(&self.adam.exp_avg)
+            .zip(&self.adam.exp_avg_sq)
+        {
+            named.push((format!("exp_avg.{n}"), m.shallow_clone()));
+            named.push((format!("exp_avg_sq.{n}"), v.shallow_clone()));
+        }
+        Tensor::write_safetensors(&named, tmp.join(OPTIMIZER_FILE))?;
+        let state = TrainerState {
+            format: CHECKPOINT_FORMAT,
+            policy: self.policy.config.clone(),
+            space: self.policy.space,
+            num_actions: self.policy.num_actions,
+            ppo: self.ppo.clone(),
+            seed: self.seed,
+            num_timesteps: self.num_timesteps,
+            n_updates: self.n_updates,
+            iterations: self.iterations,
+            adam_step: self.adam.step,
+            rng: RngState::of(&self.rng),
+            normalize: self.normalize.clone(),
+            last_episode_starts: self.last_episode_starts.clone(),
+            running: self.running.clone(),
+            episodes: self.episodes.clone(),
+            env: self.env.snapshot(),
+        };
+        let json = serde_json::to_vec_pretty(&state).map_err(|e| RlError::Checkpoint {
+            path: dir.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        let state_path = tmp.join(STATE_FILE);
+        std::fs::write(&state_path, json)
+            .map_err(|e| RlError::io("writing the checkpoint", &state_path, e))?;
+        if dir.exists() {
+            std::fs::remove_dir_all(dir).map_err(|e| RlError::io("replacing the checkpoint", dir, e))?;
+        }
+        std::fs::rename(&tmp, dir).map_err(|e| RlError::io("finishing the checkpoint", dir, e))?;
+        self.last_checkpoint = Some(dir.to_path_buf());
+        Ok(())
+    }
+
+    /// Continues from a checkpoint with environments built the same way (`env`); `ppo` may
+    /// raise `total_timesteps` (or change nothing else: other changes are errors, as they
+    /// would silently make a different run).
+    pub fn resume(
+        dir: &Path,
+        ppo: PpoConfig,
+        mut env: Box<dyn VecEnvironment>,
+        device: Device,
+    ) -> Result<Self, RlError> {
+        let bad = |message: String| RlError::Checkpoint {
+            path: dir.to_path_buf(),
+            message,
+        };
+        let state_path = dir.join(STATE_FILE);
+        let text = std::fs::read(&state_path).map_err(|e| match e.kind() {
+            std::io::ErrorKind::NotFound => bad(format!("no {STATE_FILE}: not a FireCast PPO checkpoint")),
+            _ => RlError::io("reading the checkpoint", &state_path, e),
+        })?;
+        let state: TrainerState =
+            serde_json::from_slice(&text).map_err(|e| bad(format!("{STATE_FILE} is corrupt: {e}")))?;
+        if state.format != CHECKPOINT_FORMAT {
+            return Err(bad(format!(
+                "format {} (this build reads {CHECKPOINT_FORMAT})",
+                state.format
+            )));
+        }
+        if state.space != env.space() || state.num_actions != env.num_actions() {
+            return Err(bad(format!(
+                "it was trained on observations {:?} with {} actions; this environment has {:?} and {}",
+                state.space,
+                state.num_actions,
+                env.space(),
+                env.num_actions()
+            )));
+        }
+        let mut expected = state.ppo.clone();
+        expected.total_timesteps = ppo.total_timesteps;
+        if expected != ppo {
+            return Err(bad(
+                "the PPO settings differ from the checkpoint's (only total_timesteps may change on resume)"
+                    .into(),
+            ));
+        }
+        let policy = Policy::new(&state.policy, state.space, state.num_actions, device)?;
+        let mut policy = policy;
+        policy
+            .vs
+            .load(dir.join(POLICY_FILE))
+            .map_err(|e| bad(format!("{POLICY_FILE}: {e}")))?;
+        let (param_names, params) = trainable(&policy);
+        let mut adam = Adam::new(params, ppo.adam_eps);
+        let moments = Tensor::read_safetensors(dir.join(OPTIMIZER_FILE))
+            .map_err(|e| bad(format!("{OPTIMIZER_FILE}: {e}")))?;
+        let find = |key: String| {
+            moments
+                .iter()
+                .find(|(n, _)| *n == key)
+                .map(|(_, t)| t.shallow_clone())
+                .ok_or_else(|| bad(format!("{OPTIMIZER_FILE} lacks {key}")))
+        };
+        for (k, n) in param_names.iter().enumerate() {
+            let m = find(format!("exp_avg.{n}"))?;
+            let v = find(format!("exp_avg_sq.{n}"))?;
+            if m.size() != adam.exp_avg[k].size() || v.size() != adam.exp_avg_sq[k].size() {
+                return Err(bad(format!(
+                    "{OPTIMIZER_FILE}: moments of {n} have the wrong shape"
+                )));
+            }
+            tch::no_grad(|| {
+                adam.exp_avg[k].copy_(&m);
+                adam.exp_avg_sq[k].copy_(&v);
+            });
+        }
+        adam.step = state.adam_step;
+        env.restore(&state.env)?;
+        let space = state.space;
+        let mut t = Self {
+            buffer: RolloutBuffer::new(ppo.n_steps, ppo.n_envs, space),
+            last_obs: ObsBatch::new(space, ppo.n_envs),
+            last_episode_starts: state.last_episode_starts,
+            running: state.running,
+            rng: state.rng.restore(),
+            ppo,
+            policy,
+            adam,
+            param_names,
+            env,
+            normalize: state.normalize,
+            seed: state.seed,
+            num_timesteps: state.num_timesteps,
+            n_updates: state.n_updates,
+            iterations: state.iterations,
+            episodes: state.episodes,
+            all_episodes: Vec::new(),
+            last_checkpoint: Some(dir.to_path_buf()),
+        };
+        t.env.observe(&mut t.last_obs);
+        // The statistics already include these observations: normalise without updating.
+        t.normalize.normalize_obs(&mut t.last_obs.vector);
+        Ok(t)
+    }
+
+    /// The latest `step-*` checkpoint in `dir`.
+    pub fn latest_checkpoint(dir: &Path) -> Option<PathBuf> {
+        let mut found: Vec<PathBuf> = std::fs::read_dir(dir)
+            .ok()?
+            .filter_map(Result::ok)
+            .map(|e| e.path())
+            .filter(|p| {
+                p.file_name()
+                    .is_some_and(|n| n.to_string_lossy().starts_with("step-"))
+                    && p.join(STATE_FILE).exists()
+            })
+            .collect();
+        found.sort();
+        found.pop()
+    }
+}
+
+/// Trainable variables sorted by name.
+fn trainable(policy: &Policy) -> (Vec<String>, Vec<Tensor>) {
+    let mut vars: Vec<(String, Tensor)> = policy
+        .vs
+        .variables()
+        .into_iter()
+        .filter(|(_, t)| t.requires_grad())
+        .collect();
+    vars.sort_by(|a, b| a.0.cmp(&b.0));
+    vars.into_iter().unzip()
+}
+
+/// 1 − Var(y − ŷ)/Var(y) (population variances); NaN when Var(y) = 0 (SB3).
+pub fn explained_variance(pred: &[f32], y: &[f32]) -> f64 {
+    let n = y.len() as f64;
+    if y.is_empty() {
+        return f64::NAN;
+    }
+    let var = |v: &mut dyn Iterator<Item = f64>| {
+        let xs: Vec<f64> = v.collect();
+        let m = xs.iter().sum::<f64>() / n;
+        xs.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / n
+    };
+    let vy = var(&mut y.iter().map(|&v| f64::from(v)));
+    if vy == 0.0 {
+        return f64::NAN;
+    }
+    let vd = var(&mut y.iter().zip(pred).map(|(&a, &b)| f64::from(a) - f64::from(b)));
+    1.0 - vd / vy
+}
+
+fn argmax(row: &[f32]) -> usize {
+    let mut best = 0;
+    for (k, &v) in row.iter().enumerate() {
+        if v > row[best] {
+            best = k;
+        }
+    }
+    best
+}
+
+/// Inverse-CDF draw from log-probabilities.
+fn sample(logp: &[f32], u: f64) -> usize {
+    let mut acc = 0.0;
+    for (k, &lp) in logp.iter().enumerate() {
+        acc += f64::from(lp).exp();
+        if u < acc {
+            return k;
+        }
+    }
+    logp.len() - 1
+}
+
+/// Greedy or sampled actions from a trained policy (evaluation), without a trainer.
+pub fn policy_actions(policy: &Policy, obs: &ObsBatch, deterministic: bool, rng: &mut ChaCha8Rng) -> Vec<u8> {
+    let device = policy.device();
+    let logits = tch::no_grad(|| policy.forward(&ObsTensors::from_batch(obs, device), false).0);
+    let logp: Vec<f32> = Vec::<f32>::try_from(
+        logits
+            .log_softmax(-1, Kind::Float)
+            .to_device(Device::Cpu)
+            .flatten(0, -1),
+    )
+    .unwrap_or_default();
+    logp.chunks(policy.num_actions)
+        .map(|row| {
+            if deterministic {
+                argmax(row) as u8
+            } else {
+                sample(row, rng.random::<f64>()) as u8
+            }
+        })
+        .collect()
+}
+
+/// Log-probabilities and entropies under the policy (tests, diagnostics).
+pub fn evaluate_actions(policy: &Policy, obs: &ObsBatch, actions: &[u8]) -> (Tensor, Tensor, Tensor) {
+    let device = policy.device();
+    let (logits, values) = policy.forward(&ObsTensors::from_batch(obs, device), true);
+    let a = Tensor::from_slice(actions).to_kind(Kind::Int64).to_device(device);
+    let (lp, h) = log_prob_entropy(&logits, &a);
+    (values, lp, h)
+}

@@ -1,0 +1,4 @@
+//! Integration tests of firecast-rl.
+
+mod cartpole;
+mod golden;

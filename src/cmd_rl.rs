@@ -1,0 +1,281 @@
+//! `firecast rl train|evaluate`: PPO training runs and Table IV, each run as a one-stage
+//! pipeline (`rl.train`, `rl.evaluate`) so they are cached, registered and uploaded like
+//! every other stage.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use anyhow::Context as _;
+use clap::{Args, Subcommand};
+use firecast_pipeline::{RunObserver, RunOptions};
+use firecast_rl::spec::{EnvSpec, TrainSpec};
+
+use crate::output;
+use crate::settings::Settings;
+
+#[derive(Debug, Subcommand)]
+pub enum RlCommand {
+    /// Train PPO agents (one per seed) from a training spec (experiments/rl/*.yaml).
+    ///
+    /// Checkpoints are kept in .firecast/rl/<name>-<key>/: a run that was stopped resumes
+    /// from its last checkpoint and ends exactly where an uninterrupted run would.
+    Train(TrainArgs),
+    /// Table IV: the trained agents, both rule-based agents and no suppression on the same
+    /// held-out fires, with intervals.
+    Evaluate(EvaluateArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct TrainArgs {
+    /// The training spec.
+    #[arg(long = "config", value_name = "FILE")]
+    pub config: PathBuf,
+    /// Override a key: `-S ppo.total_timesteps=20000`, `-S seeds=[0,1,2]` (value read as YAML).
+    #[arg(short = 'S', long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Torch device: auto, cpu, cuda, cuda:N (overrides the spec's `device`).
+    #[arg(long)]
+    pub device: Option<String>,
+    /// Run folder [default: experiments/runs/<name>].
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Continue from the last checkpoint (an error if there is none).
+    #[arg(long, conflicts_with = "fresh")]
+    pub resume: bool,
+    /// Discard the checkpoints of this spec and start over.
+    #[arg(long)]
+    pub fresh: bool,
+    /// Stop every seed after this many steps, keeping checkpoints (resume later).
+    #[arg(long, value_name = "STEPS")]
+    pub stop_after: Option<u64>,
+    /// Run even when nothing changed.
+    #[arg(short, long)]
+    pub force: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct EvaluateArgs {
+    /// A training run folder (written by `rl train`).
+    #[arg(long, value_name = "DIR")]
+    pub run: PathBuf,
+    /// Fire file whose `evaluate` fires are used [default: the run's].
+    #[arg(long, value_name = "FILE")]
+    pub fires: Option<PathBuf>,
+    /// Report folder [default: <run>/evaluation].
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Bootstrap resamples.
+    #[arg(long, default_value_t = 10_000)]
+    pub resamples: usize,
+    /// Sample PPO actions instead of taking the greedy one.
+    #[arg(long)]
+    pub stochastic: bool,
+    #[arg(long, default_value = "auto")]
+    pub device: String,
+    /// Run even when nothing changed.
+    #[arg(short, long)]
+    pub force: bool,
+}
+
+pub fn run(settings: &Settings, command: RlCommand) -> anyhow::Result<ExitCode> {
+    match command {
+        RlCommand::Train(args) => train(settings, &args),
+        RlCommand::Evaluate(args) => evaluate(settings, &args),
+    }
+}
+
+fn relative_to_root(settings: &Settings, path: &Path) -> PathBuf {
+    let abs = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir()
+            .map(|d| d.join(path))
+            .unwrap_or_else(|_| path.to_path_buf())
+    };
+    abs.strip_prefix(&settings.root)
+        .map(Path::to_path_buf)
+        .unwrap_or(abs)
+}
+
+/// Runs a one-stage pipeline and returns (outcome label, seconds, pipeline run id).
+fn run_stage(
+    settings: &Settings,
+    file: &Path,
+    name: &str,
+    stage: serde_json::Value,
+    force: bool,
+) -> anyhow::Result<(String, f64, String)> {
+    let pipeline = serde_json::json!({ "stages": { name: stage } });
+    let text = serde_json::to_string(&pipeline)?;
+    let expanded = firecast_pipeline::spec::parse(&settings.root, file, &text, &[])?;
+    let plan = firecast_pipeline::plan::plan(&expanded, &crate::cmd_pipeline::stage_kinds())?;
+    let observer: Arc<dyn RunObserver> = Arc::new(firecast_registry::Registry::open(&settings.registry)?);
+    let engine = crate::cmd_pipeline::engine(settings, observer)?;
+    let opts = RunOptions {
+        force,
+        dry_run: false,
+        jobs: 1,
+        only: Vec::new(),
+        progress: settings.progress,
+    };
+    let report = engine.run(&plan, &opts)?;
+    for warning in &report.warnings {
+        eprintln!("warning: {warning}");
+    }
+    if let Some(failed) = report.stages.iter().find(|s| s.error.is_some()) {
+        anyhow::bail!(
+            "`{name}` failed: {}",
+            failed.error.as_deref().unwrap_or("unknown error")
+        );
+    }
+    let s = report.stages.first();
+    Ok((
+        s.map_or("?".into(), |s| s.outcome.label().to_string()),
+        s.map_or(0.0, |s| s.duration_secs),
+        report.pipeline_run_id.unwrap_or_else(|| "-".into()),
+    ))
+}
+
+fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
+    let file = relative_to_root(settings, &args.config);
+    let mut spec = TrainSpec::load(&settings.root, &file, &args.set)?;
+    if let Some(device) = &args.device {
+        spec.device = device.clone();
+    }
+    let fires = firecast_rl::spec::fires_path(&spec).cloned();
+    if let EnvSpec::Helitack { fires: f } = &mut spec.env {
+        if f.is_none() {
+            anyhow::bail!(
+                "{}: `env.fires`: the helitack environment needs a fire file",
+                file.display()
+            );
+        }
+        *f = None;
+    }
+    let work = firecast_rl::run::work_dir(
+        &settings.root,
+        &spec,
+        fires.as_ref().map(|f| settings.root.join(f)).as_deref(),
+    )?;
+    if args.fresh && work.exists() {
+        std::fs::remove_dir_all(&work).with_context(|| format!("removing {}", work.display()))?;
+    }
+    let has_checkpoint = spec
+        .seeds
+        .iter()
+        .any(|s| firecast_rl::train::Trainer::latest_checkpoint(&work.join(format!("seed-{s}"))).is_some());
+    if args.resume && !has_checkpoint {
+        anyhow::bail!(
+            "nothing to resume: no checkpoint of this spec in {} (a changed spec or fire file is a new run)",
+            work.display()
+        );
+    }
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("experiments/runs").join(&spec.name));
+    let mut stage = serde_json::json!({
+        "uses": "rl.train",
+        "description": spec.description.clone().unwrap_or_else(|| format!("PPO {} ({})", spec.name, file.display())),
+        "params": serde_json::to_value(&spec)?,
+        "outputs": {"run": out.display().to_string()},
+    });
+    if let Some(f) = &fires {
+        stage["inputs"] = serde_json::json!({"fires": f.display().to_string()});
+    }
+    if let Some(n) = args.stop_after {
+        // SAFETY of set_var: single-threaded at this point (before the runner starts).
+        #[allow(unsafe_code)]
+        unsafe {
+            std::env::set_var(firecast_rl::stage::STOP_AFTER_ENV, n.to_string());
+        }
+    }
+    // A resumed or interrupted run must run, whatever the cache says.
+    let (outcome, secs, run_id) =
+        run_stage(settings, &file, &spec.name, stage, args.force || has_checkpoint)?;
+    let summary: firecast_rl::run::TrainSummary = serde_json::from_slice(&std::fs::read(
+        settings.root.join(&out).join(firecast_rl::run::SUMMARY_FILE),
+    )?)?;
+    if settings.json {
+        output::print_json(&summary)?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    let mut table = output::table(&[
+        "seed",
+        "steps",
+        "resumed from",
+        "ep_rew_mean (last 100)",
+        "ep_len_mean",
+        "parameters",
+        "seconds",
+    ]);
+    for s in &summary.seeds {
+        table.add_row(vec![
+            s.seed.to_string(),
+            s.timesteps.to_string(),
+            s.resumed_from.map_or("-".into(), |r| r.to_string()),
+            format!("{:.2}", s.ep_rew_mean),
+            format!("{:.1}", s.ep_len_mean),
+            s.parameters.to_string(),
+            format!("{:.1}", s.seconds),
+        ]);
+    }
+    println!("{table}");
+    println!(
+        "\nrl train {}: {outcome} ({secs:.1}s), run folder {} (run {run_id}); curves in {}",
+        spec.name,
+        out.display(),
+        out.join("training.png").display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode> {
+    let run = relative_to_root(settings, &args.run);
+    let summary_path = settings.root.join(&run).join(firecast_rl::run::SUMMARY_FILE);
+    let summary: firecast_rl::run::TrainSummary = serde_json::from_slice(
+        &std::fs::read(&summary_path)
+            .with_context(|| format!("{} is not a training run folder", run.display()))?,
+    )
+    .with_context(|| format!("reading {}", summary_path.display()))?;
+    let fires = match &args.fires {
+        Some(f) => relative_to_root(settings, f),
+        None => summary.fires_file.clone().with_context(|| {
+            format!(
+                "the run {} does not say which fire file it used: pass --fires",
+                run.display()
+            )
+        })?,
+    };
+    let out = args.out.clone().unwrap_or_else(|| run.join("evaluation"));
+    let name = format!("{}-evaluate", summary.name);
+    let params = firecast_rl::stage::EvaluateParams {
+        eval: firecast_rl::evaluate::EvalConfig {
+            deterministic: !args.stochastic,
+            resamples: args.resamples,
+            ..Default::default()
+        },
+        device: args.device.clone(),
+    };
+    let stage = serde_json::json!({
+        "uses": "rl.evaluate",
+        "description": format!("Table IV for {}", run.display()),
+        "params": serde_json::to_value(&params)?,
+        "inputs": {"run": run.display().to_string(), "fires": fires.display().to_string()},
+        "outputs": {"report": out.display().to_string()},
+    });
+    let (outcome, secs, run_id) = run_stage(settings, &fires, &name, stage, args.force)?;
+    let report: firecast_rl::evaluate::EvalReport =
+        serde_json::from_slice(&std::fs::read(settings.root.join(&out).join("evaluation.json"))?)?;
+    if settings.json {
+        output::print_json(&report)?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!("{}", firecast_rl::evaluate::markdown(&report));
+    println!(
+        "rl evaluate: {outcome} ({secs:.1}s), report in {} (run {run_id}); plots table4.png, ppo_vs_rule.png",
+        out.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}

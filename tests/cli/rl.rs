@@ -1,0 +1,184 @@
+//! `firecast rl train|evaluate` on tiny budgets: CartPole, the helitack fires on a small
+//! grid, interruption and exact resumption, Table IV, and bad input.
+
+use crate::{Project, describe};
+
+const FIRES: &str = r#"
+profile: p2
+train:
+  landscape_seeds: [1, 2]
+  width: 48
+  height: 32
+  fires: 6
+  seed: 1
+  wind_speed_mph: [3, 6]
+  dead_1h_frac: [0.06, 0.1]
+  ignition_margin_cells: 8
+  env: {max_steps: 40}
+evaluate:
+  landscape_seeds: [11, 12]
+  width: 48
+  height: 32
+  fires: 5
+  seed: 2
+  wind_speed_mph: [3, 6]
+  dead_1h_frac: [0.06, 0.1]
+  ignition_margin_cells: 8
+  env: {max_steps: 40}
+"#;
+
+fn spec(name: &str) -> String {
+    format!(
+        r#"
+name: {name}
+env: {{kind: helitack, fires: fires.yaml}}
+policy: {{kind: compact}}
+ppo: {{preset: paper, n_envs: 2, n_steps: 16, batch_size: 16, n_epochs: 2, total_timesteps: 96}}
+seeds: [3]
+checkpoint_every: 1
+device: cpu
+"#
+    )
+}
+
+fn project() -> Project {
+    let p = Project::new();
+    p.write("fires.yaml", FIRES);
+    p.write("a.yaml", &spec("heli-a"));
+    p.write("b.yaml", &spec("heli-b"));
+    p
+}
+
+#[test]
+fn cartpole_trains_and_reports_sb3_metrics() {
+    let p = Project::new();
+    p.write(
+        "cp.yaml",
+        "name: cp\nenv: {kind: cartpole}\nppo: {preset: cartpole_zoo, total_timesteps: 2048}\nseeds: [0, 1]\ndevice: cpu\n",
+    );
+    let s = p.json(&["rl", "train", "--config", "cp.yaml"]);
+    let seeds = s["seeds"].as_array().unwrap();
+    assert_eq!(seeds.len(), 2);
+    for seed in seeds {
+        assert_eq!(seed["timesteps"], 2048);
+        assert!(seed["ep_rew_mean"].as_f64().unwrap() > 9.0, "{seed}");
+    }
+    let metrics = p.read("experiments/runs/cp/seed-0/metrics.jsonl");
+    let last: serde_json::Value = serde_json::from_str(metrics.lines().last().unwrap()).unwrap();
+    for key in [
+        "rollout/ep_rew_mean",
+        "train/approx_kl",
+        "train/clip_fraction",
+        "train/entropy_loss",
+        "train/explained_variance",
+        "train/value_loss",
+        "train/policy_gradient_loss",
+        "time/fps",
+    ] {
+        assert!(last.get(key).is_some(), "{key} missing in {last}");
+    }
+    assert!(p.path("experiments/runs/cp/training.png").exists());
+    // The registry has the per-update metrics under SB3's names.
+    let rows = p.json(&[
+        "query",
+        "SELECT count(*) AS n FROM metrics WHERE key LIKE '%train/approx_kl'",
+    ]);
+    assert!(rows.to_string().contains("16"), "{rows}");
+}
+
+#[test]
+fn an_interrupted_helitack_run_resumes_to_the_same_policy() {
+    let p = project();
+    // Interrupted after 32 of 96 steps: the command fails, the checkpoint stays.
+    let out = p
+        .firecast()
+        .args(["rl", "train", "--config", "a.yaml", "--stop-after", "32"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "{}", describe(&out));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("resume"),
+        "{}",
+        describe(&out)
+    );
+    assert!(
+        !p.path("experiments/runs/heli-a/summary.json").exists(),
+        "no finished-looking output"
+    );
+    let resumed = p.json(&["rl", "train", "--config", "a.yaml", "--resume"]);
+    assert_eq!(resumed["seeds"][0]["resumed_from"], 32, "{resumed}");
+    assert_eq!(resumed["seeds"][0]["timesteps"], 96);
+    // The same spec under another name, straight through.
+    let straight = p.json(&["rl", "train", "--config", "b.yaml"]);
+    assert!(straight["seeds"][0]["resumed_from"].is_null());
+    let a = std::fs::read(p.path("experiments/runs/heli-a/seed-3/policy/policy.safetensors")).unwrap();
+    let b = std::fs::read(p.path("experiments/runs/heli-b/seed-3/policy/policy.safetensors")).unwrap();
+    assert!(a == b, "resumed and straight policies differ");
+    // Nothing left to resume once finished and cached; --resume without checkpoints errors.
+    let out = p
+        .firecast()
+        .args(["rl", "train", "--config", "b.yaml", "--fresh", "--resume"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+
+    // Table IV on the held-out fires, paired across agents.
+    let r = p.json(&[
+        "rl",
+        "evaluate",
+        "--run",
+        "experiments/runs/heli-a",
+        "--resamples",
+        "200",
+    ]);
+    let agents: Vec<&str> = r["agents"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["agent"].as_str().unwrap())
+        .collect();
+    assert_eq!(agents, ["ppo", "rule", "rule-concentric", "none"]);
+    assert_eq!(r["episodes"].as_array().unwrap().len(), 5 * 4);
+    assert_eq!(r["fires"].as_array().unwrap().len(), 5);
+    let none = &r["agents"][3];
+    assert_eq!(none["helitacks"]["mean"]["estimate"], 0.0);
+    assert_eq!(none["cells_saved"]["mean"]["estimate"], 0.0);
+    assert_eq!(r["comparisons"].as_array().unwrap().len(), 3);
+    for f in ["table4.md", "episodes.csv", "table4.png", "ppo_vs_rule.png"] {
+        assert!(
+            p.path(&format!("experiments/runs/heli-a/evaluation/{f}"))
+                .exists(),
+            "{f}"
+        );
+    }
+}
+
+#[test]
+fn bad_training_specs_name_the_key() {
+    let p = project();
+    let cases = [
+        ("-S", "ppo.bogus=1", "ppo.bogus"),
+        ("-S", "ppo.batch_size=20", "does not divide the rollout"),
+        ("-S", "ppo.preset=fast", "unknown preset `fast`"),
+        ("-S", "policy.kind=mlp", "policy.kind"),
+        ("-S", "seeds=[]", "seeds"),
+    ];
+    for (flag, value, expect) in cases {
+        let out = p
+            .firecast()
+            .args(["rl", "train", "--config", "a.yaml", flag, value])
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{value}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(expect), "{value}: expected `{expect}` in\n{err}");
+    }
+    p.write("c.yaml", "name: c\nenv: {kind: cartpole}\nlearning_rate: 1\n");
+    let out = p
+        .firecast()
+        .args(["rl", "train", "--config", "c.yaml"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("c.yaml:3") && err.contains("learning_rate"), "{err}");
+}
