@@ -215,8 +215,8 @@ fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
             s.seed.to_string(),
             s.timesteps.to_string(),
             s.resumed_from.map_or("-".into(), |r| r.to_string()),
-            format!("{:.2}", s.ep_rew_mean),
-            format!("{:.1}", s.ep_len_mean),
+            s.ep_rew_mean.map_or("-".into(), |v| format!("{v:.2}")),
+            s.ep_len_mean.map_or("-".into(), |v| format!("{v:.1}")),
             s.parameters.to_string(),
             format!("{:.1}", s.seconds),
         ]);

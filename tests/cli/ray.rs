@@ -42,7 +42,7 @@ struct RayCluster {
 }
 
 impl RayCluster {
-    fn start(env: &[(&str, String)]) -> Self {
+    fn start(env: &[(String, String)]) -> Self {
         let ray = venv_bin("ray");
         assert!(ray.exists(), "{} missing: run `cargo xtask setup`", ray.display());
         // Short path: Ray's socket paths must fit in 107 bytes.
@@ -87,7 +87,7 @@ impl RayCluster {
         cluster
     }
 
-    fn launch(&mut self, name: &str, args: &[String], env: &[(&str, String)]) {
+    fn launch(&mut self, name: &str, args: &[String], env: &[(String, String)]) {
         let log = std::fs::File::create(self.dir.path().join(format!("{name}.out"))).unwrap();
         let mut command = Command::new("setsid");
         command
@@ -249,12 +249,12 @@ fn ray_runs_match_local_and_survive_faults() {
     let started = Instant::now();
     let moto = Moto::start();
     moto.create_bucket("fc-ray");
-    let moto_env: Vec<(&str, String)> = {
+    let moto_env: Vec<(String, String)> = {
         let mut probe = Command::new("true");
         moto.env(&mut probe);
         probe
             .get_envs()
-            .filter_map(|(k, v)| Some((k.to_str()?, v?.to_string_lossy().to_string())))
+            .filter_map(|(k, v)| Some((k.to_str()?.to_string(), v?.to_string_lossy().to_string())))
             .collect()
     };
     let cluster = RayCluster::start(&moto_env);
@@ -353,15 +353,15 @@ fn ray_runs_match_local_and_survive_faults() {
     );
     let out = ray_run(&faults, &moto, "pipelines/bad.yaml", &["--ray-address", &address]);
     assert_eq!(out.status.code(), Some(1), "{}", describe(&out));
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        stderr.contains("stage `bad`: failed on worker ")
-            && stderr.contains("(ray job firecast-")
-            && stderr.contains("command exited with code 3")
-            && stderr.contains("(log: .firecast/logs/"),
-        "{stderr}"
-    );
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let error = report["stages"][0]["error"].as_str().unwrap();
+    assert!(
+        error.starts_with("stage `bad`: failed on worker ")
+            && error.contains("(ray job firecast-")
+            && error.contains("command exited with code 3")
+            && error.contains("(log: .firecast/logs/"),
+        "{error}"
+    );
     let run_id = report["stages"][0]["run_id"].as_str().unwrap();
     assert!(
         faults
@@ -384,12 +384,13 @@ fn ray_runs_match_local_and_survive_faults() {
     );
     assert_eq!(out.status.code(), Some(1), "{}", describe(&out));
     assert!(t.elapsed() < Duration::from_secs(30));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let error = report["stages"][0]["error"].as_str().unwrap();
     assert!(
-        stderr.contains("stage `big`: ray job firecast-")
-            && stderr.contains("stayed PENDING for 3 s (asked for 64 CPUs)")
-            && stderr.contains("the job was stopped"),
-        "{stderr}"
+        error.starts_with("stage `big`: ray job firecast-")
+            && error.contains("stayed PENDING for 3 s (asked for 64 CPUs)")
+            && error.contains("the job was stopped"),
+        "{error}"
     );
 
     // The driver killed mid-run: the rerun takes what finished from the lockfile.
@@ -509,6 +510,7 @@ fn ray_executor_bad_input_is_named_before_any_work() {
         "{stderr}"
     );
 
+    std::fs::remove_file(p.path("firecast.yaml")).unwrap();
     p.write(
         "pipelines/one.yaml",
         "stages:\n  one:\n    uses: cmd\n    shards: 2\n    params: {command: \"echo > ${outputs.out}\"}\n    outputs: {out: one.txt}\n",

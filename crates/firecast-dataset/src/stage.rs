@@ -335,8 +335,8 @@ impl StageKind for IgnitionsStage {
     }
     fn version(&self) -> u32 {
         // 2: provenance names files instead of absolute paths. 3: the reject report gains
-        // the physical line of each row.
-        3
+        // the physical line of each row. 4: the JSON report's paths are relative to the root.
+        4
     }
     fn summary(&self) -> &'static str {
         "IRWIN/WFIGS incidents -> de-duplicated ignitions (5 km / 2 h rule, CONUS box, GRIDMET land mask)"
@@ -366,8 +366,17 @@ impl StageKind for IgnitionsStage {
         let gridmet = ctx.input_list("gridmet").first().cloned();
         let out = ctx.output("ignitions")?.to_path_buf();
         let rejects = ctx.output("rejects")?.to_path_buf();
-        let report =
+        let mut report =
             run_ignitions(&incidents, gridmet.as_deref(), &params, &out, &rejects).map_err(stage_err)?;
+        // Paths in the report relative to the project root: the same bytes wherever the
+        // project (or a remote worker's copy of it) lives.
+        fn relative(path: &str, root: &Path) -> String {
+            Path::new(path)
+                .strip_prefix(root)
+                .map_or_else(|_| path.to_string(), |p| p.display().to_string())
+        }
+        report.incidents_file = relative(&report.incidents_file, ctx.root());
+        report.land_mask = report.land_mask.as_deref().map(|p| relative(p, ctx.root()));
         ctx.metric("ignitions_kept", 0, report.rules.kept as f64);
         ctx.metric("incident_rows", 0, report.rows_read as f64);
         ctx.log(format!(

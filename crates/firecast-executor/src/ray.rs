@@ -455,10 +455,15 @@ impl RayExecutor {
                 None => {
                     let logs = self.jobs.logs(&id);
                     let lines: Vec<String> = logs.lines().map(str::to_string).collect();
+                    // The last line the task printed (not Ray's own job-manager lines).
                     let tail = lines
                         .iter()
                         .rev()
-                        .find(|l| !l.trim().is_empty())
+                        .find(|l| {
+                            !l.trim().is_empty()
+                                && !l.starts_with("Running entrypoint for job")
+                                && !l.contains(" INFO job_manager.py")
+                        })
                         .cloned()
                         .unwrap_or_default();
                     let why = format!(
@@ -471,7 +476,7 @@ impl RayExecutor {
                             format!("; last log line: {tail}")
                         }
                     );
-                    let missing_binary = info.exit_code == Some(127) || logs.contains("is missing on worker");
+                    let missing_binary = info.exit_code == Some(127);
                     if info.status == "FAILED" && !missing_binary && attempt < self.opts.max_attempts {
                         warnings.lock().unwrap_or_else(|e| e.into_inner()).push(format!(
                             "{what}: attempt {attempt} of {} lost its worker, retried: {why}",
@@ -499,8 +504,10 @@ impl RayExecutor {
     }
 }
 
+/// The first line of Ray's job message, without the log excerpt it appends.
 fn first_line(text: &str) -> &str {
     let line = text.lines().next().unwrap_or("").trim();
+    let line = line.split(", last available logs").next().unwrap_or(line);
     if line.is_empty() {
         "no message"
     } else {

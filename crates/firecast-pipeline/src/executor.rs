@@ -169,7 +169,8 @@ pub fn invoke(kind: &dyn StageKind, inv: &Invocation<'_>) -> (Result<(), StageEr
             jobs: inv.jobs,
             shard: inv.shard,
         };
-        let ran = match inv.shard {
+        // A panicking stage is a failed stage, not a runner waiting for ever on its result.
+        let ran = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match inv.shard {
             None => kind.run(&mut ctx),
             Some(shard) => match kind.sharded() {
                 Some(sharded) => sharded.run_shard(&mut ctx, shard),
@@ -178,7 +179,15 @@ pub fn invoke(kind: &dyn StageKind, inv: &Invocation<'_>) -> (Result<(), StageEr
                     kind.name()
                 ))),
             },
-        };
+        }))
+        .unwrap_or_else(|payload| {
+            let what = payload
+                .downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| payload.downcast_ref::<&str>().copied())
+                .unwrap_or("unknown panic");
+            Err(StageError::msg(format!("the stage panicked: {what}")))
+        });
         ran.and_then(|()| {
             for (name, tmp) in inv.outputs {
                 if !tmp.exists() {

@@ -360,3 +360,27 @@ pub fn artifact_key(run_id: &str, name: &str, file: &Path) -> String {
         .unwrap_or_else(|| name.to_string());
     format!("runs/{run_id}/{name}/{file_name}")
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::Shard;
+
+    #[test]
+    fn shards_parse_and_cover_every_unit_once() {
+        assert_eq!(Shard::parse("2/8").unwrap(), Shard { index: 2, count: 8 });
+        for bad in ["8/8", "1/0", "a/2", "3", "-1/2"] {
+            assert!(Shard::parse(bad).is_err(), "{bad}");
+        }
+        for (units, count) in [(10, 3), (4, 4), (7, 1), (10_000, 64)] {
+            let mut next = 0;
+            for index in 0..count {
+                let r = Shard { index, count }.range(units);
+                assert_eq!(r.start, next);
+                assert!(r.len() == units / count as usize || r.len() == units / count as usize + 1);
+                next = r.end;
+            }
+            assert_eq!(next, units);
+        }
+    }
+}

@@ -21,6 +21,9 @@ use crate::policy::Policy;
 use crate::spec::FiresSpec;
 use crate::train::{POLICY_FILE, policy_actions};
 
+/// A statistic of (agent, baseline) pairs.
+type PairStat<'a> = &'a dyn Fn(&[(f64, f64)]) -> Option<f64>;
+
 /// One episode's outcome.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Episode {
@@ -338,7 +341,7 @@ fn compare(
         .iter()
         .map(|g| (0..g.len()).map(|i| i as f64).collect())
         .collect();
-    let stat = |g: &[Vec<f64>], f: &dyn Fn(&[(f64, f64)]) -> Option<f64>| {
+    let stat = |g: &[Vec<f64>], f: PairStat<'_>| {
         let chosen: Vec<(f64, f64)> = g
             .iter()
             .zip(&pairs)
@@ -370,7 +373,7 @@ fn compare(
         })
     };
     let err = |e: firecast_eval::EvalError| RlError::config("evaluation", e.to_string());
-    let run = |f: &dyn Fn(&[(f64, f64)]) -> Option<f64>, salt: u64| {
+    let run = |f: PairStat<'_>, salt: u64| {
         stratified_bootstrap(&index_groups, cfg.resamples, cfg.seed ^ salt, cfg.level, |g| {
             stat(g, f)
         })

@@ -90,7 +90,11 @@ impl FireSet {
         if self.fires == 0 {
             return bad("fires", "must be at least 1".into());
         }
-        if self.width % 8 != 0 || self.height % 8 != 0 || self.width < 16 || self.height < 16 {
+        if !self.width.is_multiple_of(8)
+            || !self.height.is_multiple_of(8)
+            || self.width < 16
+            || self.height < 16
+        {
             return bad(
                 "width",
                 format!(
@@ -104,7 +108,7 @@ impl FireSet {
             ("wind_from_deg", self.wind_from_deg),
             ("dead_1h_frac", self.dead_1h_frac),
         ] {
-            if !(lo <= hi) || lo < 0.0 {
+            if lo.is_nan() || hi.is_nan() || lo > hi || lo < 0.0 {
                 return bad(k, format!("[{lo}, {hi}] is not a range of non-negative values"));
             }
         }

@@ -114,11 +114,16 @@ fn conv(p: nn::Path<'_>, i: i64, o: i64, k: i64, stride: i64, padding: i64, gain
         padding,
         ..Default::default()
     };
-    if let Some(gain) = gain {
-        cfg.ws_init = nn::Init::Orthogonal { gain };
+    if gain.is_some() {
         cfg.bs_init = nn::Init::Const(0.0);
     }
-    nn::conv2d(p, i, o, k, cfg)
+    let mut c = nn::conv2d(p, i, o, k, cfg);
+    // tch's Orthogonal creates a 2-D tensor: build the 4-D weight, then fill it in place
+    // (torch's orthogonal_ on the weight flattened to [out, in·k·k], as SB3 does).
+    if let Some(gain) = gain {
+        nn::Init::Orthogonal { gain }.set(&mut c.ws);
+    }
+    c
 }
 
 /// An MLP of `sizes` with `activation` after every layer (SB3's `mlp_extractor` nets).

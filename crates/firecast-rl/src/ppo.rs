@@ -241,7 +241,7 @@ impl PpoConfig {
         if self.batch_size < 2 && self.normalize_advantage {
             return bad("batch_size", "must be > 1 with normalize_advantage (SB3)".into());
         }
-        if self.buffer_size() % self.batch_size != 0 {
+        if !self.buffer_size().is_multiple_of(self.batch_size) {
             return bad(
                 "batch_size",
                 format!(
@@ -261,16 +261,16 @@ impl PpoConfig {
                 return bad(k, format!("{v} is not in [0, 1]"));
             }
         }
-        if !(self.learning_rate.initial() > 0.0) {
+        if self.learning_rate.initial().is_nan() || self.learning_rate.initial() <= 0.0 {
             return bad("learning_rate", "must be positive".into());
         }
-        if !(self.clip_range.initial() > 0.0) {
+        if self.clip_range.initial().is_nan() || self.clip_range.initial() <= 0.0 {
             return bad("clip_range", "must be positive".into());
         }
-        if !(self.max_grad_norm > 0.0) {
+        if self.max_grad_norm.is_nan() || self.max_grad_norm <= 0.0 {
             return bad("max_grad_norm", "must be positive".into());
         }
-        if !(self.adam_eps > 0.0) {
+        if self.adam_eps.is_nan() || self.adam_eps <= 0.0 {
             return bad("adam_eps", "must be positive".into());
         }
         if self.total_timesteps == 0 {

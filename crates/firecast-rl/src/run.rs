@@ -29,8 +29,9 @@ pub struct SeedSummary {
     pub timesteps: u64,
     /// Timesteps of the checkpoint this process resumed from, if it did.
     pub resumed_from: Option<u64>,
-    pub ep_rew_mean: f64,
-    pub ep_len_mean: f64,
+    /// Mean return of the last 100 training episodes (`None` before the first ended).
+    pub ep_rew_mean: Option<f64>,
+    pub ep_len_mean: Option<f64>,
     /// Folder of the final policy (relative to the run's output).
     pub policy: String,
     pub parameters: i64,
@@ -183,11 +184,7 @@ pub fn train(
             .map_err(|e| RlError::io("copying metrics", &dest, e))?;
         let mean = |f: &dyn Fn(&crate::train::EpisodeRecord) -> f64| {
             let v: Vec<f64> = trainer.episodes.iter().map(f).collect();
-            if v.is_empty() {
-                f64::NAN
-            } else {
-                v.iter().sum::<f64>() / v.len() as f64
-            }
+            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
         };
         seeds.push(SeedSummary {
             seed,

@@ -202,7 +202,7 @@ impl Trainer {
             sink.progress(self.num_timesteps, total, fps, ep_rew);
             if let Some((dir, every)) = checkpoints {
                 let last = self.num_timesteps >= stop;
-                if last || (every > 0 && self.iterations % every == 0) {
+                if last || (every > 0 && self.iterations.is_multiple_of(every)) {
                     let path = dir.join(format!("step-{:09}", self.num_timesteps));
                     self.save(&path)?;
                     sink.checkpoint(&path, self.num_timesteps);
@@ -264,8 +264,8 @@ impl Trainer {
             self.env.step(&actions)?;
             self.num_timesteps += n as u64;
             let raw = self.env.rewards().to_vec();
-            for i in 0..n {
-                dones[i] = self.env.terminated()[i] || self.env.truncated()[i];
+            for (i, d) in dones.iter_mut().enumerate() {
+                *d = self.env.terminated()[i] || self.env.truncated()[i];
             }
             self.env.observe(&mut new_obs);
             self.normalize.observe(&mut new_obs.vector);
