@@ -279,3 +279,99 @@ fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode
     );
     Ok(ExitCode::SUCCESS)
 }
+
+#[derive(Debug, Args)]
+pub struct BenchPpoArgs {
+    /// Environment steps per phase.
+    #[arg(long, default_value_t = 50_000)]
+    pub steps: u64,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Python with stable-baselines3 [default: $FIRECAST_VENV, ./.venv, python3].
+    #[arg(long, value_name = "PATH")]
+    pub python: Option<PathBuf>,
+}
+
+#[derive(Debug, serde::Serialize)]
+struct BenchPpoReport {
+    task: &'static str,
+    steps: u64,
+    threads: usize,
+    firecast: firecast_rl::bench::PhaseSpeeds,
+    sb3: serde_json::Value,
+    ratios: serde_json::Value,
+}
+
+/// `firecast bench ppo`: (a) CartPole-v1 with the MLP policy and RL-Zoo's settings,
+/// FireCast beside SB3 in the same command, one torch thread each.
+pub fn bench_ppo(settings: &Settings, args: &BenchPpoArgs) -> anyhow::Result<ExitCode> {
+    let ppo = firecast_rl::ppo::PpoConfig::cartpole_zoo();
+    firecast_learn::set_threads(1);
+    eprintln!("FireCast PPO on CartPole-v1 ({} steps per phase, 1 thread) ...", args.steps);
+    let firecast = firecast_rl::bench::cartpole(&ppo, args.steps, args.seed)?;
+    let python = firecast_dataset::bench::find_python(args.python.as_deref(), &settings.root);
+    eprintln!("SB3 PPO on CartPole-v1 with the same settings ({}) ...", python.display());
+    let lr = ppo.learning_rate.at(1.0);
+    let clip = ppo.clip_range.at(1.0);
+    let cfg = serde_json::json!({
+        "n_envs": ppo.n_envs, "steps": args.steps, "seed": args.seed, "n_steps": ppo.n_steps,
+        "batch_size": ppo.batch_size, "n_epochs": ppo.n_epochs, "gamma": ppo.gamma,
+        "gae_lambda": ppo.gae_lambda, "ent_coef": ppo.ent_coef, "learning_rate": lr, "clip_range": clip,
+    });
+    let out = std::process::Command::new(&python)
+        .arg("-c")
+        .arg(firecast_rl::bench::SB3_SCRIPT)
+        .arg(cfg.to_string())
+        .env("OMP_NUM_THREADS", "1")
+        .env("MKL_NUM_THREADS", "1")
+        .output()
+        .with_context(|| format!("running {}", python.display()))?;
+    if !out.status.success() {
+        anyhow::bail!(
+            "the SB3 reference failed ({}): {}",
+            python.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let sb3: serde_json::Value = serde_json::from_slice(
+        out.stdout.split(|&b| b == b'\n').rfind(|l| !l.is_empty()).unwrap_or_default(),
+    )
+    .context("the SB3 reference printed no JSON")?;
+    let get = |k: &str| sb3.get(k).and_then(serde_json::Value::as_f64).unwrap_or(f64::NAN);
+    let ratios = serde_json::json!({
+        "env": firecast.env_sps / get("env_sps"),
+        "rollout": firecast.rollout_sps / get("rollout_sps"),
+        "train": firecast.train_sps / get("train_sps"),
+    });
+    let report = BenchPpoReport {
+        task: "CartPole-v1, MLP policy, RL-Zoo settings (8 envs x 32 steps, batch 256, 20 epochs)",
+        steps: args.steps,
+        threads: 1,
+        firecast,
+        sb3: sb3.clone(),
+        ratios: ratios.clone(),
+    };
+    if settings.json {
+        output::print_json(&report)?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    let mut table = output::table(&["phase (steps/s)", "FireCast", "SB3", "FireCast / SB3"]);
+    for (name, f, k) in [
+        ("environment only", firecast.env_sps, "env"),
+        ("rollout (env + inference)", firecast.rollout_sps, "rollout"),
+        ("training (rollouts + updates)", firecast.train_sps, "train"),
+    ] {
+        table.add_row(vec![
+            name.to_string(),
+            format!("{f:.0}"),
+            format!("{:.0}", get(&format!("{k}_sps"))),
+            format!("{:.1}x", ratios[k].as_f64().unwrap_or(f64::NAN)),
+        ]);
+    }
+    println!("{}\n{table}", report.task);
+    println!(
+        "SB3 {} / torch {} / gymnasium {}, one torch thread each; {} steps per phase",
+        sb3["sb3"], sb3["torch"], sb3["gymnasium"], args.steps
+    );
+    Ok(ExitCode::SUCCESS)
+}

@@ -78,6 +78,9 @@ enum BenchCommand {
     /// the same command on the same files and windows), with the ratio and a projection to
     /// the paper's scale.
     Gridmet(cmd_dataset::BenchGridmetArgs),
+    /// PPO speed beside Stable-Baselines3 in the same command (CartPole-v1, MLP policy, same
+    /// settings, one torch thread each): environment only, rollout, training.
+    Ppo(cmd_rl::BenchPpoArgs),
 }
 
 fn main() -> ExitCode {
@@ -116,6 +119,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Sim(command) => cmd_sim::run(&settings, command),
         Command::Bench(BenchCommand::Sim(args)) => cmd_sim::bench(&settings, &args),
         Command::Bench(BenchCommand::Gridmet(args)) => cmd_dataset::bench_gridmet(&settings, &args),
+        Command::Bench(BenchCommand::Ppo(args)) => cmd_rl::bench_ppo(&settings, &args),
         Command::Doctor => doctor(&settings),
     }
 }

@@ -476,8 +476,12 @@ impl RayExecutor {
                             format!("; last log line: {tail}")
                         }
                     );
-                    let missing_binary = info.exit_code == Some(127);
-                    if info.status == "FAILED" && !missing_binary && attempt < self.opts.max_attempts {
+                    // Killed (a signal, or no exit code when the node died): worth another
+                    // try. An ordinary exit without a result (127: no binary; 2: firecast could
+                    // not read the task or write the result, e.g. a store the worker cannot
+                    // write) would fail the same way again.
+                    let lost = !matches!(info.exit_code, Some(code) if (0..128).contains(&code));
+                    if info.status == "FAILED" && lost && attempt < self.opts.max_attempts {
                         warnings.lock().unwrap_or_else(|e| e.into_inner()).push(format!(
                             "{what}: attempt {attempt} of {} lost its worker, retried: {why}",
                             self.opts.max_attempts

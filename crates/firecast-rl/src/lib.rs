@@ -8,6 +8,7 @@
 //! - [`train`]: the learning loop, checkpoints and exact resumption;
 //! - [`env`]: the batched-environment interface, with [`cartpole`] (the correctness gate).
 
+pub mod bench;
 pub mod buffer;
 pub mod cartpole;
 pub mod env;
