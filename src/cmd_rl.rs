@@ -307,10 +307,16 @@ struct BenchPpoReport {
 pub fn bench_ppo(settings: &Settings, args: &BenchPpoArgs) -> anyhow::Result<ExitCode> {
     let ppo = firecast_rl::ppo::PpoConfig::cartpole_zoo();
     firecast_learn::set_threads(1);
-    eprintln!("FireCast PPO on CartPole-v1 ({} steps per phase, 1 thread) ...", args.steps);
+    eprintln!(
+        "FireCast PPO on CartPole-v1 ({} steps per phase, 1 thread) ...",
+        args.steps
+    );
     let firecast = firecast_rl::bench::cartpole(&ppo, args.steps, args.seed)?;
     let python = firecast_dataset::bench::find_python(args.python.as_deref(), &settings.root);
-    eprintln!("SB3 PPO on CartPole-v1 with the same settings ({}) ...", python.display());
+    eprintln!(
+        "SB3 PPO on CartPole-v1 with the same settings ({}) ...",
+        python.display()
+    );
     let lr = ppo.learning_rate.at(1.0);
     let clip = ppo.clip_range.at(1.0);
     let cfg = serde_json::json!({
@@ -334,7 +340,10 @@ pub fn bench_ppo(settings: &Settings, args: &BenchPpoArgs) -> anyhow::Result<Exi
         );
     }
     let sb3: serde_json::Value = serde_json::from_slice(
-        out.stdout.split(|&b| b == b'\n').rfind(|l| !l.is_empty()).unwrap_or_default(),
+        out.stdout
+            .split(|&b| b == b'\n')
+            .rfind(|l| !l.is_empty())
+            .unwrap_or_default(),
     )
     .context("the SB3 reference printed no JSON")?;
     let get = |k: &str| sb3.get(k).and_then(serde_json::Value::as_f64).unwrap_or(f64::NAN);

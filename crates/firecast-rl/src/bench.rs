@@ -34,7 +34,9 @@ pub fn cartpole(ppo: &PpoConfig, steps: u64, seed: u64) -> Result<PhaseSpeeds, R
     let mut env = CartPoleVec::new(n, seed);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let rounds = (steps / n as u64).max(1);
-    let actions: Vec<Vec<u8>> = (0..rounds).map(|_| (0..n).map(|_| rng.random_range(0..2u8)).collect()).collect();
+    let actions: Vec<Vec<u8>> = (0..rounds)
+        .map(|_| (0..n).map(|_| rng.random_range(0..2u8)).collect())
+        .collect();
     let t = Instant::now();
     for a in &actions {
         env.step(a)?;
@@ -47,7 +49,13 @@ pub fn cartpole(ppo: &PpoConfig, steps: u64, seed: u64) -> Result<PhaseSpeeds, R
     };
     let mut cfg = ppo.clone();
     cfg.total_timesteps = steps;
-    let mut trainer = Trainer::new(cfg.clone(), &policy, Box::new(CartPoleVec::new(n, seed)), seed, Device::Cpu)?;
+    let mut trainer = Trainer::new(
+        cfg.clone(),
+        &policy,
+        Box::new(CartPoleVec::new(n, seed)),
+        seed,
+        Device::Cpu,
+    )?;
     let rollouts = (steps / ppo.buffer_size() as u64).max(1);
     let t = Instant::now();
     for _ in 0..rollouts {
@@ -55,7 +63,13 @@ pub fn cartpole(ppo: &PpoConfig, steps: u64, seed: u64) -> Result<PhaseSpeeds, R
     }
     let rollout_sps = (rollouts * ppo.buffer_size() as u64) as f64 / t.elapsed().as_secs_f64();
 
-    let mut trainer = Trainer::new(cfg, &policy, Box::new(CartPoleVec::new(n, seed)), seed, Device::Cpu)?;
+    let mut trainer = Trainer::new(
+        cfg,
+        &policy,
+        Box::new(CartPoleVec::new(n, seed)),
+        seed,
+        Device::Cpu,
+    )?;
     let t = Instant::now();
     trainer.learn(&NoSink, None)?;
     let train_sps = trainer.num_timesteps as f64 / t.elapsed().as_secs_f64();
