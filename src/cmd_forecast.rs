@@ -6,14 +6,12 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::Arc;
 
 use anyhow::Context as _;
 use clap::{Args, Subcommand};
 use firecast_forecast::experiment::ExperimentResult;
 use firecast_forecast::spec::ExperimentSpec;
 use firecast_forecast::table::shown_threshold;
-use firecast_pipeline::{RunObserver, RunOptions};
 
 use crate::output;
 use crate::settings::Settings;
@@ -91,21 +89,8 @@ pub fn run_experiment_command(settings: &Settings, command: ExperimentCommand) -
     }
 }
 
-fn relative_to_root(settings: &Settings, path: &Path) -> PathBuf {
-    let abs = if path.is_absolute() {
-        path.to_path_buf()
-    } else {
-        std::env::current_dir()
-            .map(|d| d.join(path))
-            .unwrap_or_else(|_| path.to_path_buf())
-    };
-    abs.strip_prefix(&settings.root)
-        .map(Path::to_path_buf)
-        .unwrap_or(abs)
-}
-
 fn run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
-    let file = relative_to_root(settings, &args.file);
+    let file = crate::cmd_pipeline::relative_to_root(settings, &args.file);
     let mut spec = ExperimentSpec::load(&settings.root, &file, &args.set)?;
     if let Some(device) = &args.device {
         spec.device = device.clone();
@@ -130,53 +115,33 @@ fn run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
         .unwrap_or_else(|| PathBuf::from("experiments/runs").join(&spec.name));
     // A one-stage pipeline: the runner caches, publishes atomically and records the run.
     let stage = serde_json::json!({
-        "description": format!("experiment {} ({})", spec.name, file.display()),
-        "stages": {
-            spec.name.clone(): {
-                "uses": "forecast.experiment",
-                "description": spec.description.clone(),
-                "params": serde_json::to_value(&spec)?,
-                "inputs": {"dataset": dataset.display().to_string()},
-                "outputs": {"report": out.display().to_string()},
-            }
-        }
+        "uses": "forecast.experiment",
+        "description": spec.description.clone(),
+        "params": serde_json::to_value(&spec)?,
+        "inputs": {"dataset": dataset.display().to_string()},
+        "outputs": {"report": out.display().to_string()},
     });
-    let text = serde_json::to_string(&stage)?;
-    let expanded = firecast_pipeline::spec::parse(&settings.root, &file, &text, &[])?;
-    let plan = firecast_pipeline::plan::plan(&expanded, &crate::cmd_pipeline::stage_kinds())?;
-    let observer: Arc<dyn RunObserver> = Arc::new(firecast_registry::Registry::open(&settings.registry)?);
-    let engine = crate::cmd_pipeline::engine(settings, observer)?;
-    let opts = RunOptions {
-        force: args.force,
-        dry_run: false,
-        jobs: 1,
-        only: Vec::new(),
-        progress: settings.progress,
-    };
-    let report = engine.run(&plan, &opts)?;
-    for warning in &report.warnings {
-        eprintln!("warning: {warning}");
-    }
-    if let Some(failed) = report.stages.iter().find(|s| s.error.is_some()) {
-        anyhow::bail!(
-            "experiment `{}` failed: {}",
-            spec.name,
-            failed.error.as_deref().unwrap_or("unknown error")
-        );
-    }
-    let stage = report.stages.first();
+    let (outcome, secs, run_id) = crate::cmd_pipeline::run_one_stage(
+        settings,
+        &file,
+        "experiment",
+        &spec.name,
+        stage,
+        Some(format!("experiment {} ({})", spec.name, file.display())),
+        args.force,
+    )?;
     let result = read_result(&settings.root.join(&out))?;
     if settings.json {
         output::print_json(&result)?;
     } else {
         print_tables(&result)?;
         println!(
-            "\nexperiment {}: {} ({}), report in {} (run {})",
+            "\nexperiment {}: {} ({:.1}s), report in {} (run {})",
             spec.name,
-            stage.map_or("?", |s| s.outcome.label()),
-            stage.map_or(String::new(), |s| format!("{:.1}s", s.duration_secs)),
+            outcome,
+            secs,
             out.display(),
-            report.pipeline_run_id.as_deref().unwrap_or("-")
+            run_id
         );
     }
     Ok(ExitCode::SUCCESS)

@@ -467,3 +467,63 @@ fn git_commit(root: &Path) -> Option<String> {
     }
     Some(commit)
 }
+
+/// `path` relative to the project root when it lies inside it (as pipelines name files).
+pub(crate) fn relative_to_root(settings: &Settings, path: &Path) -> PathBuf {
+    let abs = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir()
+            .map(|d| d.join(path))
+            .unwrap_or_else(|_| path.to_path_buf())
+    };
+    abs.strip_prefix(&settings.root)
+        .map(Path::to_path_buf)
+        .unwrap_or(abs)
+}
+
+/// Runs one stage as a one-stage pipeline (cached, registered, uploaded like any other) and
+/// returns (outcome label, seconds, pipeline run id). `what` names it in the failure message.
+pub(crate) fn run_one_stage(
+    settings: &Settings,
+    file: &Path,
+    what: &str,
+    name: &str,
+    stage: serde_json::Value,
+    description: Option<String>,
+    force: bool,
+) -> anyhow::Result<(String, f64, String)> {
+    let mut pipeline = serde_json::json!({ "stages": { name: stage } });
+    if let Some(d) = description {
+        pipeline["description"] = serde_json::Value::String(d);
+    }
+    let text = serde_json::to_string(&pipeline)?;
+    let expanded = firecast_pipeline::spec::parse(&settings.root, file, &text, &[])?;
+    let plan = firecast_pipeline::plan::plan(&expanded, &stage_kinds())?;
+    let observer: std::sync::Arc<dyn firecast_pipeline::RunObserver> =
+        std::sync::Arc::new(firecast_registry::Registry::open(&settings.registry)?);
+    let engine = engine(settings, observer)?;
+    let opts = firecast_pipeline::RunOptions {
+        force,
+        dry_run: false,
+        jobs: 1,
+        only: Vec::new(),
+        progress: settings.progress,
+    };
+    let report = engine.run(&plan, &opts)?;
+    for warning in &report.warnings {
+        eprintln!("warning: {warning}");
+    }
+    if let Some(failed) = report.stages.iter().find(|s| s.error.is_some()) {
+        anyhow::bail!(
+            "{what} `{name}` failed: {}",
+            failed.error.as_deref().unwrap_or("unknown error")
+        );
+    }
+    let s = report.stages.first();
+    Ok((
+        s.map_or("?".into(), |s| s.outcome.label().to_string()),
+        s.map_or(0.0, |s| s.duration_secs),
+        report.pipeline_run_id.unwrap_or_else(|| "-".into()),
+    ))
+}

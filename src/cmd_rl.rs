@@ -2,13 +2,11 @@
 //! pipeline (`rl.train`, `rl.evaluate`) so they are cached, registered and uploaded like
 //! every other stage.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::Arc;
 
 use anyhow::Context as _;
 use clap::{Args, Subcommand};
-use firecast_pipeline::{RunObserver, RunOptions};
 use firecast_rl::spec::{EnvSpec, TrainSpec};
 
 use crate::output;
@@ -85,60 +83,8 @@ pub fn run(settings: &Settings, command: RlCommand) -> anyhow::Result<ExitCode> 
     }
 }
 
-fn relative_to_root(settings: &Settings, path: &Path) -> PathBuf {
-    let abs = if path.is_absolute() {
-        path.to_path_buf()
-    } else {
-        std::env::current_dir()
-            .map(|d| d.join(path))
-            .unwrap_or_else(|_| path.to_path_buf())
-    };
-    abs.strip_prefix(&settings.root)
-        .map(Path::to_path_buf)
-        .unwrap_or(abs)
-}
-
-/// Runs a one-stage pipeline and returns (outcome label, seconds, pipeline run id).
-fn run_stage(
-    settings: &Settings,
-    file: &Path,
-    name: &str,
-    stage: serde_json::Value,
-    force: bool,
-) -> anyhow::Result<(String, f64, String)> {
-    let pipeline = serde_json::json!({ "stages": { name: stage } });
-    let text = serde_json::to_string(&pipeline)?;
-    let expanded = firecast_pipeline::spec::parse(&settings.root, file, &text, &[])?;
-    let plan = firecast_pipeline::plan::plan(&expanded, &crate::cmd_pipeline::stage_kinds())?;
-    let observer: Arc<dyn RunObserver> = Arc::new(firecast_registry::Registry::open(&settings.registry)?);
-    let engine = crate::cmd_pipeline::engine(settings, observer)?;
-    let opts = RunOptions {
-        force,
-        dry_run: false,
-        jobs: 1,
-        only: Vec::new(),
-        progress: settings.progress,
-    };
-    let report = engine.run(&plan, &opts)?;
-    for warning in &report.warnings {
-        eprintln!("warning: {warning}");
-    }
-    if let Some(failed) = report.stages.iter().find(|s| s.error.is_some()) {
-        anyhow::bail!(
-            "`{name}` failed: {}",
-            failed.error.as_deref().unwrap_or("unknown error")
-        );
-    }
-    let s = report.stages.first();
-    Ok((
-        s.map_or("?".into(), |s| s.outcome.label().to_string()),
-        s.map_or(0.0, |s| s.duration_secs),
-        report.pipeline_run_id.unwrap_or_else(|| "-".into()),
-    ))
-}
-
 fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
-    let file = relative_to_root(settings, &args.config);
+    let file = crate::cmd_pipeline::relative_to_root(settings, &args.config);
     let mut spec = TrainSpec::load(&settings.root, &file, &args.set)?;
     if let Some(device) = &args.device {
         spec.device = device.clone();
@@ -192,8 +138,15 @@ fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
         }
     }
     // A resumed or interrupted run must run, whatever the cache says.
-    let (outcome, secs, run_id) =
-        run_stage(settings, &file, &spec.name, stage, args.force || has_checkpoint)?;
+    let (outcome, secs, run_id) = crate::cmd_pipeline::run_one_stage(
+        settings,
+        &file,
+        "rl train",
+        &spec.name,
+        stage,
+        None,
+        args.force || has_checkpoint,
+    )?;
     let summary: firecast_rl::run::TrainSummary = serde_json::from_slice(&std::fs::read(
         settings.root.join(&out).join(firecast_rl::run::SUMMARY_FILE),
     )?)?;
@@ -232,7 +185,7 @@ fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode> {
-    let run = relative_to_root(settings, &args.run);
+    let run = crate::cmd_pipeline::relative_to_root(settings, &args.run);
     let summary_path = settings.root.join(&run).join(firecast_rl::run::SUMMARY_FILE);
     let summary: firecast_rl::run::TrainSummary = serde_json::from_slice(
         &std::fs::read(&summary_path)
@@ -240,7 +193,7 @@ fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode
     )
     .with_context(|| format!("reading {}", summary_path.display()))?;
     let fires = match &args.fires {
-        Some(f) => relative_to_root(settings, f),
+        Some(f) => crate::cmd_pipeline::relative_to_root(settings, f),
         None => summary.fires_file.clone().with_context(|| {
             format!(
                 "the run {} does not say which fire file it used: pass --fires",
@@ -265,7 +218,8 @@ fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode
         "inputs": {"run": run.display().to_string(), "fires": fires.display().to_string()},
         "outputs": {"report": out.display().to_string()},
     });
-    let (outcome, secs, run_id) = run_stage(settings, &fires, &name, stage, args.force)?;
+    let (outcome, secs, run_id) =
+        crate::cmd_pipeline::run_one_stage(settings, &fires, "rl evaluate", &name, stage, None, args.force)?;
     let report: firecast_rl::evaluate::EvalReport =
         serde_json::from_slice(&std::fs::read(settings.root.join(&out).join("evaluation.json"))?)?;
     if settings.json {
