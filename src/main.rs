@@ -5,6 +5,7 @@ mod cmd_artifacts;
 mod cmd_dataset;
 mod cmd_forecast;
 mod cmd_pipeline;
+mod cmd_report;
 mod cmd_rl;
 mod cmd_runs;
 mod cmd_sim;
@@ -59,6 +60,8 @@ enum Command {
     /// Reinforcement learning: PPO helitack agents (train, resume) and Table IV.
     #[command(subcommand)]
     Rl(cmd_rl::RlCommand),
+    /// Threat-assessment report (HTML, PDF, JSON, GeoJSON) from ensembles and a forecast.
+    Report(cmd_report::ReportArgs),
     /// Fire simulation: spread rates, suppression episodes with helitack agents.
     #[command(subcommand)]
     Sim(cmd_sim::SimCommand),
@@ -116,6 +119,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Experiment(command) => cmd_forecast::run_experiment_command(&settings, command),
         Command::Forecast(command) => cmd_forecast::run_forecast_command(&settings, command),
         Command::Rl(command) => cmd_rl::run(&settings, command),
+        Command::Report(args) => cmd_report::run(&settings, &args),
         Command::Sim(command) => cmd_sim::run(&settings, command),
         Command::Bench(BenchCommand::Sim(args)) => cmd_sim::bench(&settings, &args),
         Command::Bench(BenchCommand::Gridmet(args)) => cmd_dataset::bench_gridmet(&settings, &args),

@@ -7,6 +7,7 @@
 //! helicopter, drops, burning/burnt counts). [`EpisodesStage`] runs the same as the
 //! `sim.episodes` pipeline stage.
 
+pub mod ensemble;
 mod stage;
 mod weather;
 
@@ -20,7 +21,7 @@ use firecast_sim::{
 };
 use serde::{Deserialize, Serialize};
 
-pub use stage::{EpisodesStage, RenderStage};
+pub use stage::{EnsembleParams, EnsembleStage, EpisodesStage, RenderStage, prepare_ensemble};
 pub use weather::{ResolvedWeather, WeatherSpec};
 
 /// Errors of scenario loading and episode runs. Paths come last.
@@ -36,6 +37,10 @@ pub enum EpisodeError {
     Gridmet(#[from] firecast_data::gridmet::GridmetError),
     #[error("weather from {path}: {message}")]
     Weather { path: PathBuf, message: String },
+    #[error("ignition: {message}")]
+    Ignition { message: String },
+    #[error("ensemble {path}: {message}")]
+    Ensemble { path: PathBuf, message: String },
     #[error(
         "replaying the trace diverged: it recorded {recorded}, the replay gave {replayed} (the trace \
          was made with other code, settings or inputs)"

@@ -594,3 +594,149 @@ impl StageKind for RenderStage {
         Ok(())
     }
 }
+
+/// Params of a `sim.ensemble` stage (and, with a policy instead of an agent, `rl.ensemble`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnsembleParams {
+    pub landscape: LandscapeParams,
+    /// `none`, `rule` or `rule-concentric` (`rl.ensemble` plays its policy instead).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub agent: Option<AgentKind>,
+    /// Runs (seeds `seed`, `seed + 1`, …).
+    #[serde(default = "default_runs")]
+    pub runs: usize,
+    #[serde(default)]
+    pub seed: u64,
+    #[serde(default)]
+    pub env: serde_json::Value,
+    /// Take the wind of this day from the `gridmet` input.
+    #[serde(default)]
+    pub weather_date: Option<String>,
+    /// [lat, lon] of the ignition (default: the environment's ignition cell).
+    #[serde(default)]
+    pub ignition: Option<[f64; 2]>,
+    /// How each run departs from the day's wind and fuel moisture.
+    #[serde(default)]
+    pub perturb: crate::ensemble::Perturbation,
+    /// `rl.ensemble` only: `auto`, `cpu` or `cuda[:N]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device: Option<String>,
+}
+
+fn default_runs() -> usize {
+    20
+}
+
+impl EnsembleParams {
+    /// Checks what both ensemble kinds check; `agent_required` for `sim.ensemble`.
+    pub fn validate(&self, agent_required: bool) -> Result<(), ParamsError> {
+        serde_path_to_error_env(&self.env)?;
+        self.perturb.validate().map_err(|message| ParamsError {
+            path: "perturb".into(),
+            message,
+        })?;
+        if self.runs == 0 {
+            return Err(ParamsError {
+                path: "runs".into(),
+                message: "must be at least 1".into(),
+            });
+        }
+        match (agent_required, self.agent) {
+            (true, None) => Err(ParamsError {
+                path: "agent".into(),
+                message: "missing: none, rule or rule-concentric".into(),
+            }),
+            (false, Some(_)) => Err(ParamsError {
+                path: "agent".into(),
+                message: "rl.ensemble plays the policy of its `policy` input; remove `agent`".into(),
+            }),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// The scenario of an ensemble stage, with its ignition placed and checked.
+pub fn prepare_ensemble(
+    ctx: &StageContext<'_>,
+    params: &EnsembleParams,
+) -> Result<crate::ensemble::Setup, StageError> {
+    let env = serde_path_to_error_env(&params.env).map_err(|e| StageError::msg(e.message))?;
+    let scenario = scenario_of(ctx, &params.landscape, env, params.weather_date.as_deref())?;
+    let setup = crate::ensemble::Setup::new(scenario, ctx.root(), params.ignition)?.with_perturbation(params.perturb);
+    if let Some(w) = &setup.weather {
+        ctx.log(format!(
+            "wind from GRIDMET on {}: vs {:.2} m/s from {:.0}° at ({:.4}, {:.4})",
+            w.date, w.vs_m_s, w.th_deg, w.lat, w.lon
+        ));
+    }
+    Ok(setup)
+}
+
+/// Ports shared by `sim.ensemble` and `rl.ensemble` (which adds `policy`).
+pub const ENSEMBLE_INPUTS: &[Port] = INPUTS;
+pub const ENSEMBLE_OUTPUTS: &[Port] = &[Port {
+    name: "ensemble",
+    required: true,
+    many: false,
+    description: "every run's burnt area, drops and arrival times, and burn probability (JSON)",
+}];
+
+/// `sim.ensemble`: a rule-based agent (or none) against one fire over many seeds.
+#[derive(Debug, Default)]
+pub struct EnsembleStage;
+
+impl StageKind for EnsembleStage {
+    fn name(&self) -> &'static str {
+        "sim.ensemble"
+    }
+
+    fn version(&self) -> u32 {
+        1
+    }
+
+    fn summary(&self) -> &'static str {
+        "one fire over many seeds under a rule-based agent: arrival times, burn probability, drops"
+    }
+
+    fn ports(&self) -> Ports {
+        Ports {
+            inputs: ENSEMBLE_INPUTS,
+            outputs: ENSEMBLE_OUTPUTS,
+            open: false,
+        }
+    }
+
+    fn resolve_params(&self, raw: &serde_json::Value) -> Result<serde_json::Value, ParamsError> {
+        let (params, mut resolved): (EnsembleParams, serde_json::Value) = typed_params(raw)?;
+        params.validate(true)?;
+        if let Some(obj) = resolved.as_object_mut()
+            && params.env.is_null()
+        {
+            obj.insert("env".into(), serde_json::json!({}));
+        }
+        Ok(resolved)
+    }
+
+    fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
+        let params: EnsembleParams = ctx.params()?;
+        let agent = params.agent.unwrap_or(AgentKind::None);
+        let setup = prepare_ensemble(ctx, &params)?;
+        let bar = ctx.progress_bar(params.runs as u64, &format!("{} agent", agent.name()));
+        let ensemble = crate::ensemble::run_agent(&setup, agent, params.runs, params.seed, |_| bar.inc(1))?;
+        bar.finish_and_clear();
+        for (k, e) in ensemble.episodes.iter().enumerate() {
+            ctx.metric("cells_burned", k as i64, f64::from(e.cells_burned));
+            ctx.metric("helitacks", k as i64, f64::from(e.helitacks));
+        }
+        std::fs::write(ctx.output("ensemble")?, serde_json::to_vec(&ensemble)?)?;
+        let mean = ensemble.episodes.iter().map(|e| f64::from(e.cells_burned)).sum::<f64>()
+            / ensemble.runs() as f64;
+        ctx.log(format!(
+            "{}: {} runs, {mean:.0} cells burned on average",
+            agent.name(),
+            ensemble.runs()
+        ));
+        Ok(())
+    }
+}

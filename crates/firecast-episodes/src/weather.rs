@@ -24,7 +24,8 @@ pub enum WeatherSpec {
 }
 
 /// The wind a scenario's weather resolved to, with where it came from.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ResolvedWeather {
     pub wind: Wind,
     /// 10-m wind speed as read, m/s.

@@ -1,0 +1,327 @@
+//! A whole report on a small fire: synthetic GRIDMET files (the real NetCDF format), a
+//! procedural landscape, the no-suppression and rule-based ensembles, a forecast file — then
+//! the report's files are checked against where every number came from, against the JSON
+//! Schema (Python's `jsonschema`, an independent validator), and in a real headless Chromium.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use firecast_data::gridmet::GridmetVariable;
+use firecast_data::synth::{self, Region, SynthConfig};
+use firecast_episodes::ensemble::{Ensemble, Setup, run_agent};
+use firecast_episodes::{AgentKind, LandscapeSpec, Scenario, WeatherSpec};
+use firecast_report::model::ThreatReport;
+use firecast_report::{ReportSettings, build};
+
+const DATE: &str = "2019-08-01";
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn python() -> Option<PathBuf> {
+    let p = root().join(".venv/bin/python");
+    p.exists().then_some(p)
+}
+
+struct Fixture {
+    _dir: tempfile::TempDir,
+    dir: PathBuf,
+    settings: ReportSettings,
+    ensembles: Vec<PathBuf>,
+    forecast: PathBuf,
+    gridmet: PathBuf,
+}
+
+fn fixture() -> Fixture {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let dir = tmp.path().to_path_buf();
+    let mut cfg = SynthConfig::new(
+        3,
+        Region::Box {
+            lat_min: 39.0,
+            lat_max: 39.6,
+            lon_min: -107.7,
+            lon_max: -107.1,
+        },
+        (2019, 2019),
+    );
+    cfg.variables = vec![
+        GridmetVariable::Vs,
+        GridmetVariable::Th,
+        GridmetVariable::Tmmx,
+        GridmetVariable::Tmmn,
+        GridmetVariable::Rmin,
+        GridmetVariable::Rmax,
+        GridmetVariable::Pr,
+        GridmetVariable::Erc,
+        GridmetVariable::Fm100,
+    ];
+    cfg.write_incidents = false;
+    cfg.warmup_days = 20;
+    synth::generate(&cfg, &dir.join("sources"), &mut |_, _| {}).expect("synthetic GRIDMET");
+    let gridmet = dir.join("sources/gridmet");
+
+    let env: firecast_sim::EnvConfig = serde_json::from_value(serde_json::json!({
+        "max_steps": 240,
+        "sim": {"kernel": {"rothermel": {"moisture": {"dead_1h_frac": 0.06, "dead_10h_frac": 0.07,
+            "dead_100h_frac": 0.08, "live_herb_frac": 0.6, "live_woody_frac": 0.9}}}}
+    }))
+    .expect("env");
+    // The first landscape seed whose default ignition cell can burn.
+    let (setup_none, setup_rule) = (1..20)
+        .find_map(|seed| {
+            let scenario = || Scenario {
+                landscape: LandscapeSpec::Procedural {
+                    seed,
+                    width: 96,
+                    height: 64,
+                    center: Some([39.3, -107.4]),
+                },
+                weather: Some(WeatherSpec::Gridmet {
+                    dir: gridmet.clone(),
+                    date: DATE.into(),
+                }),
+                env: env.clone(),
+            };
+            Some((Setup::new(scenario(), &dir, None).ok()?, Setup::new(scenario(), &dir, None).ok()?))
+        })
+        .expect("a burnable ignition");
+    let none = run_agent(&setup_none, AgentKind::None, 6, 0, |_| {}).expect("none");
+    let rule = run_agent(&setup_rule, AgentKind::Rule, 6, 0, |_| {}).expect("rule");
+    let [lat, lon] = none.ignition_lat_lon;
+    let mut ensembles = Vec::new();
+    for e in [&none, &rule] {
+        let p = dir.join(format!("{}.json", e.strategy));
+        std::fs::write(&p, serde_json::to_vec(e).expect("json")).expect("write");
+        ensembles.push(p);
+    }
+    let forecast = dir.join("forecast.json");
+    std::fs::write(
+        &forecast,
+        serde_json::to_vec(&serde_json::json!({
+            "version": 1, "lat": lat, "lon": lon, "date": DATE, "cell_lat": 39.3, "cell_lon": -107.4,
+            "model": "xgboost", "kind": "xgboost", "protocol": "leak_free", "dataset": "test",
+            "dataset_version": "0123456789abcdef", "input_days": [-60, -1], "threshold": 0.41,
+            "probability": 0.62, "interval": [0.55, 0.7], "interval_method": "range over 3 training seeds",
+            "per_seed": [
+                {"seed": 0, "probability": 0.55, "threshold": 0.4, "validation_auroc": 0.8, "validation_auprc": 0.6},
+                {"seed": 1, "probability": 0.61, "threshold": 0.41, "validation_auroc": 0.82, "validation_auprc": 0.62},
+                {"seed": 2, "probability": 0.7, "threshold": 0.42, "validation_auroc": 0.78, "validation_auprc": 0.58}
+            ],
+            "validation_auroc": 0.8, "test_auroc": 0.75, "ignition_expected": true
+        }))
+        .expect("json"),
+    )
+    .expect("write");
+    let settings: ReportSettings = serde_json::from_value(serde_json::json!({
+        "lat": lat, "lon": lon, "date": DATE,
+        "assets": [{"name": "Ridge camp", "lat": lat + 0.01, "lon": lon + 0.01}],
+        "bootstrap_resamples": 300
+    }))
+    .expect("settings");
+    Fixture {
+        _dir: tmp,
+        dir,
+        settings,
+        ensembles,
+        forecast,
+        gridmet,
+    }
+}
+
+fn make(f: &Fixture, pdf: bool) -> (ThreatReport, PathBuf) {
+    let out = f.dir.join("report");
+    std::fs::create_dir_all(&out).expect("out");
+    let o = out.clone();
+    let outputs = move |name: &str| -> Option<PathBuf> {
+        let file = match name {
+            "html" => "report.html",
+            "json" => "report.json",
+            "geojson" => "report.geojson",
+            "pdf" if pdf => "report.pdf",
+            _ => return None,
+        };
+        Some(o.join(file))
+    };
+    let report = build(
+        &f.dir,
+        &f.settings,
+        &f.ensembles,
+        &f.forecast,
+        &f.gridmet,
+        "test-run",
+        &outputs,
+        &|_| {},
+    )
+    .expect("report");
+    (report, out)
+}
+
+#[test]
+fn every_number_comes_from_its_source() {
+    let f = fixture();
+    let (report, out) = make(&f, false);
+    let written = std::fs::read(out.join("report.json")).expect("json");
+    assert_eq!(written, serde_json::to_vec_pretty(&report).expect("json"), "the JSON is the report");
+
+    let none = Ensemble::read(&f.ensembles[0]).expect("none");
+    let rule = Ensemble::read(&f.ensembles[1]).expect("rule");
+    let acres = none.grid.cell_size_ft.powi(2) / 43_560.0;
+    let mean = |e: &Ensemble| e.episodes.iter().map(|r| f64::from(r.cells_burned)).sum::<f64>() / e.runs() as f64;
+    let s_none = &report.strategies[0];
+    let s_rule = &report.strategies[1];
+    assert_eq!(s_none.strategy, "none");
+    assert!((s_none.burned_acres.value - mean(&none) * acres).abs() < 1e-6);
+    assert!((s_rule.burned_acres.value - mean(&rule) * acres).abs() < 1e-6);
+    assert!(s_none.burned_acres.low <= s_none.burned_acres.value && s_none.burned_acres.value <= s_none.burned_acres.high);
+    assert!((s_rule.helitacks_mean - rule.episodes.iter().map(|r| f64::from(r.helitacks)).sum::<f64>() / 6.0).abs() < 1e-9);
+    let cmp = &report.comparisons[0];
+    assert!((cmp.acres_saved.value - (mean(&none) - mean(&rule)) * acres).abs() < 1e-6);
+    assert_eq!(report.forecast.probability, 0.62);
+    assert_eq!(report.forecast.interval, [0.55, 0.7]);
+    assert_eq!(report.forecast.seeds, 3);
+    assert!((report.forecast.validation_auprc.expect("auprc") - 0.6).abs() < 1e-12);
+    // The series ends at the final burnt area of each run (mean over runs).
+    let last = *s_none.series_acres_mean.last().expect("series");
+    assert!((last - mean(&none) * acres).abs() < 1e-6, "{last} vs {}", mean(&none) * acres);
+    // Hours, not steps: the series is hourly.
+    assert_eq!(s_none.series_hours[1] - s_none.series_hours[0], 1.0);
+
+    // Drops: the representative run's, with coordinates that round-trip through the
+    // landscape's georeference to the cells the simulator used.
+    let land = rule.landscape().expect("landscape");
+    let k = firecast_report::compute::representative_run(&rule);
+    assert_eq!(report.drops.run_seed, Some(rule.episodes[k].seed));
+    assert_eq!(report.drops.drops.len(), rule.episodes[k].drops.len());
+    assert!(!report.drops.drops.is_empty(), "the rule agent drops water");
+    for (d, src) in report.drops.drops.iter().zip(&rule.episodes[k].drops) {
+        assert_eq!((d.x, d.y), (src.x, src.y));
+        assert_eq!(d.hour, src.hour);
+        let cell = land.lat_lon_to_cell(d.lat, d.lon).expect("inside");
+        assert_eq!(cell, (src.x as usize, src.y as usize), "drop {} round trip", d.number);
+    }
+    // Weather from the GRIDMET files: the wind the ensembles used.
+    let w = none.weather.as_ref().expect("weather");
+    assert!((report.weather.wind_10m_m_s - w.vs_m_s).abs() < 1e-12);
+    assert!(report.weather.max_temp_c.is_some() && report.weather.fm100_pct.is_some());
+    assert!(report.weather.vpd_kpa.is_none(), "no vpd file was written");
+    // The listed asset is first or after developed land, with a band.
+    assert!(report.assets.iter().any(|a| a.name == "Ridge camp" && !a.band.is_empty()));
+    for a in &report.assets {
+        if let (Some(t), "SET") = (a.first_arrival_h, a.band.as_str()) {
+            assert!((a.trigger_h.expect("trigger") - (t - 6.0)).abs() < 1e-9);
+        }
+    }
+    // Fire behaviour: classes follow the numbers.
+    let fb = &report.fire_behaviour;
+    assert_eq!(fb.flame_length.class.as_deref(), Some(firecast_report::units::flame_class(fb.flame_length.field)));
+    assert!((fb.flame_length.si - fb.flame_length.field * 0.3048).abs() < 1e-9);
+
+    // The GeoJSON: a FeatureCollection whose drops are the report's.
+    let gj: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.geojson")).expect("geojson")).expect("parse");
+    assert_eq!(gj["type"], "FeatureCollection");
+    let features = gj["features"].as_array().expect("features");
+    let drops: Vec<&serde_json::Value> = features.iter().filter(|f| f["properties"]["kind"] == "drop").collect();
+    assert_eq!(drops.len(), report.drops.drops.len());
+    assert!(features.iter().any(|f| f["properties"]["kind"] == "arrival_isochrone"));
+    for f in features {
+        if f["geometry"]["type"] == "MultiPolygon" {
+            for poly in f["geometry"]["coordinates"].as_array().expect("polys") {
+                for ring in poly.as_array().expect("rings") {
+                    let r = ring.as_array().expect("ring");
+                    assert!(r.len() >= 4 && r.first() == r.last(), "closed ring");
+                }
+            }
+        }
+    }
+
+    // Self-contained HTML: no scripts, every src/href a data URI or a fragment.
+    let html = std::fs::read_to_string(out.join("report.html")).expect("html");
+    assert!(!html.to_lowercase().contains("<script"));
+    for attr in ["src=\"", "href=\""] {
+        for part in html.split(attr).skip(1) {
+            assert!(
+                part.starts_with("data:") || part.starts_with('#'),
+                "external reference: {attr}{}",
+                &part[..part.len().min(60)]
+            );
+        }
+    }
+    for section in ["Ignition forecast", "Evacuation advisories", "not a progression map", "Contingency thresholds"] {
+        assert!(html.contains(section), "missing {section}");
+    }
+    assert!(!html.contains(" steps") && !html.contains(" cells burned"), "no simulation units");
+
+    // The JSON against the committed schema, by an independent validator.
+    if let Some(py) = python() {
+        let schema = root().join("schemas/threat-report-1.schema.json");
+        let status = Command::new(py)
+            .args([
+                "-c",
+                "import json,sys,jsonschema; s=json.load(open(sys.argv[1])); jsonschema.Draft202012Validator.check_schema(s); \
+                 jsonschema.validate(json.load(open(sys.argv[2])), s, cls=jsonschema.Draft202012Validator)",
+            ])
+            .arg(&schema)
+            .arg(out.join("report.json"))
+            .status()
+            .expect("python");
+        assert!(status.success(), "report.json does not validate against {}", schema.display());
+    }
+}
+
+#[test]
+fn the_committed_schema_is_the_model() {
+    let path = root().join("schemas/threat-report-1.schema.json");
+    let generated = serde_json::to_string_pretty(&firecast_report::model::json_schema()).expect("schema") + "\n";
+    if std::env::var_os("FIRECAST_BLESS").is_some() {
+        std::fs::write(&path, &generated).expect("write schema");
+    }
+    let committed = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(
+        committed == generated,
+        "{} is out of date: run `FIRECAST_BLESS=1 cargo test -p firecast-report --test report` and commit it",
+        path.display()
+    );
+}
+
+#[test]
+fn renders_in_chromium_and_prints_to_pdf() {
+    let Ok(chromium) = firecast_report::pdf::chromium() else {
+        panic!("no Chromium: `cargo xtask setup` installs Debian's chromium");
+    };
+    let f = fixture();
+    let (_, out) = make(&f, true);
+    // Rendered by a real browser without console errors.
+    let profile = f.dir.join("profile");
+    let run = Command::new(&chromium)
+        .args(firecast_report::pdf::headless_args(&profile))
+        .args(["--enable-logging=stderr", "--v=0", "--dump-dom"])
+        .arg(format!("file://{}", out.join("report.html").display()))
+        .output()
+        .expect("chromium");
+    assert!(run.status.success());
+    let dom = String::from_utf8_lossy(&run.stdout);
+    assert!(dom.contains("Evacuation advisories") && dom.contains("<svg"));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    let console: Vec<&str> = stderr.lines().filter(|l| l.contains(":CONSOLE")).collect();
+    assert!(console.is_empty(), "console messages: {console:?}");
+    // The PDF opens and carries the report, page by page (poppler).
+    let pdf = out.join("report.pdf");
+    let bytes = std::fs::read(&pdf).expect("pdf");
+    assert!(bytes.starts_with(b"%PDF-"));
+    let info = Command::new("pdfinfo").arg(&pdf).output().expect("pdfinfo (poppler-utils)");
+    let info = String::from_utf8_lossy(&info.stdout);
+    let pages: usize = info
+        .lines()
+        .find_map(|l| l.strip_prefix("Pages:"))
+        .and_then(|v| v.trim().parse().ok())
+        .expect("page count");
+    assert!((3..=12).contains(&pages), "{pages} pages");
+    let text = Command::new("pdftotext").args(["-layout"]).arg(&pdf).arg("-").output().expect("pdftotext");
+    let text = String::from_utf8_lossy(&text.stdout);
+    for needle in ["Fire threat assessment", "Bottom line", "Evacuation advisories", "Ignition probability"] {
+        assert!(text.contains(needle), "PDF text lacks {needle}");
+    }
+}
