@@ -112,10 +112,14 @@ pub fn stage_kinds() -> StageKinds {
     kinds.register(firecast_registry::SqlStage);
     kinds.register(firecast_episodes::EpisodesStage);
     kinds.register(firecast_episodes::RenderStage);
+    kinds.register(firecast_episodes::EnsembleStage);
+    kinds.register(firecast_report::ReportStage);
     firecast_dataset::stage::register(&mut kinds);
     kinds.register(firecast_forecast::stage::ExperimentStage);
+    kinds.register(firecast_forecast::stage::PredictStage);
     kinds.register(firecast_rl::stage::TrainStage);
     kinds.register(firecast_rl::stage::EvaluateStage);
+    kinds.register(firecast_rl::ensemble::EnsembleStage);
     kinds
 }
 

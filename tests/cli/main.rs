@@ -7,6 +7,7 @@ mod forecast;
 mod pipeline;
 mod ray;
 mod registry;
+mod report;
 mod rl;
 mod sim;
 mod store;

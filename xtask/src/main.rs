@@ -89,11 +89,45 @@ fn setup() -> Result<Context, String> {
     ensure_duckdb(&deps, &venv_python)?;
     link_libtorch(&deps, &venv_python)?;
     ensure_python_package(&root, &target_dir, &venv_python)?;
+    ensure_browser()?;
     Ok(Context {
         root,
         target_dir,
         venv_python,
     })
+}
+
+fn on_path(name: &str) -> bool {
+    env::var_os("PATH").is_some_and(|p| env::split_paths(&p).any(|d| d.join(name).is_file()))
+}
+
+/// Debian's Chromium (the report's PDF is its print of the HTML, and the report tests render
+/// the HTML in it) and poppler-utils (the tests read the PDF back), from the distribution's
+/// packages.
+fn ensure_browser() -> Result<(), String> {
+    let have_browser = env::var_os("FIRECAST_CHROMIUM").is_some() || on_path("chromium") || on_path("chromium-browser");
+    if have_browser && on_path("pdfinfo") && on_path("pdftotext") {
+        return Ok(());
+    }
+    let root = Command::new("id").arg("-u").output().is_ok_and(|o| o.stdout.starts_with(b"0"));
+    let apt = |args: &[&str]| {
+        let mut c = if root {
+            Command::new("apt-get")
+        } else {
+            let mut c = Command::new("sudo");
+            c.args(["-n", "apt-get"]);
+            c
+        };
+        c.args(args).env("DEBIAN_FRONTEND", "noninteractive");
+        c
+    };
+    eprintln!("xtask: installing Debian's chromium and poppler-utils (reports: PDF printing and tests)");
+    let packages = ["install", "-y", "--no-install-recommends", "chromium", "poppler-utils"];
+    if run(&mut apt(&packages), "apt-get install chromium poppler-utils").is_err() {
+        run(&mut apt(&["update"]), "apt-get update")?;
+        run(&mut apt(&packages), "apt-get install chromium poppler-utils")?;
+    }
+    Ok(())
 }
 
 fn home() -> Result<PathBuf, String> {

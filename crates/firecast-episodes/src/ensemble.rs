@@ -126,6 +126,9 @@ pub struct EpisodeRecord {
     pub water_used_gal: f64,
     /// The perturbed weather and moisture of this run.
     pub conditions: RunConditions,
+    /// Most cells burning at once, and when (the authors' "containment time" is this hour).
+    pub peak_burning_cells: u32,
+    pub peak_burning_hour: f64,
     /// Cells burned (burnt + burning) after each step; entry 0 is the ignition.
     pub burned_per_step: Vec<u32>,
     pub drops: Vec<DropRecord>,
@@ -381,6 +384,7 @@ impl Setup {
 /// Records one run from the environment after each step.
 pub struct Tracker {
     step_minutes: f64,
+    peak: (u32, f64),
     burned: Vec<u32>,
     drops: Vec<DropRecord>,
     last_drops: u32,
@@ -391,6 +395,7 @@ impl Tracker {
     pub fn new(core: &EnvCore, info: &StepInfo) -> Self {
         Self {
             step_minutes: core.automaton().config().dt_min,
+            peak: (info.cells_burning, info.sim_time_min / 60.0),
             burned: vec![info.cells_burnt + info.cells_burning],
             drops: Vec::new(),
             last_drops: info.drops,
@@ -400,6 +405,9 @@ impl Tracker {
     /// After every step.
     pub fn observe(&mut self, core: &EnvCore, info: &StepInfo) {
         self.burned.push(info.cells_burnt + info.cells_burning);
+        if info.cells_burning > self.peak.0 {
+            self.peak = (info.cells_burning, info.sim_time_min / 60.0);
+        }
         if info.drops > self.last_drops {
             // A drop does not move the helicopter and falls before the step's spread.
             let [x, y] = core.helicopter();
@@ -442,6 +450,8 @@ impl Tracker {
                 helitacks: info.drops,
                 water_used_gal: info.water_used_gal,
                 conditions,
+                peak_burning_cells: self.peak.0,
+                peak_burning_hour: self.peak.1,
                 burned_per_step: self.burned,
                 drops: self.drops,
             },

@@ -649,7 +649,7 @@ impl EnsembleParams {
             }),
             (false, Some(_)) => Err(ParamsError {
                 path: "agent".into(),
-                message: "rl.ensemble plays the policy of its `policy` input; remove `agent`".into(),
+                message: "rl.ensemble plays the policy of its `run` input; remove `agent`".into(),
             }),
             _ => Ok(()),
         }

@@ -2,6 +2,9 @@
 //! spec (without `dataset`, which is the stage's input), so a pipeline can build a dataset
 //! and evaluate on it, with the usual caching: changing a model's params or the dataset
 //! re-runs the experiment; nothing else does.
+//!
+//! `forecast.predict`: one place and day scored by every training seed of one model of such
+//! an experiment; the seeds' mean, their range and the mean threshold.
 
 use std::sync::Mutex;
 
@@ -134,5 +137,677 @@ impl StageKind for ExperimentStage {
             }
         }
         Ok(())
+    }
+}
+
+/// Params of a `forecast.predict` stage: one place and day, one model of an experiment.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PredictParams {
+    pub lat: f64,
+    pub lon: f64,
+    /// `YYYY-MM-DD`: the day whose ignition is predicted.
+    pub date: String,
+    /// The model's name in the experiment (its `name`, else its `kind`).
+    pub model: String,
+    /// Default: the experiment's headline protocol, else its only protocol.
+    #[serde(default)]
+    pub protocol: Option<String>,
+    #[serde(default = "default_predict_device")]
+    pub device: String,
+}
+
+fn default_predict_device() -> String {
+    "cpu".into()
+}
+
+/// Bumped when the `forecast` file layout changes.
+pub const FORECAST_VERSION: u32 = 1;
+
+/// One training seed's answer.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SeedForecast {
+    pub seed: u64,
+    pub probability: f64,
+    pub threshold: f64,
+    pub validation_auroc: Option<f64>,
+    pub validation_auprc: Option<f64>,
+    pub test_auroc: Option<f64>,
+    /// The bundle folder, relative to the experiment folder.
+    pub bundle: String,
+}
+
+/// What `forecast.predict` writes: the seeds' answers and their mean and range.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PointForecast {
+    pub version: u32,
+    pub lat: f64,
+    pub lon: f64,
+    pub date: String,
+    /// The GRIDMET cell whose weather was read.
+    pub cell_lat: f64,
+    pub cell_lon: f64,
+    pub model: String,
+    pub kind: String,
+    pub protocol: String,
+    pub dataset: String,
+    pub dataset_version: String,
+    pub input_days: (i32, i32),
+    /// Mean of the seeds' thresholds.
+    pub threshold: f64,
+    pub thresholds: Vec<f64>,
+    /// Mean over seeds.
+    pub probability: f64,
+    /// [min, max] over seeds.
+    pub interval: [f64; 2],
+    pub interval_method: String,
+    pub per_seed: Vec<SeedForecast>,
+    /// Means over the seeds that have one (None: no seed has).
+    pub validation_auroc: Option<f64>,
+    pub test_auroc: Option<f64>,
+    /// `probability > threshold` (both means).
+    pub ignition_expected: bool,
+}
+
+/// One seed's prediction, its bundle's facts and the bundle's path relative to the experiment.
+pub type SeedAnswer = (crate::predict::Prediction, crate::bundle::BundleInfo, String);
+
+/// Puts the seeds' answers together (in the order given).
+pub fn assemble_forecast(answers: &[SeedAnswer]) -> Result<PointForecast, crate::ForecastError> {
+    let Some((first, info0, _)) = answers.first() else {
+        return Err(crate::ForecastError::Model(
+            "no seed bundles to predict with".into(),
+        ));
+    };
+    // Seeds of one model and protocol share inputs and data; anything else is a mixed folder.
+    for (p, info, rel) in answers {
+        if p.input_days != first.input_days
+            || p.kind != first.kind
+            || p.protocol != first.protocol
+            || p.dataset != first.dataset
+            || p.dataset_version != first.dataset_version
+            || info.model != info0.model
+        {
+            return Err(crate::ForecastError::Model(format!(
+                "bundle {rel} was trained differently from the other seeds' (model {} {}, protocol {}, days {:?}, dataset {} {}; \
+                 expected {} {}, {}, {:?}, {} {})",
+                info.model,
+                p.kind,
+                p.protocol,
+                p.input_days,
+                p.dataset,
+                p.dataset_version,
+                info0.model,
+                first.kind,
+                first.protocol,
+                first.input_days,
+                first.dataset,
+                first.dataset_version
+            )));
+        }
+    }
+    let n = answers.len() as f64;
+    let mean_of = |v: Vec<f64>| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+    let probabilities: Vec<f64> = answers.iter().map(|(p, _, _)| p.probability).collect();
+    let thresholds: Vec<f64> = answers.iter().map(|(p, _, _)| p.threshold).collect();
+    let probability = probabilities.iter().sum::<f64>() / n;
+    let threshold = thresholds.iter().sum::<f64>() / n;
+    let interval = [
+        probabilities.iter().copied().fold(f64::INFINITY, f64::min),
+        probabilities.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    ];
+    let per_seed: Vec<SeedForecast> = answers
+        .iter()
+        .map(|(p, info, rel)| SeedForecast {
+            seed: info.seed,
+            probability: p.probability,
+            threshold: p.threshold,
+            validation_auroc: info.validation_auroc,
+            validation_auprc: info.validation_auprc,
+            test_auroc: info.test_auroc,
+            bundle: rel.clone(),
+        })
+        .collect();
+    Ok(PointForecast {
+        version: FORECAST_VERSION,
+        lat: first.lat,
+        lon: first.lon,
+        date: first.date.clone(),
+        cell_lat: first.cell_lat,
+        cell_lon: first.cell_lon,
+        model: info0.model.clone(),
+        kind: first.kind.clone(),
+        protocol: first.protocol.clone(),
+        dataset: first.dataset.clone(),
+        dataset_version: first.dataset_version.clone(),
+        input_days: first.input_days,
+        threshold,
+        thresholds,
+        probability,
+        interval,
+        interval_method: format!(
+            "range over {} training seed{}",
+            answers.len(),
+            if answers.len() == 1 { "" } else { "s" }
+        ),
+        validation_auroc: mean_of(per_seed.iter().filter_map(|s| s.validation_auroc).collect()),
+        test_auroc: mean_of(per_seed.iter().filter_map(|s| s.test_auroc).collect()),
+        per_seed,
+        ignition_expected: probability > threshold,
+    })
+}
+
+/// The protocol to use: the one asked for, else the headline, else the only one.
+pub fn choose_protocol(
+    available: &[String],
+    headline: Option<&str>,
+    asked: Option<&str>,
+) -> Result<String, crate::ForecastError> {
+    let listed = || {
+        if available.is_empty() {
+            "none".to_string()
+        } else {
+            available.join(", ")
+        }
+    };
+    let chosen = match (asked, headline) {
+        (Some(p), _) => p,
+        (None, Some(h)) if available.iter().any(|a| a == h) => h,
+        (None, _) => match available {
+            [only] => only.as_str(),
+            _ => {
+                return Err(crate::ForecastError::Config {
+                    key: "protocol".into(),
+                    message: format!(
+                        "the experiment has no headline protocol among its models; choose one of: {}",
+                        listed()
+                    ),
+                });
+            }
+        },
+    };
+    if !available.iter().any(|a| a == chosen) {
+        return Err(crate::ForecastError::Config {
+            key: "protocol".into(),
+            message: format!(
+                "the experiment has no models under protocol `{chosen}`; it has: {}",
+                listed()
+            ),
+        });
+    }
+    Ok(chosen.to_string())
+}
+
+/// Sorted names of the sub-folders of `dir` (none when it does not exist).
+fn sub_folders(dir: &std::path::Path) -> Result<Vec<String>, crate::ForecastError> {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(crate::ForecastError::io("reading", dir)(e)),
+    };
+    let mut names = Vec::new();
+    for entry in entries {
+        let entry = entry.map_err(crate::ForecastError::io("reading", dir))?;
+        if entry.path().is_dir()
+            && let Some(name) = entry.file_name().to_str()
+        {
+            names.push(name.to_string());
+        }
+    }
+    names.sort();
+    Ok(names)
+}
+
+/// The seed bundles of `model` under `protocol`, as (seed, folder relative to the
+/// experiment), by seed: the runs results.json lists when it has them, else every
+/// `seed-<n>` folder holding a model.
+pub fn seed_bundles(
+    experiment: &std::path::Path,
+    results: Option<&serde_json::Value>,
+    protocol: &str,
+    model: &str,
+) -> Result<Vec<(u64, String)>, crate::ForecastError> {
+    let listed: Vec<(u64, String)> = results
+        .and_then(|r| r.get("results")?.as_array())
+        .into_iter()
+        .flatten()
+        .filter(|r| {
+            r.get("protocol").and_then(serde_json::Value::as_str) == Some(protocol)
+                && r.get("model").and_then(serde_json::Value::as_str) == Some(model)
+        })
+        .flat_map(|r| {
+            r.get("runs")
+                .and_then(serde_json::Value::as_array)
+                .into_iter()
+                .flatten()
+        })
+        .filter_map(|run| {
+            Some((
+                run.get("seed")?.as_u64()?,
+                run.get("model_dir")?.as_str()?.to_string(),
+            ))
+        })
+        .collect();
+    let mut found = if listed.is_empty() {
+        let dir = experiment.join("models").join(protocol).join(model);
+        sub_folders(&dir)?
+            .into_iter()
+            .filter_map(|name| {
+                let seed = name.strip_prefix("seed-")?.parse().ok()?;
+                dir.join(&name)
+                    .join(crate::bundle::MODEL_FILE)
+                    .is_file()
+                    .then(|| (seed, format!("models/{protocol}/{model}/{name}")))
+            })
+            .collect()
+    } else {
+        listed
+    };
+    found.sort();
+    if found.is_empty() {
+        let models = sub_folders(&experiment.join("models").join(protocol))?;
+        return Err(crate::ForecastError::Config {
+            key: "model".into(),
+            message: format!(
+                "{}: no saved `{model}` model under protocol `{protocol}`; it has: {}",
+                experiment.display(),
+                if models.is_empty() {
+                    "none".to_string()
+                } else {
+                    models.join(", ")
+                }
+            ),
+        });
+    }
+    Ok(found)
+}
+
+/// Predicts `params`' place and day with every seed of its model in `experiment` (a
+/// report folder of `forecast.experiment` / `experiment run`), weather from `gridmet`.
+pub fn forecast_point(
+    experiment: &std::path::Path,
+    gridmet: &std::path::Path,
+    params: &PredictParams,
+    device: tch::Device,
+) -> Result<PointForecast, crate::ForecastError> {
+    let results_path = experiment.join("results.json");
+    let results: Option<serde_json::Value> = match std::fs::read(&results_path) {
+        Ok(bytes) => Some(
+            serde_json::from_slice(&bytes).map_err(|e| crate::ForecastError::Data {
+                path: results_path.clone(),
+                message: format!("line {}: {e}", e.line()),
+            })?,
+        ),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(crate::ForecastError::io("reading", &results_path)(e)),
+    };
+    let available = sub_folders(&experiment.join("models"))?;
+    let headline = results.as_ref().and_then(|r| r.get("headline")?.as_str());
+    let protocol = choose_protocol(&available, headline, params.protocol.as_deref())?;
+    let query = crate::predict::Query {
+        lat: params.lat,
+        lon: params.lon,
+        date: params.date.clone(),
+    };
+    let mut answers = Vec::new();
+    for (_, rel) in seed_bundles(experiment, results.as_ref(), &protocol, &params.model)? {
+        let bundle = crate::bundle::load(&experiment.join(&rel), device)?;
+        let prediction = crate::predict::predict(&bundle, gridmet, std::slice::from_ref(&query), device)?
+            .pop()
+            .ok_or_else(|| crate::ForecastError::Model(format!("{rel}: the model gave no prediction")))?;
+        answers.push((prediction, bundle.info, rel));
+    }
+    assemble_forecast(&answers)
+}
+
+/// A name that must stay one folder inside the experiment.
+fn check_folder_name(key: &str, name: &str) -> Result<(), ParamsError> {
+    if name.is_empty() || name == "." || name == ".." || name.contains(['/', '\\']) {
+        return Err(ParamsError {
+            path: key.into(),
+            message: format!("`{name}` is not a {key} name"),
+        });
+    }
+    Ok(())
+}
+
+/// `forecast.predict`: one place and day, scored by every seed of one model of an experiment.
+#[derive(Debug, Default)]
+pub struct PredictStage;
+
+impl StageKind for PredictStage {
+    fn name(&self) -> &'static str {
+        "forecast.predict"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn summary(&self) -> &'static str {
+        "ignition probability of a place and day from an experiment's model: mean and range over its seeds"
+    }
+    fn ports(&self) -> Ports {
+        const IN: &[Port] = &[
+            port(
+                "experiment",
+                true,
+                "a forecast.experiment report folder (its models/<protocol>/<model>/seed-<n>)",
+            ),
+            port(
+                "gridmet",
+                true,
+                "GRIDMET folder with <var>_<year>.nc files covering the input window",
+            ),
+        ];
+        const OUT: &[Port] = &[port(
+            "forecast",
+            true,
+            "probability per seed, mean, range, threshold (JSON)",
+        )];
+        Ports {
+            inputs: IN,
+            outputs: OUT,
+            open: false,
+        }
+    }
+    fn resolve_params(&self, raw: &serde_json::Value) -> Result<serde_json::Value, ParamsError> {
+        let (p, v) = typed_params::<PredictParams>(raw)?;
+        if firecast_dataset::time::parse_date(&p.date).is_none() {
+            return Err(ParamsError {
+                path: "date".into(),
+                message: format!("`{}` is not a YYYY-MM-DD date", p.date),
+            });
+        }
+        for (key, value, limit) in [("lat", p.lat, 90.0), ("lon", p.lon, 180.0)] {
+            if !(-limit..=limit).contains(&value) {
+                return Err(ParamsError {
+                    path: key.into(),
+                    message: format!("{value} is outside ±{limit}"),
+                });
+            }
+        }
+        check_folder_name("model", &p.model)?;
+        if let Some(protocol) = &p.protocol {
+            check_folder_name("protocol", protocol)?;
+        }
+        crate::parse_device(&p.device).map_err(|e| match e {
+            crate::ForecastError::Config { key, message } => ParamsError { path: key, message },
+            other => ParamsError {
+                path: "device".into(),
+                message: other.to_string(),
+            },
+        })?;
+        Ok(v)
+    }
+    fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
+        let params: PredictParams = ctx.params()?;
+        let experiment = ctx.input("experiment")?.to_path_buf();
+        let gridmet = ctx.input("gridmet")?.to_path_buf();
+        let device = crate::parse_device(&params.device)?;
+        firecast_learn::set_threads(ctx.jobs());
+        let f = forecast_point(&experiment, &gridmet, &params, device)?;
+        std::fs::write(ctx.output("forecast")?, serde_json::to_vec_pretty(&f)?)?;
+        ctx.metric("probability", 0, f.probability);
+        ctx.log(format!(
+            "{} ({}, protocol {}): P(ignition) at ({}, {}) on {} = {:.3} [{:.3}, {:.3}] over {} seeds, threshold {:.3}: {}",
+            f.model,
+            f.kind,
+            f.protocol,
+            f.lat,
+            f.lon,
+            f.date,
+            f.probability,
+            f.interval[0],
+            f.interval[1],
+            f.per_seed.len(),
+            f.threshold,
+            if f.ignition_expected {
+                "ignition expected"
+            } else {
+                "no ignition expected"
+            }
+        ));
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use super::*;
+    use crate::bundle::BundleInfo;
+    use crate::models::Trained;
+    use crate::predict::Prediction;
+
+    fn info(seed: u64, threshold: f64, val: Option<f64>, test: Option<f64>) -> BundleInfo {
+        BundleInfo {
+            model: "fdi".into(),
+            kind: "fire_danger_index".into(),
+            protocol: "leak_free".into(),
+            days: (-3, -1),
+            seed,
+            threshold,
+            threshold_rule: "max F1 on validation".into(),
+            dataset: "fixture".into(),
+            dataset_version: "v1".into(),
+            validation_auroc: val,
+            validation_auprc: val.map(|v| v / 2.0),
+            test_auroc: test,
+            features: vec!["tmmx".into()],
+        }
+    }
+
+    fn answer(seed: u64, probability: f64, threshold: f64, val: Option<f64>) -> SeedAnswer {
+        let i = info(seed, threshold, val, None);
+        let p = Prediction {
+            lat: 40.0,
+            lon: -105.0,
+            date: "2018-06-15".into(),
+            probability,
+            threshold,
+            ignition_expected: probability > threshold,
+            cell_lat: 40.025,
+            cell_lon: -105.016,
+            model: i.model.clone(),
+            kind: i.kind.clone(),
+            protocol: i.protocol.clone(),
+            dataset: i.dataset.clone(),
+            dataset_version: i.dataset_version.clone(),
+            input_days: i.days,
+        };
+        (p, i, format!("models/leak_free/fdi/seed-{seed}"))
+    }
+
+    #[test]
+    fn the_forecast_is_the_mean_and_range_over_seeds() {
+        let f = assemble_forecast(&[
+            answer(0, 0.2, 0.3, Some(0.7)),
+            answer(1, 0.5, 0.5, None),
+            answer(2, 0.35, 0.4, Some(0.8)),
+        ])
+        .unwrap();
+        assert!((f.probability - 0.35).abs() < 1e-12);
+        assert_eq!(f.interval, [0.2, 0.5]);
+        assert!((f.threshold - 0.4).abs() < 1e-12);
+        assert_eq!(f.thresholds, vec![0.3, 0.5, 0.4]);
+        assert!(!f.ignition_expected, "0.35 is not above 0.4");
+        assert_eq!(f.interval_method, "range over 3 training seeds");
+        // The mean over the seeds that report one.
+        assert!((f.validation_auroc.unwrap() - 0.75).abs() < 1e-12);
+        assert_eq!(f.test_auroc, None);
+        assert_eq!(
+            f.per_seed.iter().map(|s| s.seed).collect::<Vec<_>>(),
+            vec![0, 1, 2]
+        );
+        assert_eq!(f.per_seed[1].bundle, "models/leak_free/fdi/seed-1");
+        let json = serde_json::to_value(&f).unwrap();
+        assert_eq!(json["version"], 1);
+        assert_eq!(json["input_days"], serde_json::json!([-3, -1]));
+        assert!(json["test_auroc"].is_null());
+        assert!(json["per_seed"][1]["validation_auroc"].is_null());
+
+        let one = assemble_forecast(&[answer(4, 0.6, 0.5, None)]).unwrap();
+        assert_eq!(one.interval, [0.6, 0.6]);
+        assert!(one.ignition_expected);
+        assert_eq!(one.interval_method, "range over 1 training seed");
+
+        assert!(assemble_forecast(&[]).is_err());
+        let mut other = answer(1, 0.5, 0.5, None);
+        other.0.input_days = (-60, 14);
+        let err = assemble_forecast(&[answer(0, 0.2, 0.3, None), other]).unwrap_err();
+        assert!(err.to_string().contains("seed-1"), "{err}");
+    }
+
+    #[test]
+    fn the_protocol_is_the_one_asked_else_the_headline_else_the_only_one() {
+        let two = vec!["leak_free".to_string(), "paper".to_string()];
+        assert_eq!(
+            choose_protocol(&two, Some("leak_free"), Some("paper")).unwrap(),
+            "paper"
+        );
+        assert_eq!(
+            choose_protocol(&two, Some("leak_free"), None).unwrap(),
+            "leak_free"
+        );
+        let err = choose_protocol(&two, None, None).unwrap_err().to_string();
+        assert!(err.contains("leak_free, paper"), "{err}");
+        // A headline without saved models does not count.
+        let err = choose_protocol(&two, Some("other"), None)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("leak_free, paper"), "{err}");
+        let err = choose_protocol(&two, None, Some("nope")).unwrap_err().to_string();
+        assert!(
+            err.contains("`nope`") && err.contains("leak_free, paper"),
+            "{err}"
+        );
+        let one = vec!["paper".to_string()];
+        assert_eq!(choose_protocol(&one, None, None).unwrap(), "paper");
+        assert_eq!(choose_protocol(&one, Some("leak_free"), None).unwrap(), "paper");
+        assert!(choose_protocol(&[], None, None).is_err());
+    }
+
+    #[test]
+    fn params_are_strict_and_checked() {
+        let kind = PredictStage;
+        let ok = serde_json::json!({"lat": 40.0, "lon": -105.0, "date": "2018-06-15", "model": "xgboost"});
+        let resolved = kind.resolve_params(&ok).unwrap();
+        assert_eq!(resolved["device"], "cpu");
+        for (bad, key) in [
+            (
+                serde_json::json!({"lat": 40.0, "lon": -105.0, "date": "2018-13-15", "model": "x"}),
+                "date",
+            ),
+            (
+                serde_json::json!({"lat": 91.0, "lon": -105.0, "date": "2018-06-15", "model": "x"}),
+                "lat",
+            ),
+            (
+                serde_json::json!({"lat": 40.0, "lon": -105.0, "date": "2018-06-15", "model": "../x"}),
+                "model",
+            ),
+            (
+                serde_json::json!({"lat": 40.0, "lon": -105.0, "date": "2018-06-15", "model": "x", "seed": 1}),
+                "seed",
+            ),
+        ] {
+            let err = kind.resolve_params(&bad).unwrap_err();
+            assert!(
+                err.path.contains(key) || err.message.contains(key),
+                "{key}: {} {}",
+                err.path,
+                err.message
+            );
+        }
+    }
+
+    /// The GRIDMET fixture of firecast-dataset: tmmx = 300 + day of year + j/10 + i/100 on
+    /// cells j = 224.., i = 474.. (2018 and 2019).
+    fn fixture_gridmet() -> std::path::PathBuf {
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../firecast-dataset/tests/fixtures/gridmet")
+    }
+
+    #[test]
+    fn every_seed_bundle_of_the_model_is_asked() {
+        let tmp = tempfile::tempdir().unwrap();
+        let exp = tmp.path();
+        // Seed 0: σ(0.01·tmmx − 4) on the last input day; seed 1: 0.75 whatever the weather.
+        for (seed, a, b, threshold) in [(0u64, 0.01, -4.0, 0.6), (1, 0.0, 3f64.ln(), 0.7)] {
+            crate::bundle::save(
+                &exp.join(format!("models/leak_free/fdi/seed-{seed}")),
+                &info(seed, threshold, Some(0.6 + seed as f64 / 10.0), Some(0.5)),
+                &Trained::FireDangerIndex {
+                    feature: "tmmx".into(),
+                    a,
+                    b,
+                },
+            )
+            .unwrap();
+        }
+        // A second protocol, so the choice needs the headline.
+        crate::bundle::save(
+            &exp.join("models/paper/fdi/seed-0"),
+            &info(0, 0.5, None, None),
+            &Trained::Majority { prevalence: 0.1 },
+        )
+        .unwrap();
+        std::fs::write(exp.join("results.json"), r#"{"headline": "leak_free"}"#).unwrap();
+        let (j, i) = (1usize, 2usize);
+        let params = PredictParams {
+            lat: 49.4 - (224 + j) as f64 / 24.0 + 0.01,
+            lon: -124.766_666_633_3 + (474 + i) as f64 / 24.0 - 0.01,
+            date: "2018-06-15".into(),
+            model: "fdi".into(),
+            protocol: None,
+            device: "cpu".into(),
+        };
+        let f = forecast_point(exp, &fixture_gridmet(), &params, tch::Device::Cpu).unwrap();
+        assert_eq!(f.protocol, "leak_free");
+        assert_eq!(f.per_seed.len(), 2);
+        // 2018-06-14 (day −1) is day of year 165.
+        let x = 300.0 + 165.0 + j as f64 / 10.0 + i as f64 / 100.0;
+        let p0 = 1.0 / (1.0 + (-(0.01 * x - 4.0)).exp());
+        assert!((f.per_seed[0].probability - p0).abs() < 1e-5, "{f:?}");
+        assert!((f.per_seed[1].probability - 0.75).abs() < 1e-9);
+        assert!((f.probability - (p0 + 0.75) / 2.0).abs() < 1e-5);
+        assert_eq!(f.interval, [f.per_seed[0].probability, f.per_seed[1].probability]);
+        assert!((f.threshold - 0.65).abs() < 1e-12);
+        assert_eq!(f.ignition_expected, f.probability > 0.65);
+        assert!((f.validation_auroc.unwrap() - 0.65).abs() < 1e-12);
+        assert_eq!(f.test_auroc, Some(0.5));
+        assert_eq!(f.per_seed[0].bundle, "models/leak_free/fdi/seed-0");
+
+        // The other protocol when asked; an unknown model names what there is.
+        let paper = PredictParams {
+            protocol: Some("paper".into()),
+            ..params.clone()
+        };
+        let f = forecast_point(exp, &fixture_gridmet(), &paper, tch::Device::Cpu).unwrap();
+        assert_eq!((f.per_seed.len(), f.probability), (1, 0.1));
+        let missing = PredictParams {
+            model: "xgboost".into(),
+            ..params.clone()
+        };
+        let err = forecast_point(exp, &fixture_gridmet(), &missing, tch::Device::Cpu)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("`xgboost`") && err.contains("fdi"), "{err}");
+
+        // Outside the files' years or grid: the prediction's error.
+        for (lat, lon, date) in [
+            (params.lat, params.lon, "2021-06-15"),
+            (45.0, -100.0, "2018-06-15"),
+        ] {
+            let q = PredictParams {
+                lat,
+                lon,
+                date: date.into(),
+                ..params.clone()
+            };
+            let err = forecast_point(exp, &fixture_gridmet(), &q, tch::Device::Cpu)
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains("no complete") && err.contains(date), "{err}");
+        }
     }
 }

@@ -212,7 +212,6 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
         .or_else(|| ensembles.iter().position(|e| e.strategy != "none"));
     let landscape = first.landscape()?;
     let cell_acres = first.grid.cell_size_ft.powi(2) / SQFT_PER_ACRE;
-    let n_cells = landscape.len();
     let burnable = landscape
         .land_cover
         .iter()
@@ -248,12 +247,12 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
         ),
         agent: agent.map_or_else(|| "none".to_string(), |a| ensembles[a].description.clone()),
         landscape: format!(
-            "{} × {} cells of {} ft ({:.1} × {:.1} mi), {} land cover, centred near {}",
-            first.grid.width,
-            first.grid.height,
-            first.grid.cell_size_ft,
+            "{:.1} × {:.1} mi at {} ft resolution ({} × {} grid), {} land cover, centred near {}",
             first.grid.width as f64 * first.grid.cell_size_ft / 5280.0,
             first.grid.height as f64 * first.grid.cell_size_ft / 5280.0,
+            first.grid.cell_size_ft,
+            first.grid.width,
+            first.grid.height,
             first.grid.scheme,
             lat_lon_text(first.ignition_lat_lon[0], first.ignition_lat_lon[1])
         ),
@@ -332,7 +331,7 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
     };
 
     let burned_fraction_pct = strategies[baseline].burned_acres.value / cell_acres / burnable as f64 * 100.0;
-    let risk = risk(burned_fraction_pct, &assets, n_cells);
+    let risk = risk(burned_fraction_pct, &assets);
 
     let moisture = first.moisture;
     let mut assumptions = vec![
@@ -670,21 +669,7 @@ fn strategy_summary(
     let burned_acres = mean_interval(&acres, settings, salt)?;
     let ha = |v: f64| v * HA_PER_ACRE;
     let contained: Vec<f64> = e.episodes.iter().filter(|r| r.contained).map(|r| r.hours).collect();
-    let peak: Vec<f64> = e
-        .episodes
-        .iter()
-        .map(|r| {
-            // Burning cells are not stored per step; the peak of new burning is where the
-            // burnt-area curve rises fastest.
-            let s = &r.burned_per_step;
-            let k = s
-                .windows(2)
-                .enumerate()
-                .max_by_key(|(k, w)| (w[1].saturating_sub(w[0]), std::cmp::Reverse(*k)))
-                .map_or(0, |(k, _)| k + 1);
-            k as f64 * e.step_minutes / 60.0
-        })
-        .collect();
+    let peak: Vec<f64> = e.episodes.iter().map(|r| r.peak_burning_hour).collect();
     // Hourly series (one point every hour of simulated time, up to the longest run).
     let steps = e.episodes.iter().map(|r| r.burned_per_step.len()).max().unwrap_or(1);
     let per_hour = (60.0 / e.step_minutes).max(1e-9);
@@ -1071,7 +1056,7 @@ fn priority_zones(
         .collect()
 }
 
-fn risk(burned_fraction_pct: f64, assets: &[Asset], _cells: usize) -> Risk {
+fn risk(burned_fraction_pct: f64, assets: &[Asset]) -> Risk {
     let levels = ["LOW", "MODERATE", "HIGH", "SEVERE"];
     let mut k = if burned_fraction_pct < 1.0 {
         0

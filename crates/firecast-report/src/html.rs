@@ -324,7 +324,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         write!(
             h,
             "<h3>Drops of the {}'s representative run</h3><p class=muted>The run with the median burnt area \
-             (seed {}, {} acres); {} drops{}.</p><table><tr><th>#</th><th>hour</th><th>latitude</th><th>longitude</th><th>cells put out</th></tr>",
+             (seed {}, {} acres); {} drops{}.</p><table><tr><th>#</th><th>hour</th><th>latitude</th><th>longitude</th><th>burning acres put out</th></tr>",
             esc(&agent_label),
             d.run_seed.map_or("—".into(), |s| s.to_string()),
             opt(d.run_burned_acres, 0, ""),
@@ -343,7 +343,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
                 fmt_num(drop.hour, 1),
                 drop.lat,
                 drop.lon,
-                drop.quenched_cells
+                fmt_num(f64::from(drop.quenched_cells) * hd.cell_size_ft.powi(2) / 43_560.0, 1)
             )?;
         }
         w(&mut h, "</table>");
@@ -383,14 +383,14 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         h,
         "<h2 class=pb>5. Strategies compared (Table IV)</h2><figure><img alt=\"Burnt area over time\" src=\"{}\"></figure>\
          <table><tr><th>Strategy</th><th>runs</th><th>burnt acres, mean [95 %]</th><th>hectares</th><th>median acres</th>\
-         <th>share of burnable land</th><th>fire out</th><th>hours to out (median)</th><th>drops</th><th>water, gal</th></tr>",
+         <th>share of burnable land</th><th>fire out</th><th>hours to out (median)</th><th>peak spread at (median)</th><th>drops</th><th>water, gal</th></tr>",
         figures::data_uri(&chart)
     )?;
     for s in &r.strategies {
         write!(
             h,
             "<tr><td><i class=sw style=\"border-color:{}\"></i>{}</td><td class=n>{}</td><td class=n>{}</td><td class=n>{}</td>\
-             <td class=n>{}</td><td class=n>{:.1} %</td><td class=n>{:.0} %</td><td class=n>{}</td><td class=n>{}</td><td class=n>{}</td></tr>",
+             <td class=n>{}</td><td class=n>{:.1} %</td><td class=n>{:.0} %</td><td class=n>{}</td><td class=n>{} h</td><td class=n>{}</td><td class=n>{}</td></tr>",
             hex(strategy_color(&s.strategy)),
             esc(&s.label),
             s.runs,
@@ -400,6 +400,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             s.burned_fraction_pct,
             s.contained_pct,
             opt(s.containment_hours_median, 1, "h"),
+            fmt_num(s.peak_burning_hours_median, 1),
             fmt_num(s.helitacks_mean, 1),
             fmt_num(s.water_gal_mean, 0)
         )?;
@@ -455,12 +456,16 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     // Priority zones.
     write!(
         h,
-        "<h2>7. Suppression priority zones</h2><p class=muted>Zones of {} × {} cells ({} × {} ft) where the {} kept the most \
-         land from burning: burn probability without suppression minus with it, summed over the zone.</p>",
-        r.priority_zones.first().map_or(0, |z| z.cells[2] - z.cells[0]),
-        r.priority_zones.first().map_or(0, |z| z.cells[3] - z.cells[1]),
+        "<h2>7. Suppression priority zones</h2><p class=muted>Squares of {} × {} ft ({} acres) where the {} kept the most \
+         land from burning: burn probability without suppression minus with it, summed over the square.</p>",
         fmt_num(r.priority_zones.first().map_or(0.0, |z| (z.cells[2] - z.cells[0]) as f64 * hd.cell_size_ft), 0),
         fmt_num(r.priority_zones.first().map_or(0.0, |z| (z.cells[3] - z.cells[1]) as f64 * hd.cell_size_ft), 0),
+        fmt_num(
+            r.priority_zones.first().map_or(0.0, |z| {
+                ((z.cells[2] - z.cells[0]) * (z.cells[3] - z.cells[1])) as f64 * hd.cell_size_ft.powi(2) / 43_560.0
+            }),
+            0
+        ),
         esc(&agent_label)
     )?;
     if r.priority_zones.is_empty() {
@@ -638,10 +643,10 @@ fn map_svg(c: &Computed) -> Result<String, ReportError> {
     )?;
     write!(
         svg,
-        "</svg><figcaption>Land cover over hillshade; north is up. Grid {} × {} cells of {} ft in {}; corners \
+        "</svg><figcaption>Land cover over hillshade; north is up. {:.1} × {:.1} mi at {} ft resolution in {}; corners \
          {} (south-west) to {} (north-east).</figcaption></figure>",
-        gw,
-        gh,
+        gw as f64 * land.cell_size_ft / 5280.0,
+        gh as f64 * land.cell_size_ft / 5280.0,
         land.cell_size_ft,
         esc(&land.georef.crs),
         esc(&corner(land, 0, 0)),

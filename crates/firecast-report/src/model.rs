@@ -184,7 +184,8 @@ pub struct StrategySummary {
     pub contained_pct: f64,
     /// Median hours until the fire went out, over the runs that went out.
     pub containment_hours_median: Option<f64>,
-    /// Hours until the most cells were burning at once (the authors' "containment time").
+    /// Median over runs of the hour at which the most cells were burning at once (the
+    /// authors' "containment time").
     pub peak_burning_hours_median: f64,
     pub helitacks_mean: f64,
     pub water_gal_mean: f64,

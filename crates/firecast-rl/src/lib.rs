@@ -11,6 +11,7 @@
 pub mod bench;
 pub mod buffer;
 pub mod cartpole;
+pub mod ensemble;
 pub mod env;
 mod error;
 pub mod evaluate;

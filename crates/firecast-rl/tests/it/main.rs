@@ -1,4 +1,5 @@
 //! Integration tests of firecast-rl.
 
 mod cartpole;
+mod ensemble;
 mod golden;

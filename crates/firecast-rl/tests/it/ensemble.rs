@@ -1,0 +1,151 @@
+//! `rl.ensemble`'s runner on a tiny trained run: two training seeds on a 48×32 grid, three
+//! runs of 60 steps.
+
+use std::path::Path;
+
+use firecast_episodes::ensemble::{Ensemble, Setup, assemble};
+use firecast_episodes::{LandscapeSpec, Scenario};
+use firecast_rl::ensemble::{EnsemblePolicy, load_policies, run_policies};
+use firecast_rl::run::RunSink;
+use firecast_rl::spec::{EnvSpec, PpoSpec, TrainSpec};
+use firecast_sim::EnvConfig;
+use tch::Device;
+
+struct Quiet;
+impl RunSink for Quiet {}
+
+const FIRES: &str = r#"
+train:
+  landscape_seeds: [1]
+  width: 48
+  height: 32
+  fires: 2
+  seed: 0
+  wind_speed_mph: [2, 6]
+  dead_1h_frac: [0.04, 0.06]
+  ignition_margin_cells: 8
+  env: {max_steps: 40}
+evaluate:
+  landscape_seeds: [2]
+  width: 48
+  height: 32
+  fires: 1
+  seed: 1
+  wind_speed_mph: [2, 6]
+  dead_1h_frac: [0.04, 0.06]
+  ignition_margin_cells: 8
+"#;
+
+/// Trains seeds 0 and 1 for 32 steps each, normalising observations; returns the run folder.
+fn tiny_run(dir: &Path) -> std::path::PathBuf {
+    let fires = dir.join("fires.yaml");
+    std::fs::write(&fires, FIRES).expect("writing the fire file");
+    let overrides = serde_json::json!({
+        "n_envs": 2, "n_steps": 16, "batch_size": 16, "n_epochs": 1, "total_timesteps": 32,
+        // Observation statistics, so the frozen normaliser is loaded and applied.
+        "normalize": {"obs": true, "reward": true}
+    });
+    let spec = TrainSpec {
+        name: "tiny".into(),
+        description: None,
+        env: EnvSpec::Helitack { fires: None },
+        policy: None,
+        ppo: PpoSpec {
+            preset: "paper".into(),
+            overrides: overrides.as_object().cloned().unwrap_or_default(),
+        },
+        seeds: vec![0, 1],
+        checkpoint_every: 1,
+        device: "cpu".into(),
+    };
+    let out = dir.join("run");
+    firecast_rl::run::train(
+        &spec,
+        Some(&fires),
+        &dir.join("work"),
+        &out,
+        Device::Cpu,
+        &Quiet,
+        None,
+    )
+    .expect("training the tiny run");
+    out
+}
+
+fn setup(width: usize, height: usize) -> Setup {
+    let env = EnvConfig {
+        max_steps: 60,
+        ..EnvConfig::default()
+    };
+    let scenario = Scenario::new(
+        LandscapeSpec::Procedural {
+            seed: 5,
+            width,
+            height,
+            center: None,
+        },
+        env,
+    );
+    Setup::new(scenario, Path::new("."), None).expect("the scenario")
+}
+
+fn ensemble(setup: &Setup, policies: &[EnsemblePolicy], runs: usize, seed: u64) -> Ensemble {
+    let out = run_policies(setup, policies, runs, seed, &|| {}).expect("the runs");
+    assemble(setup, "ppo", "test".into(), out).expect("the ensemble")
+}
+
+#[test]
+fn a_runs_policies_play_an_ensemble_reproducibly() {
+    let tmp = tempfile::tempdir().expect("a temporary folder");
+    let run = tiny_run(tmp.path());
+    let (summary, policies) = load_policies(&run, Device::Cpu).expect("loading the run");
+    assert_eq!(summary.seeds.len(), 2);
+    assert!(policies.iter().all(|p| p.normalize.is_some()));
+    assert_eq!(policies.iter().map(|p| p.seed).collect::<Vec<_>>(), vec![0, 1]);
+    let s = setup(48, 32);
+    let e = ensemble(&s, &policies, 3, 11);
+    assert_eq!(e.runs(), 3);
+    for (k, ep) in e.episodes.iter().enumerate() {
+        assert_eq!(ep.seed, 11 + k as u64);
+        assert_eq!(
+            ep.policy.as_deref(),
+            Some(["training seed 0", "training seed 1"][k % 2])
+        );
+        // The same perturbed weather as sim.ensemble's run with this seed.
+        assert_eq!(ep.conditions, s.run_env(ep.seed).1);
+        assert!(ep.burned_per_step.len() >= 2 && ep.burned_per_step.len() <= 61);
+        assert_eq!(ep.burned_per_step.last().copied(), Some(ep.cells_burned));
+        assert!(ep.helitacks as usize >= ep.drops.len());
+    }
+    let cells = 48 * 32;
+    assert_eq!(e.burn_count.len(), cells);
+    for i in 0..cells {
+        assert!(e.burn_count[i] <= 3);
+        assert_eq!(e.arrival_first_h[i].is_some(), e.burn_count[i] > 0, "cell {i}");
+        // The median arrival exists where at least half of the runs (2 of 3) burned.
+        assert_eq!(e.arrival_median_h[i].is_some(), e.burn_count[i] >= 2, "cell {i}");
+        if let (Some(f), Some(m)) = (e.arrival_first_h[i], e.arrival_median_h[i]) {
+            assert!(f <= m, "cell {i}: first {f} > median {m}");
+        }
+    }
+    assert_eq!(
+        e.burn_count[s.ignition[1] * 48 + s.ignition[0]],
+        3,
+        "the ignition burns in every run"
+    );
+    assert!(
+        e.burn_count.iter().filter(|&&c| c > 0).count() > 1,
+        "the fire spreads"
+    );
+    // Same seed, same bytes.
+    let again = ensemble(&s, &policies, 3, 11);
+    assert_eq!(serde_json::to_vec(&e).ok(), serde_json::to_vec(&again).ok());
+    assert_eq!(e, again);
+
+    // A landscape of another size than the policies were trained on is refused.
+    let err = run_policies(&setup(40, 32), &policies, 1, 0, &|| {})
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(err.contains("trained on observations"), "{err}");
+}
