@@ -49,14 +49,28 @@ fn parse_asset(s: &str) -> anyhow::Result<firecast_report::AssetSpec> {
     };
     Ok(firecast_report::AssetSpec {
         name: name.trim().to_string(),
-        lat: lat.trim().parse().with_context(|| format!("--asset `{s}`: latitude"))?,
-        lon: lon.trim().parse().with_context(|| format!("--asset `{s}`: longitude"))?,
+        lat: lat
+            .trim()
+            .parse()
+            .with_context(|| format!("--asset `{s}`: latitude"))?,
+        lon: lon
+            .trim()
+            .parse()
+            .with_context(|| format!("--asset `{s}`: longitude"))?,
     })
 }
 
 pub fn run(settings: &Settings, args: &ReportArgs) -> anyhow::Result<ExitCode> {
-    let assets = args.assets.iter().map(|a| parse_asset(a)).collect::<anyhow::Result<Vec<_>>>()?;
-    let rel = |p: &PathBuf| crate::cmd_pipeline::relative_to_root(settings, p).display().to_string();
+    let assets = args
+        .assets
+        .iter()
+        .map(|a| parse_asset(a))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let rel = |p: &PathBuf| {
+        crate::cmd_pipeline::relative_to_root(settings, p)
+            .display()
+            .to_string()
+    };
     let out = crate::cmd_pipeline::relative_to_root(settings, &args.out);
     let mut params = serde_json::json!({"lat": args.lat, "lon": args.lon, "date": args.date});
     if !assets.is_empty() {

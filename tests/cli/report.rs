@@ -165,10 +165,18 @@ fn threat_report_end_to_end_is_cached_and_registered() {
     // The numbers come from the ensemble files the stages wrote.
     let none: serde_json::Value = serde_json::from_str(&p.read("build/none.json")).unwrap();
     let runs = none["episodes"].as_array().unwrap();
-    let cells: f64 = runs.iter().map(|r| r["cells_burned"].as_f64().unwrap()).sum::<f64>() / runs.len() as f64;
+    let cells: f64 = runs
+        .iter()
+        .map(|r| r["cells_burned"].as_f64().unwrap())
+        .sum::<f64>()
+        / runs.len() as f64;
     let acres = report["strategies"][0]["burned_acres"]["value"].as_f64().unwrap();
     assert!((acres - cells * 500.0 * 500.0 / 43_560.0).abs() < 1e-6);
-    assert!(std::fs::read(p.path("build/report.pdf")).unwrap().starts_with(b"%PDF-"));
+    assert!(
+        std::fs::read(p.path("build/report.pdf"))
+            .unwrap()
+            .starts_with(b"%PDF-")
+    );
     // Registered artifacts under their final names.
     let runs = p.json(&["runs", "list"]);
     let id = runs
@@ -186,16 +194,23 @@ fn threat_report_end_to_end_is_cached_and_registered() {
     assert!(!text.contains("firecast-tmp"), "temporary names leaked: {text}");
     // A second run is up to date throughout.
     let again = p.run_pipeline("pipelines/threat.yaml", &[]);
-    assert!(again.values().all(|o| o == "up-to-date"), "{again:?}");
+    assert!(again.values().all(|o| o == "up_to_date"), "{again:?}");
 }
 
 #[test]
 fn a_point_without_fuel_or_outside_the_landscape_leaves_no_report() {
     // Far outside the 48 × 32 landscape around (39.3, −107.4).
     let p = project(39.6, -107.4);
-    let out = p.firecast().args(["pipeline", "run", "pipelines/threat.yaml"]).output().unwrap();
+    let out = p
+        .firecast()
+        .args(["pipeline", "run", "pipelines/threat.yaml"])
+        .output()
+        .unwrap();
     assert!(!out.status.success(), "{}", describe(&out));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("ignition") && err.contains("outside the landscape"), "{err}");
+    assert!(
+        err.contains("ignition") && err.contains("outside the landscape"),
+        "{err}"
+    );
     assert!(!p.path("build/report.html").exists() && !p.path("build/report.json").exists());
 }

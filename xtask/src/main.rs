@@ -105,11 +105,15 @@ fn on_path(name: &str) -> bool {
 /// the HTML in it) and poppler-utils (the tests read the PDF back), from the distribution's
 /// packages.
 fn ensure_browser() -> Result<(), String> {
-    let have_browser = env::var_os("FIRECAST_CHROMIUM").is_some() || on_path("chromium") || on_path("chromium-browser");
+    let have_browser =
+        env::var_os("FIRECAST_CHROMIUM").is_some() || on_path("chromium") || on_path("chromium-browser");
     if have_browser && on_path("pdfinfo") && on_path("pdftotext") {
         return Ok(());
     }
-    let root = Command::new("id").arg("-u").output().is_ok_and(|o| o.stdout.starts_with(b"0"));
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| o.stdout.starts_with(b"0"));
     let apt = |args: &[&str]| {
         let mut c = if root {
             Command::new("apt-get")
@@ -122,7 +126,13 @@ fn ensure_browser() -> Result<(), String> {
         c
     };
     eprintln!("xtask: installing Debian's chromium and poppler-utils (reports: PDF printing and tests)");
-    let packages = ["install", "-y", "--no-install-recommends", "chromium", "poppler-utils"];
+    let packages = [
+        "install",
+        "-y",
+        "--no-install-recommends",
+        "chromium",
+        "poppler-utils",
+    ];
     if run(&mut apt(&packages), "apt-get install chromium poppler-utils").is_err() {
         run(&mut apt(&["update"]), "apt-get update")?;
         run(&mut apt(&packages), "apt-get install chromium poppler-utils")?;

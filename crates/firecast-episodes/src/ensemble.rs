@@ -14,7 +14,9 @@
 
 use firecast_landscape::{LandCoverScheme, Landscape};
 use firecast_sim::env::EnvCore;
-use firecast_sim::{EnvConfig, FuelModel, FuelMoisture, KernelConfig, StepInfo, Wind, WildfireEnv, run_episode};
+use firecast_sim::{
+    EnvConfig, FuelModel, FuelMoisture, KernelConfig, StepInfo, WildfireEnv, Wind, run_episode,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::{AgentKind, EpisodeError, ResolvedWeather, Scenario};
@@ -357,7 +359,13 @@ impl Setup {
         let p = &self.perturbation;
         // A stream of its own, so the simulator's draws from the same seed stay independent.
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x7E57_F1BE_u64.rotate_left(32));
-        let mut u = |spread: f64| if spread > 0.0 { rng.random_range(-spread..=spread) } else { 0.0 };
+        let mut u = |spread: f64| {
+            if spread > 0.0 {
+                rng.random_range(-spread..=spread)
+            } else {
+                0.0
+            }
+        };
         let mut env = self.scenario.env.clone();
         let wind = &mut env.sim.wind;
         wind.speed_mph = (wind.speed_mph * (1.0 + u(p.wind_speed_frac))).max(0.0);
@@ -365,7 +373,11 @@ impl Setup {
         let shift = u(p.dead_moisture_frac);
         let dead_1h = match &mut env.sim.kernel {
             KernelConfig::Rothermel { moisture, .. } => {
-                for m in [&mut moisture.dead_1h_frac, &mut moisture.dead_10h_frac, &mut moisture.dead_100h_frac] {
+                for m in [
+                    &mut moisture.dead_1h_frac,
+                    &mut moisture.dead_10h_frac,
+                    &mut moisture.dead_100h_frac,
+                ] {
                     *m = (*m + shift).max(0.02);
                 }
                 Some(moisture.dead_1h_frac)

@@ -663,7 +663,8 @@ pub fn prepare_ensemble(
 ) -> Result<crate::ensemble::Setup, StageError> {
     let env = serde_path_to_error_env(&params.env).map_err(|e| StageError::msg(e.message))?;
     let scenario = scenario_of(ctx, &params.landscape, env, params.weather_date.as_deref())?;
-    let setup = crate::ensemble::Setup::new(scenario, ctx.root(), params.ignition)?.with_perturbation(params.perturb);
+    let setup =
+        crate::ensemble::Setup::new(scenario, ctx.root(), params.ignition)?.with_perturbation(params.perturb);
     if let Some(w) = &setup.weather {
         ctx.log(format!(
             "wind from GRIDMET on {}: vs {:.2} m/s from {:.0}° at ({:.4}, {:.4})",
@@ -730,7 +731,11 @@ impl StageKind for EnsembleStage {
             ctx.metric("helitacks", k as i64, f64::from(e.helitacks));
         }
         std::fs::write(ctx.output("ensemble")?, serde_json::to_vec(&ensemble)?)?;
-        let mean = ensemble.episodes.iter().map(|e| f64::from(e.cells_burned)).sum::<f64>()
+        let mean = ensemble
+            .episodes
+            .iter()
+            .map(|e| f64::from(e.cells_burned))
+            .sum::<f64>()
             / ensemble.runs() as f64;
         ctx.log(format!(
             "{}: {} runs, {mean:.0} cells burned on average",

@@ -205,7 +205,12 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
     let baseline = ensembles
         .iter()
         .position(|e| e.strategy == "none")
-        .ok_or_else(|| ReportError::input("ensembles", "no `none` (unsuppressed) ensemble: nothing to compare with"))?;
+        .ok_or_else(|| {
+            ReportError::input(
+                "ensembles",
+                "no `none` (unsuppressed) ensemble: nothing to compare with",
+            )
+        })?;
     let agent = ensembles
         .iter()
         .position(|e| e.strategy == "ppo")
@@ -243,7 +248,11 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
         firecast_version: env!("CARGO_PKG_VERSION").to_string(),
         forecaster: format!(
             "{} ({}, protocol {}, dataset {} {})",
-            forecast.model, forecast.kind, forecast.protocol, forecast.dataset, short(&forecast.dataset_version)
+            forecast.model,
+            forecast.kind,
+            forecast.protocol,
+            forecast.dataset,
+            short(&forecast.dataset_version)
         ),
         agent: agent.map_or_else(|| "none".to_string(), |a| ensembles[a].description.clone()),
         landscape: format!(
@@ -312,7 +321,15 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
     }
 
     // Drops of the agent's representative run.
-    let drops = match agent {
+    // The agent's drops; when its representative run made none (an untrained agent), the
+    // drops of the next strategy that made some, and the report says whose they are.
+    let dropper = agent.into_iter().chain((0..ensembles.len()).rev()).find(|&k| {
+        k != baseline
+            && !ensembles[k].episodes[representative_run(&ensembles[k])]
+                .drops
+                .is_empty()
+    });
+    let drops = match dropper.or(agent) {
         Some(a) => drop_plan(&ensembles[a], &landscape, cell_acres),
         None => DropPlan {
             strategy: "none".into(),
@@ -398,7 +415,8 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
     ];
     if fc.ignition_expected {
         what_would_change.push(
-            "Rain or higher humidity on the day would lower the ignition probability of the next forecast.".into(),
+            "Rain or higher humidity on the day would lower the ignition probability of the next forecast."
+                .into(),
         );
     } else {
         what_would_change.push(format!(
@@ -442,10 +460,23 @@ fn short(version: &str) -> &str {
 
 fn forecast_block(f: &ForecastFile) -> Forecast {
     let auprc: Vec<f64> = f.per_seed.iter().filter_map(|s| s.validation_auprc).collect();
+    let interval_method = if f.interval[1] - f.interval[0] < 1e-9 {
+        format!(
+            "{} — no spread: {}",
+            f.interval_method,
+            if f.per_seed.len() < 2 {
+                "one trained model, so no interval"
+            } else {
+                "the seeds agree (the model does not depend on its seed)"
+            }
+        )
+    } else {
+        f.interval_method.clone()
+    };
     Forecast {
         probability: f.probability,
         interval: f.interval,
-        interval_method: f.interval_method.clone(),
+        interval_method,
         threshold: f.threshold,
         ignition_expected: f.probability > f.threshold,
         model: f.model.clone(),
@@ -469,9 +500,17 @@ pub fn slope_aspect(land: &Landscape, x: usize, y: usize) -> (f64, f64) {
     let (x0, x1) = (x.saturating_sub(1), (x + 1).min(w - 1));
     let (y0, y1) = (y.saturating_sub(1), (y + 1).min(h - 1));
     let c = land.cell_size_ft;
-    let gx = if x1 > x0 { (z(x1, y) - z(x0, y)) / ((x1 - x0) as f64 * c) } else { 0.0 };
+    let gx = if x1 > x0 {
+        (z(x1, y) - z(x0, y)) / ((x1 - x0) as f64 * c)
+    } else {
+        0.0
+    };
     // Row 0 is south: y grows northward.
-    let gy = if y1 > y0 { (z(x, y1) - z(x, y0)) / ((y1 - y0) as f64 * c) } else { 0.0 };
+    let gy = if y1 > y0 {
+        (z(x, y1) - z(x, y0)) / ((y1 - y0) as f64 * c)
+    } else {
+        0.0
+    };
     let slope = 100.0 * gx.hypot(gy);
     // The slope faces downhill: bearing of (−gx, −gy).
     let aspect = (-gx).atan2(-gy).to_degrees().rem_euclid(360.0);
@@ -488,7 +527,8 @@ fn fire_behaviour(e: &Ensemble, land: &Landscape) -> Result<(FireBehaviour, Vec<
     let moisture = e
         .moisture
         .unwrap_or_else(|| FuelMoisture::from_percent(6.0, 7.0, 8.0, 60.0, 90.0));
-    let bed = SurfaceFuelBed::new(model, &moisture).map_err(|err| ReportError::input("fuel", err.to_string()))?;
+    let bed =
+        SurfaceFuelBed::new(model, &moisture).map_err(|err| ReportError::input("fuel", err.to_string()))?;
     let (slope, aspect) = slope_aspect(land, x, y);
     let upslope = (aspect + 180.0).rem_euclid(360.0);
     let toward = (e.wind.from_direction_deg + 180.0).rem_euclid(360.0);
@@ -591,7 +631,7 @@ fn fire_behaviour(e: &Ensemble, land: &Landscape) -> Result<(FireBehaviour, Vec<
             Some(hi)
         };
         let statement = match wind {
-            Some(w) if w == 0.0 => format!(
+            Some(w) if w <= 0.0 => format!(
                 "Flame length passes {limit} ft even in calm air in {}: beyond {resource}.",
                 model.code
             ),
@@ -599,7 +639,11 @@ fn fire_behaviour(e: &Ensemble, land: &Landscape) -> Result<(FireBehaviour, Vec<
                 "Above {:.0} mi/h of 10-m wind from {} the head fire passes {limit} ft: beyond {resource}{}.",
                 w,
                 compass(e.wind.from_direction_deg),
-                if exceeded_today { " — already the case today" } else { "" }
+                if exceeded_today {
+                    " — already the case today"
+                } else {
+                    ""
+                }
             ),
             None => format!(
                 "Flame length stays below {limit} ft up to {search_to:.0} mi/h of wind: within reach of {resource}."
@@ -665,19 +709,37 @@ fn strategy_summary(
     burnable: usize,
     salt: u64,
 ) -> Result<StrategySummary, ReportError> {
-    let acres: Vec<f64> = e.episodes.iter().map(|r| f64::from(r.cells_burned) * cell_acres).collect();
+    let acres: Vec<f64> = e
+        .episodes
+        .iter()
+        .map(|r| f64::from(r.cells_burned) * cell_acres)
+        .collect();
     let burned_acres = mean_interval(&acres, settings, salt)?;
     let ha = |v: f64| v * HA_PER_ACRE;
-    let contained: Vec<f64> = e.episodes.iter().filter(|r| r.contained).map(|r| r.hours).collect();
+    let contained: Vec<f64> = e
+        .episodes
+        .iter()
+        .filter(|r| r.contained)
+        .map(|r| r.hours)
+        .collect();
     let peak: Vec<f64> = e.episodes.iter().map(|r| r.peak_burning_hour).collect();
     // Hourly series (one point every hour of simulated time, up to the longest run).
-    let steps = e.episodes.iter().map(|r| r.burned_per_step.len()).max().unwrap_or(1);
+    let steps = e
+        .episodes
+        .iter()
+        .map(|r| r.burned_per_step.len())
+        .max()
+        .unwrap_or(1);
     let per_hour = (60.0 / e.step_minutes).max(1e-9);
     let hours_total = ((steps - 1) as f64 / per_hour).ceil() as usize;
     let (mut hours, mut mean, mut p10, mut p90) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for hr in 0..=hours_total {
         let k = ((hr as f64 * per_hour).round() as usize).min(steps - 1);
-        let mut v: Vec<f64> = e.episodes.iter().map(|r| f64::from(burned_at(r, k)) * cell_acres).collect();
+        let mut v: Vec<f64> = e
+            .episodes
+            .iter()
+            .map(|r| f64::from(burned_at(r, k)) * cell_acres)
+            .collect();
         v.sort_by(f64::total_cmp);
         hours.push(hr as f64);
         mean.push(v.iter().sum::<f64>() / v.len() as f64);
@@ -688,7 +750,12 @@ fn strategy_summary(
         .isochrones_h
         .iter()
         .map(|&t| {
-            let n = e.arrival_median_h.iter().flatten().filter(|&&a| f64::from(a) <= t).count();
+            let n = e
+                .arrival_median_h
+                .iter()
+                .flatten()
+                .filter(|&&a| f64::from(a) <= t)
+                .count();
             [t, n as f64 * cell_acres]
         })
         .collect();
@@ -766,7 +833,11 @@ fn compare(
             low: d.low,
             high: d.high,
         },
-        reduction_pct: if base_mean > 0.0 { d.estimate / base_mean * 100.0 } else { 0.0 },
+        reduction_pct: if base_mean > 0.0 {
+            d.estimate / base_mean * 100.0
+        } else {
+            0.0
+        },
         runs_better_pct: better as f64 / b.len() as f64 * 100.0,
     })
 }
@@ -827,7 +898,11 @@ fn buffer(land: &Landscape, cells: &[usize], r: usize) -> Vec<usize> {
 /// Connected (8-neighbour) patches of developed land.
 fn developed_patches(land: &Landscape) -> Vec<Vec<usize>> {
     let (w, h) = (land.width, land.height);
-    let dev: Vec<bool> = land.land_cover.iter().map(|&c| is_developed(land.scheme, c)).collect();
+    let dev: Vec<bool> = land
+        .land_cover
+        .iter()
+        .map(|&c| is_developed(land.scheme, c))
+        .collect();
     let mut seen = vec![false; w * h];
     let mut patches = Vec::new();
     for start in 0..w * h {
@@ -873,7 +948,10 @@ fn assets(
         let (x, y) = land.lat_lon_to_cell(a.lat, a.lon).ok_or_else(|| {
             ReportError::input(
                 format!("assets[{i}]"),
-                format!("`{}` at ({}, {}) is outside the simulated landscape", a.name, a.lat, a.lon),
+                format!(
+                    "`{}` at ({}, {}) is outside the simulated landscape",
+                    a.name, a.lat, a.lon
+                ),
             )
         })?;
         list.push((a.name.clone(), "listed".into(), vec![land.index(x, y)]));
@@ -904,7 +982,10 @@ fn assets(
                 }
                 best_count = best_count.max(e.burn_count[c]);
             }
-            reached.push((e.strategy.clone(), f64::from(best_count) / e.runs() as f64 * 100.0));
+            reached.push((
+                e.strategy.clone(),
+                f64::from(best_count) / e.runs() as f64 * 100.0,
+            ));
         }
         let first_arrival = first.is_finite().then_some(first);
         let (band, advice, trigger) = match first_arrival {
@@ -943,11 +1024,7 @@ fn assets(
                 ),
                 None,
             ),
-            None => (
-                "NONE",
-                "No simulated fire reached it.".to_string(),
-                None,
-            ),
+            None => ("NONE", "No simulated fire reached it.".to_string(), None),
         };
         let (cx, cy) = centroid(land, &cells);
         let (lat, lon) = land.cell_to_lat_lon(cx, cy);

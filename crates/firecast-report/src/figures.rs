@@ -35,7 +35,9 @@ pub fn png_bytes(image: &RgbImage) -> Result<Vec<u8>, ReportError> {
         let mut enc = png::Encoder::new(&mut out, image.width as u32, image.height as u32);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
-        let mut w = enc.write_header().map_err(|e| ReportError::Figure(e.to_string()))?;
+        let mut w = enc
+            .write_header()
+            .map_err(|e| ReportError::Figure(e.to_string()))?;
         w.write_image_data(&image.data)
             .map_err(|e| ReportError::Figure(e.to_string()))?;
     }

@@ -35,7 +35,12 @@ pub fn build(c: &Computed) -> Result<Value, ReportError> {
             if rings.is_empty() {
                 continue;
             }
-            let cells = e.arrival_median_h.iter().flatten().filter(|&&a| f64::from(a) <= t).count();
+            let cells = e
+                .arrival_median_h
+                .iter()
+                .flatten()
+                .filter(|&&a| f64::from(a) <= t)
+                .count();
             let geom = geojson_multipolygon(land, &geometry::polygons(rings)).ok_or_else(no_georef)?;
             features.push(feature(
                 geom,
@@ -85,7 +90,12 @@ pub fn build(c: &Computed) -> Result<Value, ReportError> {
     }
     for z in &r.priority_zones {
         let [x0, y0, x1, y1] = z.cells;
-        let ring = vec![(x0 as i64, y0 as i64), (x1 as i64, y0 as i64), (x1 as i64, y1 as i64), (x0 as i64, y1 as i64)];
+        let ring = vec![
+            (x0 as i64, y0 as i64),
+            (x1 as i64, y0 as i64),
+            (x1 as i64, y1 as i64),
+            (x0 as i64, y1 as i64),
+        ];
         let geom = geojson_multipolygon(land, &[vec![ring]]).ok_or_else(no_georef)?;
         features.push(feature(
             geom,

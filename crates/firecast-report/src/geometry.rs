@@ -13,7 +13,9 @@ pub type Ring = Vec<(i64, i64)>;
 /// clockwise (RFC 7946's orientation with y north). Cells touching only at a corner get
 /// separate rings.
 pub fn rings(w: usize, h: usize, inside: impl Fn(usize) -> bool) -> Vec<Ring> {
-    let at = |x: i64, y: i64| x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h && inside(y as usize * w + x as usize);
+    let at = |x: i64, y: i64| {
+        x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h && inside(y as usize * w + x as usize)
+    };
     // Directed boundary edges, interior on the left.
     let mut out: BTreeMap<(i64, i64), Vec<(i64, i64)>> = BTreeMap::new();
     for y in 0..h as i64 {
@@ -55,7 +57,11 @@ pub fn rings(w: usize, h: usize, inside: impl Fn(usize) -> bool) -> Vec<Ring> {
 
 /// Removes and returns the edge leaving `v`, turning left before going straight before
 /// turning right (keeps corner-touching cells apart).
-fn take(out: &mut BTreeMap<(i64, i64), Vec<(i64, i64)>>, v: (i64, i64), dir: Option<(i64, i64)>) -> (i64, i64) {
+fn take(
+    out: &mut BTreeMap<(i64, i64), Vec<(i64, i64)>>,
+    v: (i64, i64),
+    dir: Option<(i64, i64)>,
+) -> (i64, i64) {
     let Some(list) = out.get_mut(&v) else {
         return v;
     };
@@ -154,7 +160,12 @@ pub fn svg_path(rings: &[Ring], height: usize, scale: f64) -> String {
     for ring in rings {
         for (k, &(x, y)) in ring.iter().enumerate() {
             let (px, py) = (x as f64 * scale, (height as i64 - y) as f64 * scale);
-            d.push_str(&format!("{}{} {}", if k == 0 { "M" } else { "L" }, fmt_px(px), fmt_px(py)));
+            d.push_str(&format!(
+                "{}{} {}",
+                if k == 0 { "M" } else { "L" },
+                fmt_px(px),
+                fmt_px(py)
+            ));
         }
         d.push('Z');
     }
@@ -169,7 +180,10 @@ fn fmt_px(v: f64) -> String {
 /// WGS84 [lon, lat] of a grid vertex (cell corners), 7 decimals (~1 cm).
 pub fn vertex_lon_lat(land: &Landscape, crs: &Crs, x: i64, y: i64) -> Option<[f64; 2]> {
     let g = &land.georef;
-    let (px, py) = (g.origin_x + x as f64 * g.cell_size_x, g.origin_y + y as f64 * g.cell_size_y);
+    let (px, py) = (
+        g.origin_x + x as f64 * g.cell_size_x,
+        g.origin_y + y as f64 * g.cell_size_y,
+    );
     let (lat, lon) = crs.to_lat_lon(px, py)?;
     Some([round7(lon), round7(lat)])
 }
@@ -230,8 +244,10 @@ mod tests {
         for _ in 0..50 {
             let cells: Vec<bool> = (0..64)
                 .map(|_| {
-                    state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                    (state >> 33) % 3 == 0
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    (state >> 33).is_multiple_of(3)
                 })
                 .collect();
             let r = rings(8, 8, |i| cells[i]);

@@ -30,7 +30,10 @@ pub fn esc(s: &str) -> String {
 }
 
 fn opt(v: Option<f64>, digits: usize, unit: &str) -> String {
-    v.map_or_else(|| "—".into(), |v| format!("{} {unit}", fmt_num(v, digits)).trim_end().to_string())
+    v.map_or_else(
+        || "—".into(),
+        |v| format!("{} {unit}", fmt_num(v, digits)).trim_end().to_string(),
+    )
 }
 
 fn est(e: &Estimate, digits: usize) -> String {
@@ -71,7 +74,7 @@ figcaption{font-size:.85em;color:var(--muted)}
 .swf{display:inline-block;width:14px;height:14px;vertical-align:middle;margin-right:4px}
 header .meta{font-size:.85em;color:var(--muted)}
 @media (max-width:640px){.grid2{grid-template-columns:1fr}body{font-size:14px}table{font-size:.85em}}
-@media print{main{max-width:none;padding:0}h2{break-after:avoid}figure,table,.box{break-inside:avoid}.pb{break-before:page}}
+@media print{main{max-width:none;padding:0}h2,h3{break-after:avoid}tr{break-inside:avoid}figure,.box,.keep{break-inside:avoid}.pb{break-before:page}}
 @page{size:Letter;margin:12mm}
 "#;
 
@@ -117,19 +120,37 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     // Bottom line.
     let base = &r.strategies[c.baseline];
     let day = |s: &StrategySummary, hours: f64| {
-        let k = s.series_hours.iter().position(|&x| x >= hours).unwrap_or(s.series_hours.len() - 1);
+        let k = s
+            .series_hours
+            .iter()
+            .position(|&x| x >= hours)
+            .unwrap_or(s.series_hours.len() - 1);
         s.series_acres_mean[k]
     };
-    w(&mut h, "<section class=box><h2 style=\"margin-top:0\">Bottom line</h2><ul>");
+    w(
+        &mut h,
+        "<section class=box><h2 style=\"margin-top:0\">Bottom line</h2><ul>",
+    );
+    let spread = if r.forecast.interval[1] - r.forecast.interval[0] > 1e-9 {
+        format!(
+            "range over {} model seeds {:.0}–{:.0} %",
+            r.forecast.seeds,
+            r.forecast.interval[0] * 100.0,
+            r.forecast.interval[1] * 100.0
+        )
+    } else {
+        "no interval: the trained models agree".to_string()
+    };
     write!(
         h,
-        "<li>Ignition probability <b>{:.0} %</b> (range over {} model seeds {:.0}–{:.0} %; threshold {:.0} %): {}.</li>",
+        "<li>Ignition probability <b>{:.0} %</b> ({spread}; threshold {:.0} %): {}.</li>",
         r.forecast.probability * 100.0,
-        r.forecast.seeds,
-        r.forecast.interval[0] * 100.0,
-        r.forecast.interval[1] * 100.0,
         r.forecast.threshold * 100.0,
-        if r.forecast.ignition_expected { "<b>a fire is expected</b>" } else { "below the alert threshold" }
+        if r.forecast.ignition_expected {
+            "<b>a fire is expected</b>"
+        } else {
+            "below the alert threshold"
+        }
     )?;
     write!(
         h,
@@ -167,8 +188,11 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         "<li>Evacuation: <b>{}</b> asset(s) in GO, <b>{}</b> in SET{}.</li>",
         go.len(),
         set.len(),
-        go.first()
-            .map_or(String::new(), |a| format!(" (first: {}, fire within {} h)", esc(&a.name), opt(a.first_arrival_h, 1, "")))
+        go.first().map_or(String::new(), |a| format!(
+            " (first: {}, fire within {} h)",
+            esc(&a.name),
+            opt(a.first_arrival_h, 1, "")
+        ))
     )?;
     w(&mut h, "</ul></section>");
 
@@ -187,7 +211,11 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         f.interval[1] * 100.0,
         esc(&f.interval_method),
         f.threshold * 100.0,
-        if f.ignition_expected { "the probability is above it" } else { "the probability is below it" },
+        if f.ignition_expected {
+            "the probability is above it"
+        } else {
+            "the probability is below it"
+        },
         esc(&f.model),
         esc(&f.kind),
         esc(&f.protocol),
@@ -282,23 +310,35 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
          direct attack (11 ft).</figcaption></figure>",
         figures::data_uri(&haul)
     )?;
-    w(&mut h, "<h3>Contingency thresholds</h3><table><tr><th>Limit</th><th>Wind at 10 m that passes it</th><th>Today</th><th></th></tr>");
+    w(
+        &mut h,
+        "<h3>Contingency thresholds</h3><table><tr><th>Limit</th><th>Wind at 10 m that passes it</th><th>Today</th><th></th></tr>",
+    );
     for ct in &r.contingencies {
         write!(
             h,
             "<tr><td>{} ft — {}</td><td class=n>{}</td><td>{}</td><td>{}</td></tr>",
             ct.flame_length_ft,
             esc(&ct.resource),
-            ct.wind_10m_mph
-                .map_or_else(|| format!("not below {:.0} mi/h", ct.searched_to_mph), |v| format!("{} mi/h", fmt_num(v, 1))),
-            if ct.exceeded_today { "<b>exceeded</b>" } else { "within" },
+            ct.wind_10m_mph.map_or_else(
+                || format!("not below {:.0} mi/h", ct.searched_to_mph),
+                |v| format!("{} mi/h", fmt_num(v, 1))
+            ),
+            if ct.exceeded_today {
+                "<b>exceeded</b>"
+            } else {
+                "within"
+            },
             esc(&ct.statement)
         )?;
     }
     w(&mut h, "</table>");
 
     // Map.
-    w(&mut h, "<h2 class=pb>3. Map: fire arrival and the agent's drops</h2>");
+    w(
+        &mut h,
+        "<h2 class=pb>3. Map: fire arrival and the agent's drops</h2>",
+    );
     h.push_str(&map_svg(c)?);
     let agent_label = c
         .agent
@@ -308,24 +348,28 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         h,
         "<div class=legend><span><i class=sw style=\"border-color:{}\"></i>no suppression</span>{}\
          <span>isochrones: {} h after ignition (thicker = later), median arrival over runs</span>\
-         <span>● numbered drops</span><span>■ assets</span><span>★ ignition</span></div>",
+         <span>● numbered drops ({})</span><span>■ assets</span><span>★ ignition</span></div>",
         hex(strategy_color("none")),
         c.agent.map_or(String::new(), |a| format!(
             "<span><i class=sw style=\"border-color:{}\"></i>{}</span>",
             hex(strategy_color(&c.ensembles[a].strategy)),
             esc(&agent_label)
         )),
-        r.header_isochrones()
+        r.header_isochrones(),
+        esc(&crate::compute::strategy_label(&r.drops.strategy))
     )?;
     let d = &r.drops;
     if d.drops.is_empty() {
-        w(&mut h, "<p class=muted>No drops: no suppression strategy was simulated, or it made none.</p>");
+        w(
+            &mut h,
+            "<p class=muted>No drops: no suppression strategy was simulated, or it made none.</p>",
+        );
     } else {
         write!(
             h,
-            "<h3>Drops of the {}'s representative run</h3><p class=muted>The run with the median burnt area \
-             (seed {}, {} acres); {} drops{}.</p><table><tr><th>#</th><th>hour</th><th>latitude</th><th>longitude</th><th>burning acres put out</th></tr>",
-            esc(&agent_label),
+            "<h3>Drops: {}, representative run</h3><p class=muted>The run with the median burnt area \
+             (seed {}, {} acres); {} drops{}.{}</p><table><tr><th>#</th><th>hour</th><th>latitude</th><th>longitude</th><th>burning acres put out</th></tr>",
+            esc(&crate::compute::strategy_label(&d.strategy)),
             d.run_seed.map_or("—".into(), |s| s.to_string()),
             opt(d.run_burned_acres, 0, ""),
             d.drops.len(),
@@ -333,18 +377,43 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
                 format!(", the first {DROPS_LISTED} listed (all are in the JSON and GeoJSON)")
             } else {
                 String::new()
+            },
+            match c.agent {
+                Some(a) if c.ensembles[a].strategy != d.strategy => format!(
+                    " The {} made no drops in its representative run; these are the {}'s.",
+                    esc(&agent_label),
+                    esc(&crate::compute::strategy_label(&d.strategy))
+                ),
+                _ => String::new(),
             }
         )?;
-        for drop in d.drops.iter().take(DROPS_LISTED) {
+        // Consecutive drops on one spot share a row.
+        let listed = &d.drops[..d.drops.len().min(DROPS_LISTED)];
+        let mut i = 0;
+        while i < listed.len() {
+            let first = &listed[i];
+            let mut j = i;
+            while j + 1 < listed.len() && (listed[j + 1].x, listed[j + 1].y) == (first.x, first.y) {
+                j += 1;
+            }
+            let last = &listed[j];
+            let quenched: u32 = listed[i..=j].iter().map(|d| d.quenched_cells).sum();
+            let (numbers, hours) = if i == j {
+                (first.number.to_string(), fmt_num(first.hour, 1))
+            } else {
+                (
+                    format!("{}–{}", first.number, last.number),
+                    format!("{}–{}", fmt_num(first.hour, 1), fmt_num(last.hour, 1)),
+                )
+            };
             write!(
                 h,
-                "<tr><td>{}</td><td class=n>{}</td><td class=n>{:.5}</td><td class=n>{:.5}</td><td class=n>{}</td></tr>",
-                drop.number,
-                fmt_num(drop.hour, 1),
-                drop.lat,
-                drop.lon,
-                fmt_num(f64::from(drop.quenched_cells) * hd.cell_size_ft.powi(2) / 43_560.0, 1)
+                "<tr><td>{numbers}</td><td class=n>{hours}</td><td class=n>{:.5}</td><td class=n>{:.5}</td><td class=n>{}</td></tr>",
+                first.lat,
+                first.lon,
+                fmt_num(f64::from(quenched) * hd.cell_size_ft.powi(2) / 43_560.0, 1)
             )?;
+            i = j + 1;
         }
         w(&mut h, "</table>");
     }
@@ -367,9 +436,9 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         h,
         "<h2>4. Burn probability across the runs</h2><p><b>This is a probability map, not a progression map:</b> \
          the colour is the share of simulated runs in which the cell burned, not when it burned.</p>\
-         <div class=grid2><figure><img alt=\"Burn probability without suppression\" src=\"{}\"><figcaption>No suppression, {} runs</figcaption></figure>\
+         <div class=keep><div class=grid2><figure><img alt=\"Burn probability without suppression\" src=\"{}\"><figcaption>No suppression, {} runs</figcaption></figure>\
          <figure><img alt=\"Burn probability with the agent\" src=\"{}\"><figcaption>{}, {} runs</figcaption></figure></div>\
-         <div class=legend>{swatches}</div>",
+         <div class=legend>{swatches}</div></div>",
         figures::data_uri(&bp),
         c.ensembles[c.baseline].runs(),
         figures::data_uri(&bp_agent),
@@ -405,7 +474,10 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             fmt_num(s.water_gal_mean, 0)
         )?;
     }
-    w(&mut h, "</table><table><tr><th>Against no suppression</th><th>paired runs</th><th>acres saved [95 %]</th><th>reduction</th><th>runs with less burnt</th></tr>");
+    w(
+        &mut h,
+        "</table><table><tr><th>Against no suppression</th><th>paired runs</th><th>acres saved [95 %]</th><th>reduction</th><th>runs with less burnt</th></tr>",
+    );
     for cmp in &r.comparisons {
         write!(
             h,
@@ -433,7 +505,10 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         fmt_num(b.ready_within_h, 0)
     )?;
     if r.assets.is_empty() {
-        w(&mut h, "<tr><td colspan=7>No assets: none were listed and the landscape has no developed land.</td></tr>");
+        w(
+            &mut h,
+            "<tr><td colspan=7>No assets: none were listed and the landscape has no developed land.</td></tr>",
+        );
     }
     for a in &r.assets {
         write!(
@@ -458,20 +533,37 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         h,
         "<h2>7. Suppression priority zones</h2><p class=muted>Squares of {} × {} ft ({} acres) where the {} kept the most \
          land from burning: burn probability without suppression minus with it, summed over the square.</p>",
-        fmt_num(r.priority_zones.first().map_or(0.0, |z| (z.cells[2] - z.cells[0]) as f64 * hd.cell_size_ft), 0),
-        fmt_num(r.priority_zones.first().map_or(0.0, |z| (z.cells[3] - z.cells[1]) as f64 * hd.cell_size_ft), 0),
+        fmt_num(
+            r.priority_zones
+                .first()
+                .map_or(0.0, |z| (z.cells[2] - z.cells[0]) as f64 * hd.cell_size_ft),
+            0
+        ),
+        fmt_num(
+            r.priority_zones
+                .first()
+                .map_or(0.0, |z| (z.cells[3] - z.cells[1]) as f64 * hd.cell_size_ft),
+            0
+        ),
         fmt_num(
             r.priority_zones.first().map_or(0.0, |z| {
-                ((z.cells[2] - z.cells[0]) * (z.cells[3] - z.cells[1])) as f64 * hd.cell_size_ft.powi(2) / 43_560.0
+                ((z.cells[2] - z.cells[0]) * (z.cells[3] - z.cells[1])) as f64 * hd.cell_size_ft.powi(2)
+                    / 43_560.0
             }),
             0
         ),
         esc(&agent_label)
     )?;
     if r.priority_zones.is_empty() {
-        w(&mut h, "<p>No zone: suppression did not lower the burn probability anywhere.</p>");
+        w(
+            &mut h,
+            "<p>No zone: suppression did not lower the burn probability anywhere.</p>",
+        );
     } else {
-        w(&mut h, "<table><tr><th>rank</th><th>centre</th><th>acres kept from burning</th><th>drops per run</th><th>burn probability: none → agent</th></tr>");
+        w(
+            &mut h,
+            "<table><tr><th>rank</th><th>centre</th><th>acres kept from burning</th><th>drops per run</th><th>burn probability: none → agent</th></tr>",
+        );
         for z in &r.priority_zones {
             write!(
                 h,
@@ -508,7 +600,10 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     for a in &r.what_would_change {
         write!(h, "<li>{}</li>", esc(a))?;
     }
-    w(&mut h, "</ul><h3>Lineage</h3><table><tr><th>role</th><th>file</th><th>detail</th></tr>");
+    w(
+        &mut h,
+        "</ul><h3>Lineage</h3><table><tr><th>role</th><th>file</th><th>detail</th></tr>",
+    );
     for l in &r.lineage {
         write!(
             h,
@@ -518,11 +613,11 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             esc(&l.detail)
         )?;
     }
-    write!(
+    writeln!(
         h,
         "</table><p class=muted>Landscape: {} ({}). Every number in this report is in <code>report.json</code> \
          (schema {} v{}); perimeters, drops, assets and zones are in <code>report.geojson</code>. Simulated fires are \
-         a planning aid, not a prediction of where a real fire will go.</p></main></body></html>\n",
+         a planning aid, not a prediction of where a real fire will go.</p></main></body></html>",
         esc(&hd.landscape),
         esc(&hd.crs),
         esc(&r.schema),
@@ -562,14 +657,20 @@ fn map_svg(c: &Computed) -> Result<String, ReportError> {
          <image href=\"{}\" x=\"0\" y=\"0\" width=\"{pw}\" height=\"{ph}\"/>",
         figures::data_uri(&base)
     )?;
-    let times: Vec<f64> = c.report.strategies[0].isochrone_acres.iter().map(|p| p[0]).collect();
+    let times: Vec<f64> = c.report.strategies[0]
+        .isochrone_acres
+        .iter()
+        .map(|p| p[0])
+        .collect();
     let mut strategies = vec![c.baseline];
     strategies.extend(c.agent);
     for &k in &strategies {
         let e = &c.ensembles[k];
         let color = hex(strategy_color(&e.strategy));
         for (j, &t) in times.iter().enumerate() {
-            let rings = geometry::rings(gw, gh, |i| e.arrival_median_h[i].is_some_and(|a| f64::from(a) <= t));
+            let rings = geometry::rings(gw, gh, |i| {
+                e.arrival_median_h[i].is_some_and(|a| f64::from(a) <= t)
+            });
             if rings.is_empty() {
                 continue;
             }
@@ -578,7 +679,11 @@ fn map_svg(c: &Computed) -> Result<String, ReportError> {
                 "<path d=\"{}\" fill=\"none\" stroke=\"{color}\" stroke-width=\"{:.1}\" stroke-opacity=\"0.9\" fill-rule=\"evenodd\"{}><title>{} — {} h</title></path>",
                 geometry::svg_path(&rings, gh, s),
                 1.0 + j as f64 * 0.8,
-                if k == c.baseline { " stroke-dasharray=\"6 3\"" } else { "" },
+                if k == c.baseline {
+                    " stroke-dasharray=\"6 3\""
+                } else {
+                    ""
+                },
                 esc(&crate::compute::strategy_label(&e.strategy)),
                 fmt_num(t, 0)
             )?;
@@ -586,7 +691,9 @@ fn map_svg(c: &Computed) -> Result<String, ReportError> {
     }
     // Assets.
     for (a, cells) in c.report.assets.iter().zip(&c.asset_cells) {
-        let (x, y) = land.lat_lon_to_cell(a.lat, a.lon).unwrap_or((cells[0] % gw, cells[0] / gw));
+        let (x, y) = land
+            .lat_lon_to_cell(a.lat, a.lon)
+            .unwrap_or((cells[0] % gw, cells[0] / gw));
         let (px, py) = ((x as f64 + 0.5) * s, (gh as f64 - y as f64 - 0.5) * s);
         write!(
             svg,
@@ -611,7 +718,10 @@ fn map_svg(c: &Computed) -> Result<String, ReportError> {
                 d.number
             )?;
         } else {
-            write!(svg, "<circle cx=\"{px:.1}\" cy=\"{py:.1}\" r=\"2\" fill=\"#1565c0\"/>")?;
+            write!(
+                svg,
+                "<circle cx=\"{px:.1}\" cy=\"{py:.1}\" r=\"2\" fill=\"#1565c0\"/>"
+            )?;
         }
     }
     // Ignition.
@@ -624,7 +734,11 @@ fn map_svg(c: &Computed) -> Result<String, ReportError> {
             format!("{:.1},{:.1} ", px + r * a.cos(), py + r * a.sin())
         })
         .collect();
-    write!(svg, "<polygon points=\"{}\" fill=\"#ffeb3b\" stroke=\"#000\"/>", star.trim_end())?;
+    write!(
+        svg,
+        "<polygon points=\"{}\" fill=\"#ffeb3b\" stroke=\"#000\"/>",
+        star.trim_end()
+    )?;
     // North arrow and a one-mile scale bar.
     let mile_px = 5280.0 / land.cell_size_ft * s;
     write!(

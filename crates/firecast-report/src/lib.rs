@@ -21,7 +21,7 @@ pub mod weather;
 use std::path::PathBuf;
 
 pub use compute::{AssetSpec, ReportSettings, compute};
-pub use stage::{ReportParams, ReportStage, build};
+pub use stage::{ReportFiles, ReportParams, ReportStage, build};
 
 /// Errors of report building. Inputs are named by their stage port or key.
 #[derive(Debug, thiserror::Error)]
@@ -61,7 +61,11 @@ impl ReportError {
 
     pub(crate) fn io(context: &'static str, path: &std::path::Path) -> impl FnOnce(std::io::Error) -> Self {
         let path = path.to_path_buf();
-        move |source| Self::Io { context, path, source }
+        move |source| Self::Io {
+            context,
+            path,
+            source,
+        }
     }
 }
 

@@ -64,7 +64,12 @@ pub fn print(html: &Path, pdf: &Path) -> Result<(), ReportError> {
             "{} failed ({}): {}",
             exe.display(),
             output.status,
-            String::from_utf8_lossy(&output.stderr).lines().rev().take(5).collect::<Vec<_>>().join(" | ")
+            String::from_utf8_lossy(&output.stderr)
+                .lines()
+                .rev()
+                .take(5)
+                .collect::<Vec<_>>()
+                .join(" | ")
         )));
     }
     Ok(())

@@ -84,12 +84,15 @@ fn check(params: &ReportSettings) -> Result<(), ParamsError> {
             "need 0 < go_within_h < set_within_h < ready_within_h".into(),
         ));
     }
-    if params.isochrones_h.is_empty() || params.isochrones_h.iter().any(|t| !(*t > 0.0)) {
+    if params.isochrones_h.is_empty() || params.isochrones_h.iter().any(|t| t.is_nan() || *t <= 0.0) {
         return Err(bad("isochrones_h", "need one or more positive hours".into()));
     }
     for (i, a) in params.assets.iter().enumerate() {
         if !(-90.0..=90.0).contains(&a.lat) || !(-180.0..=180.0).contains(&a.lon) {
-            return Err(bad(&format!("assets[{i}]"), format!("({}, {}) is not a place", a.lat, a.lon)));
+            return Err(bad(
+                &format!("assets[{i}]"),
+                format!("({}, {}) is not a place", a.lat, a.lon),
+            ));
         }
     }
     Ok(())
@@ -99,17 +102,31 @@ fn rel(root: &Path, p: &Path) -> String {
     p.strip_prefix(root).unwrap_or(p).display().to_string()
 }
 
+/// The files a report is made from.
+#[derive(Debug, Clone, Copy)]
+pub struct ReportFiles<'a> {
+    /// Ensemble files (`sim.ensemble`, `rl.ensemble`), one of them `none`.
+    pub ensembles: &'a [PathBuf],
+    /// The `forecast.predict` output.
+    pub forecast: &'a Path,
+    /// The GRIDMET folder holding the day.
+    pub gridmet: &'a Path,
+}
+
 /// Builds every output of a report; `out` maps an output name to where to write it.
 pub fn build(
     root: &Path,
     settings: &ReportSettings,
-    ensembles: &[PathBuf],
-    forecast: &Path,
-    gridmet: &Path,
+    files: ReportFiles<'_>,
     run_id: &str,
     out: &dyn Fn(&str) -> Option<PathBuf>,
     log: &dyn Fn(String),
 ) -> Result<crate::model::ThreatReport, ReportError> {
+    let ReportFiles {
+        ensembles,
+        forecast,
+        gridmet,
+    } = files;
     let mut lineage = Vec::new();
     let mut loaded = Vec::new();
     for p in ensembles {
@@ -124,7 +141,10 @@ pub fn build(
     let text = std::fs::read(forecast).map_err(ReportError::io("reading the forecast", forecast))?;
     let fc: ForecastFile = serde_json::from_slice(&text)
         .map_err(|e| ReportError::input(rel(root, forecast), format!("line {}: {e}", e.line())))?;
-    if (fc.lat - settings.lat).abs() > 1e-6 || (fc.lon - settings.lon).abs() > 1e-6 || fc.date != settings.date {
+    if (fc.lat - settings.lat).abs() > 1e-6
+        || (fc.lon - settings.lon).abs() > 1e-6
+        || fc.date != settings.date
+    {
         return Err(ReportError::input(
             rel(root, forecast),
             format!(
@@ -136,13 +156,19 @@ pub fn build(
     lineage.push(Lineage {
         role: "forecast".into(),
         path: rel(root, forecast),
-        detail: format!("{} ({}) on {} {}", fc.model, fc.kind, fc.dataset, fc.dataset_version),
+        detail: format!(
+            "{} ({}) on {} {}",
+            fc.model, fc.kind, fc.dataset, fc.dataset_version
+        ),
     });
     let day = weather::read_day(gridmet, settings.lat, settings.lon, &settings.date)?;
     lineage.push(Lineage {
         role: "weather".into(),
         path: rel(root, gridmet),
-        detail: format!("GRIDMET {} at ({:.4}, {:.4})", settings.date, day.cell_lat, day.cell_lon),
+        detail: format!(
+            "GRIDMET {} at ({:.4}, {:.4})",
+            settings.date, day.cell_lat, day.cell_lon
+        ),
     });
     let computed = compute::compute(
         settings,
@@ -174,7 +200,11 @@ pub fn build(
         let result = std::fs::write(&page, doc.as_bytes())
             .map_err(ReportError::io("writing", &page))
             .and_then(|()| pdf::print(&page, &printed))
-            .and_then(|()| std::fs::copy(&printed, &target).map(|_| ()).map_err(ReportError::io("writing", &target)));
+            .and_then(|()| {
+                std::fs::copy(&printed, &target)
+                    .map(|_| ())
+                    .map_err(ReportError::io("writing", &target))
+            });
         let _ = std::fs::remove_dir_all(&dir);
         result?;
     }
@@ -231,9 +261,11 @@ impl StageKind for ReportStage {
         let report = build(
             ctx.root(),
             &params,
-            &ensembles,
-            &forecast,
-            &gridmet,
+            ReportFiles {
+                ensembles: &ensembles,
+                forecast: &forecast,
+                gridmet: &gridmet,
+            },
             ctx.run_id(),
             &out,
             &|line| ctx.log(line),

@@ -63,7 +63,9 @@ pub fn tactic(flame_ft: f64) -> &'static str {
         v if v < 11.0 => {
             "Torching, crowning and spotting possible; control efforts at the head probably ineffective."
         }
-        _ => "Crowning, spotting and major runs likely; no direct attack at the head — indirect tactics only.",
+        _ => {
+            "Crowning, spotting and major runs likely; no direct attack at the head — indirect tactics only."
+        }
     }
 }
 
@@ -81,7 +83,9 @@ pub fn fmt_num(v: f64, digits: usize) -> String {
         return "—".into();
     }
     let s = format!("{:.*}", digits, v.abs());
-    let (int, frac) = s.split_once('.').map_or((s.as_str(), None), |(a, b)| (a, Some(b)));
+    let (int, frac) = s
+        .split_once('.')
+        .map_or((s.as_str(), None), |(a, b)| (a, Some(b)));
     let mut out = String::new();
     for (i, ch) in int.chars().enumerate() {
         if i > 0 && (int.len() - i) % 3 == 0 {

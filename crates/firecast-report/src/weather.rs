@@ -17,7 +17,8 @@ pub fn read_day(dir: &Path, lat: f64, lon: f64, date: &str) -> Result<DayWeather
         message,
     };
     let mut parts = date.split('-').map(str::parse::<u32>);
-    let (Some(Ok(y)), Some(Ok(m)), Some(Ok(d)), None) = (parts.next(), parts.next(), parts.next(), parts.next())
+    let (Some(Ok(y)), Some(Ok(m)), Some(Ok(d)), None) =
+        (parts.next(), parts.next(), parts.next(), parts.next())
     else {
         return Err(bad(format!("date `{date}` is not YYYY-MM-DD")));
     };
@@ -42,10 +43,14 @@ pub fn read_day(dir: &Path, lat: f64, lon: f64, date: &str) -> Result<DayWeather
             continue;
         }
         let file = GridmetFile::open(&path, variable)?;
-        let t = file.days().iter().position(|&x| x == day).ok_or_else(|| ReportError::Weather {
-            path: path.clone(),
-            message: format!("no day {date} in the file"),
-        })?;
+        let t = file
+            .days()
+            .iter()
+            .position(|&x| x == day)
+            .ok_or_else(|| ReportError::Weather {
+                path: path.clone(),
+                message: format!("no day {date} in the file"),
+            })?;
         let (j, i) = file.nearest_cell(lat, lon).ok_or_else(|| ReportError::Weather {
             path: path.clone(),
             message: format!("({lat}, {lon}) is outside the file's grid"),

@@ -11,7 +11,7 @@ use firecast_data::synth::{self, Region, SynthConfig};
 use firecast_episodes::ensemble::{Ensemble, Setup, run_agent};
 use firecast_episodes::{AgentKind, LandscapeSpec, Scenario, WeatherSpec};
 use firecast_report::model::ThreatReport;
-use firecast_report::{ReportSettings, build};
+use firecast_report::{ReportFiles, ReportSettings, build};
 
 const DATE: &str = "2019-08-01";
 
@@ -84,7 +84,10 @@ fn fixture() -> Fixture {
                 }),
                 env: env.clone(),
             };
-            Some((Setup::new(scenario(), &dir, None).ok()?, Setup::new(scenario(), &dir, None).ok()?))
+            Some((
+                Setup::new(scenario(), &dir, None).ok()?,
+                Setup::new(scenario(), &dir, None).ok()?,
+            ))
         })
         .expect("a burnable ignition");
     let none = run_agent(&setup_none, AgentKind::None, 6, 0, |_| {}).expect("none");
@@ -147,9 +150,11 @@ fn make(f: &Fixture, pdf: bool) -> (ThreatReport, PathBuf) {
     let report = build(
         &f.dir,
         &f.settings,
-        &f.ensembles,
-        &f.forecast,
-        &f.gridmet,
+        ReportFiles {
+            ensembles: &f.ensembles,
+            forecast: &f.forecast,
+            gridmet: &f.gridmet,
+        },
         "test-run",
         &outputs,
         &|_| {},
@@ -163,19 +168,31 @@ fn every_number_comes_from_its_source() {
     let f = fixture();
     let (report, out) = make(&f, false);
     let written = std::fs::read(out.join("report.json")).expect("json");
-    assert_eq!(written, serde_json::to_vec_pretty(&report).expect("json"), "the JSON is the report");
+    assert_eq!(
+        written,
+        serde_json::to_vec_pretty(&report).expect("json"),
+        "the JSON is the report"
+    );
 
     let none = Ensemble::read(&f.ensembles[0]).expect("none");
     let rule = Ensemble::read(&f.ensembles[1]).expect("rule");
     let acres = none.grid.cell_size_ft.powi(2) / 43_560.0;
-    let mean = |e: &Ensemble| e.episodes.iter().map(|r| f64::from(r.cells_burned)).sum::<f64>() / e.runs() as f64;
+    let mean =
+        |e: &Ensemble| e.episodes.iter().map(|r| f64::from(r.cells_burned)).sum::<f64>() / e.runs() as f64;
     let s_none = &report.strategies[0];
     let s_rule = &report.strategies[1];
     assert_eq!(s_none.strategy, "none");
     assert!((s_none.burned_acres.value - mean(&none) * acres).abs() < 1e-6);
     assert!((s_rule.burned_acres.value - mean(&rule) * acres).abs() < 1e-6);
-    assert!(s_none.burned_acres.low <= s_none.burned_acres.value && s_none.burned_acres.value <= s_none.burned_acres.high);
-    assert!((s_rule.helitacks_mean - rule.episodes.iter().map(|r| f64::from(r.helitacks)).sum::<f64>() / 6.0).abs() < 1e-9);
+    assert!(
+        s_none.burned_acres.low <= s_none.burned_acres.value
+            && s_none.burned_acres.value <= s_none.burned_acres.high
+    );
+    assert!(
+        (s_rule.helitacks_mean - rule.episodes.iter().map(|r| f64::from(r.helitacks)).sum::<f64>() / 6.0)
+            .abs()
+            < 1e-9
+    );
     let cmp = &report.comparisons[0];
     assert!((cmp.acres_saved.value - (mean(&none) - mean(&rule)) * acres).abs() < 1e-6);
     assert_eq!(report.forecast.probability, 0.62);
@@ -184,7 +201,11 @@ fn every_number_comes_from_its_source() {
     assert!((report.forecast.validation_auprc.expect("auprc") - 0.6).abs() < 1e-12);
     // The series ends at the final burnt area of each run (mean over runs).
     let last = *s_none.series_acres_mean.last().expect("series");
-    assert!((last - mean(&none) * acres).abs() < 1e-6, "{last} vs {}", mean(&none) * acres);
+    assert!(
+        (last - mean(&none) * acres).abs() < 1e-6,
+        "{last} vs {}",
+        mean(&none) * acres
+    );
     // Hours, not steps: the series is hourly.
     assert_eq!(s_none.series_hours[1] - s_none.series_hours[0], 1.0);
 
@@ -199,7 +220,12 @@ fn every_number_comes_from_its_source() {
         assert_eq!((d.x, d.y), (src.x, src.y));
         assert_eq!(d.hour, src.hour);
         let cell = land.lat_lon_to_cell(d.lat, d.lon).expect("inside");
-        assert_eq!(cell, (src.x as usize, src.y as usize), "drop {} round trip", d.number);
+        assert_eq!(
+            cell,
+            (src.x as usize, src.y as usize),
+            "drop {} round trip",
+            d.number
+        );
     }
     // Weather from the GRIDMET files: the wind the ensembles used.
     let w = none.weather.as_ref().expect("weather");
@@ -207,7 +233,12 @@ fn every_number_comes_from_its_source() {
     assert!(report.weather.max_temp_c.is_some() && report.weather.fm100_pct.is_some());
     assert!(report.weather.vpd_kpa.is_none(), "no vpd file was written");
     // The listed asset is first or after developed land, with a band.
-    assert!(report.assets.iter().any(|a| a.name == "Ridge camp" && !a.band.is_empty()));
+    assert!(
+        report
+            .assets
+            .iter()
+            .any(|a| a.name == "Ridge camp" && !a.band.is_empty())
+    );
     for a in &report.assets {
         if let (Some(t), "SET") = (a.first_arrival_h, a.band.as_str()) {
             assert!((a.trigger_h.expect("trigger") - (t - 6.0)).abs() < 1e-9);
@@ -215,7 +246,10 @@ fn every_number_comes_from_its_source() {
     }
     // Fire behaviour: classes follow the numbers.
     let fb = &report.fire_behaviour;
-    assert_eq!(fb.flame_length.class.as_deref(), Some(firecast_report::units::flame_class(fb.flame_length.field)));
+    assert_eq!(
+        fb.flame_length.class.as_deref(),
+        Some(firecast_report::units::flame_class(fb.flame_length.field))
+    );
     assert!((fb.flame_length.si - fb.flame_length.field * 0.3048).abs() < 1e-9);
 
     // The GeoJSON: a FeatureCollection whose drops are the report's.
@@ -223,9 +257,16 @@ fn every_number_comes_from_its_source() {
         serde_json::from_slice(&std::fs::read(out.join("report.geojson")).expect("geojson")).expect("parse");
     assert_eq!(gj["type"], "FeatureCollection");
     let features = gj["features"].as_array().expect("features");
-    let drops: Vec<&serde_json::Value> = features.iter().filter(|f| f["properties"]["kind"] == "drop").collect();
+    let drops: Vec<&serde_json::Value> = features
+        .iter()
+        .filter(|f| f["properties"]["kind"] == "drop")
+        .collect();
     assert_eq!(drops.len(), report.drops.drops.len());
-    assert!(features.iter().any(|f| f["properties"]["kind"] == "arrival_isochrone"));
+    assert!(
+        features
+            .iter()
+            .any(|f| f["properties"]["kind"] == "arrival_isochrone")
+    );
     for f in features {
         if f["geometry"]["type"] == "MultiPolygon" {
             for poly in f["geometry"]["coordinates"].as_array().expect("polys") {
@@ -249,10 +290,18 @@ fn every_number_comes_from_its_source() {
             );
         }
     }
-    for section in ["Ignition forecast", "Evacuation advisories", "not a progression map", "Contingency thresholds"] {
+    for section in [
+        "Ignition forecast",
+        "Evacuation advisories",
+        "not a progression map",
+        "Contingency thresholds",
+    ] {
         assert!(html.contains(section), "missing {section}");
     }
-    assert!(!html.contains(" steps") && !html.contains(" cells burned"), "no simulation units");
+    assert!(
+        !html.contains(" steps") && !html.contains(" cells burned"),
+        "no simulation units"
+    );
 
     // The JSON against the committed schema, by an independent validator.
     if let Some(py) = python() {
@@ -267,14 +316,19 @@ fn every_number_comes_from_its_source() {
             .arg(out.join("report.json"))
             .status()
             .expect("python");
-        assert!(status.success(), "report.json does not validate against {}", schema.display());
+        assert!(
+            status.success(),
+            "report.json does not validate against {}",
+            schema.display()
+        );
     }
 }
 
 #[test]
 fn the_committed_schema_is_the_model() {
     let path = root().join("schemas/threat-report-1.schema.json");
-    let generated = serde_json::to_string_pretty(&firecast_report::model::json_schema()).expect("schema") + "\n";
+    let generated =
+        serde_json::to_string_pretty(&firecast_report::model::json_schema()).expect("schema") + "\n";
     if std::env::var_os("FIRECAST_BLESS").is_some() {
         std::fs::write(&path, &generated).expect("write schema");
     }
@@ -311,7 +365,10 @@ fn renders_in_chromium_and_prints_to_pdf() {
     let pdf = out.join("report.pdf");
     let bytes = std::fs::read(&pdf).expect("pdf");
     assert!(bytes.starts_with(b"%PDF-"));
-    let info = Command::new("pdfinfo").arg(&pdf).output().expect("pdfinfo (poppler-utils)");
+    let info = Command::new("pdfinfo")
+        .arg(&pdf)
+        .output()
+        .expect("pdfinfo (poppler-utils)");
     let info = String::from_utf8_lossy(&info.stdout);
     let pages: usize = info
         .lines()
@@ -319,9 +376,19 @@ fn renders_in_chromium_and_prints_to_pdf() {
         .and_then(|v| v.trim().parse().ok())
         .expect("page count");
     assert!((3..=12).contains(&pages), "{pages} pages");
-    let text = Command::new("pdftotext").args(["-layout"]).arg(&pdf).arg("-").output().expect("pdftotext");
+    let text = Command::new("pdftotext")
+        .args(["-layout"])
+        .arg(&pdf)
+        .arg("-")
+        .output()
+        .expect("pdftotext");
     let text = String::from_utf8_lossy(&text.stdout);
-    for needle in ["Fire threat assessment", "Bottom line", "Evacuation advisories", "Ignition probability"] {
+    for needle in [
+        "Fire threat assessment",
+        "Bottom line",
+        "Evacuation advisories",
+        "Ignition probability",
+    ] {
         assert!(text.contains(needle), "PDF text lacks {needle}");
     }
 }
