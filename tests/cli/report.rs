@@ -160,7 +160,29 @@ fn threat_report_end_to_end_is_cached_and_registered() {
         .map(|s| s["strategy"].as_str().unwrap())
         .collect();
     assert_eq!(strategies, ["none", "rule", "ppo"]);
-    assert_eq!(report["drops"]["strategy"], "ppo");
+    // The agent's drops, or the rule plan's when the agent's representative run (median
+    // burnt area) made none — as a 32-step agent may.
+    let ppo: serde_json::Value = serde_json::from_str(&p.read("build/ppo.json")).unwrap();
+    let mut order: Vec<(u64, u64, usize)> = ppo["episodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            (
+                r["cells_burned"].as_u64().unwrap(),
+                r["seed"].as_u64().unwrap(),
+                i,
+            )
+        })
+        .collect();
+    order.sort_unstable();
+    let median = order[(order.len() - 1) / 2].2;
+    let agent_dropped = !ppo["episodes"][median]["drops"].as_array().unwrap().is_empty();
+    assert_eq!(
+        report["drops"]["strategy"],
+        if agent_dropped { "ppo" } else { "rule" }
+    );
     assert_eq!(report["forecast"]["probability"], 0.3);
     // The numbers come from the ensemble files the stages wrote.
     let none: serde_json::Value = serde_json::from_str(&p.read("build/none.json")).unwrap();

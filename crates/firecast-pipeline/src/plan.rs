@@ -189,6 +189,11 @@ pub fn plan(pipeline: &ExpandedPipeline, kinds: &StageKinds) -> Result<Plan, Spe
 
         let mut inputs = IndexMap::new();
         for (name, value) in &stage.inputs {
+            // `null` (say, a var left unset) leaves an optional input out; a required one is
+            // then reported missing below.
+            if value.is_null() {
+                continue;
+            }
             let input_path = format!("{key_path}.inputs.{name}");
             let port = ports.inputs.iter().find(|p| p.name == name);
             if port.is_none() && !ports.open {

@@ -236,6 +236,7 @@ pub fn parse(
         let mut raw_stage = raw_stage.clone();
         if let Some(Value::String(template)) = &raw_stage.foreach {
             let scope = Scope {
+                depth: 0,
                 vars: &vars,
                 item: None,
                 key: None,
@@ -255,6 +256,7 @@ pub fn parse(
                 None => base.clone(),
             };
             let ctx = Scope {
+                depth: 0,
                 vars: &vars,
                 item: scope.item.as_ref(),
                 key: scope.key.as_deref(),
@@ -540,7 +542,12 @@ struct Scope<'a> {
     vars: &'a Mapping,
     item: Option<&'a Value>,
     key: Option<&'a str>,
+    /// How many variables deep this lookup is (vars may refer to vars).
+    depth: usize,
 }
+
+/// Deeper than this, variables referring to variables are taken for a cycle.
+const MAX_VAR_DEPTH: usize = 16;
 
 impl Scope<'_> {
     fn lookup(&self, name: &str) -> Result<Value, String> {
@@ -556,17 +563,32 @@ impl Scope<'_> {
                     .ok_or("`${key}` is only defined inside a `foreach` over a mapping")?
                     .to_string(),
             ),
-            _ => self.vars.get(first).cloned().ok_or_else(|| {
-                let known: Vec<&str> = self.vars.keys().filter_map(|k| k.as_str()).collect();
-                format!(
-                    "unknown variable `{name}` (vars: {})",
-                    if known.is_empty() {
-                        "none".into()
-                    } else {
-                        known.join(", ")
-                    }
-                )
-            })?,
+            _ => {
+                let value = self.vars.get(first).ok_or_else(|| {
+                    let known: Vec<&str> = self.vars.keys().filter_map(|k| k.as_str()).collect();
+                    format!(
+                        "unknown variable `{name}` (vars: {})",
+                        if known.is_empty() {
+                            "none".into()
+                        } else {
+                            known.join(", ")
+                        }
+                    )
+                })?;
+                if self.depth >= MAX_VAR_DEPTH {
+                    return Err(format!(
+                        "variable `{first}` refers to itself through other variables"
+                    ));
+                }
+                // A var may use other vars (`landscape: {center: ["${lat}", "${lon}"]}`).
+                let inner = Scope {
+                    vars: self.vars,
+                    item: self.item,
+                    key: self.key,
+                    depth: self.depth + 1,
+                };
+                render(value, &inner, first).map_err(|(_, m)| m)?
+            }
         };
         let mut current = root;
         for segment in segments {
@@ -774,6 +796,19 @@ mod tests {
         assert_eq!(e.line, Some(4));
         assert_eq!(e.key_path, "stages.a.outptus");
         assert!(e.message.starts_with("unknown field `outptus`"), "{}", e.message);
+    }
+
+    #[test]
+    fn vars_refer_to_vars_and_cycles_are_named() {
+        let src = "vars: {lat: 1.5, land: {center: [\"${lat}\", 2]}}\nstages:\n  s:\n    uses: cmd\n    params: {command: x, land: \"${land}\"}\n";
+        let p = parse(Path::new("."), Path::new("p.yaml"), src, &[]).unwrap();
+        let land = &p.stages[0].params["land"];
+        assert_eq!(land["center"][0], Value::from(1.5));
+        let src = "vars: {a: \"${b}\", b: \"${a}\"}\nstages:\n  s:\n    uses: cmd\n    params: {command: \"${a}\"}\n";
+        let e = parse(Path::new("."), Path::new("p.yaml"), src, &[])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("refers to itself"), "{e}");
     }
 
     #[test]
