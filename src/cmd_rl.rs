@@ -21,6 +21,9 @@ pub enum RlCommand {
     Train(TrainArgs),
     /// Table IV: the trained agents, both rule-based agents and no suppression on the same
     /// held-out fires, with intervals.
+    ///
+    /// Also replays the best, median and worst PPO episodes into Rerun recordings
+    /// (<out>/recordings/ppo-{best,median,worst}.rrd; open with `rerun FILE`).
     Evaluate(EvaluateArgs),
 }
 
@@ -69,6 +72,9 @@ pub struct EvaluateArgs {
     /// Sample PPO actions instead of taking the greedy one.
     #[arg(long)]
     pub stochastic: bool,
+    /// Do not record the best, median and worst PPO episodes.
+    #[arg(long)]
+    pub no_recordings: bool,
     #[arg(long, default_value = "auto")]
     pub device: String,
     /// Run even when nothing changed.
@@ -207,6 +213,7 @@ fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode
         eval: firecast_rl::evaluate::EvalConfig {
             deterministic: !args.stochastic,
             resamples: args.resamples,
+            recordings: !args.no_recordings,
             ..Default::default()
         },
         device: args.device.clone(),
@@ -231,6 +238,22 @@ fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode
         "rl evaluate: {outcome} ({secs:.1}s), report in {} (run {run_id}); plots table4.png, ppo_vs_rule.png",
         out.display()
     );
+    if !report.recordings.is_empty() {
+        println!(
+            "Rerun recordings of PPO episodes (open with `rerun FILE`, rerun-sdk {}):",
+            firecast_recorder::RERUN_VERSION
+        );
+        for r in &report.recordings {
+            println!(
+                "  {:6} {} (training seed {}, fire {}, {} cells burned)",
+                r.role,
+                out.join(&r.path).display(),
+                r.train_seed,
+                r.fire,
+                r.cells_burned
+            );
+        }
+    }
     Ok(ExitCode::SUCCESS)
 }
 

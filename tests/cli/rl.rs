@@ -144,13 +144,28 @@ fn an_interrupted_helitack_run_resumes_to_the_same_policy() {
     assert_eq!(none["helitacks"]["mean"]["estimate"], 0.0);
     assert_eq!(none["cells_saved"]["mean"]["estimate"], 0.0);
     assert_eq!(r["comparisons"].as_array().unwrap().len(), 3);
-    for f in ["table4.md", "episodes.csv", "table4.png", "ppo_vs_rule.png"] {
+    for f in [
+        "table4.md",
+        "episodes.csv",
+        "table4.png",
+        "ppo_vs_rule.png",
+        "recordings/ppo-best.rrd",
+        "recordings/ppo-median.rrd",
+        "recordings/ppo-worst.rrd",
+    ] {
         assert!(
             p.path(&format!("experiments/runs/heli-a/evaluation/{f}"))
                 .exists(),
             "{f}"
         );
     }
+    let roles: Vec<&str> = r["recordings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["role"].as_str().unwrap())
+        .collect();
+    assert_eq!(roles, ["best", "median", "worst"], "{}", r["recordings"]);
 }
 
 #[test]

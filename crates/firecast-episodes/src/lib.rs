@@ -5,7 +5,8 @@
 //! first episode is drawn as PNG frames / an animated GIF (fire over hill-shaded terrain,
 //! drop footprints) and logged to a Rerun recording (terrain, fire state per step,
 //! helicopter, drops, burning/burnt counts). [`EpisodesStage`] runs the same as the
-//! `sim.episodes` pipeline stage.
+//! `sim.episodes` pipeline stage. [`record_episode`] draws one episode of any policy (a
+//! trained PPO agent, say) the same way, with the helicopter's path.
 
 pub mod ensemble;
 mod stage;
@@ -388,7 +389,16 @@ pub fn replay(
         decisions: &trace.decisions,
         next: 0,
     };
-    let stats = draw_episode(&mut env, &mut policy, landscape, trace.agent, trace.seed, outputs)?;
+    let label = format!("{} agent", trace.agent.name());
+    let stats = draw_episode(
+        &mut env,
+        &mut policy,
+        landscape,
+        &label,
+        trace.seed,
+        outputs,
+        false,
+    )?;
     if stats != trace.stats {
         return Err(EpisodeError::ReplayDiverged {
             recorded: format!("{:?}", trace.stats),
@@ -398,16 +408,32 @@ pub fn replay(
     Ok(stats)
 }
 
+/// Plays one episode of any `policy` on `env` (reset with `seed`, so the same policy and
+/// seed replay an episode played elsewhere) into `outputs`: PNG frames, an animated GIF, a
+/// Rerun recording named `"{label}, seed {seed}"`. The recording also draws the
+/// helicopter's path so far at every step. `landscape` must be the one `env` was built on.
+pub fn record_episode(
+    env: &mut WildfireEnv,
+    policy: &mut dyn Policy,
+    landscape: &Landscape,
+    label: &str,
+    seed: u64,
+    outputs: &Outputs,
+) -> Result<EpisodeStats, EpisodeError> {
+    draw_episode(env, policy, landscape, label, seed, outputs, true)
+}
+
 /// Runs one episode into the requested outputs.
 fn draw_episode(
     env: &mut WildfireEnv,
     policy: &mut dyn Policy,
     landscape: &Landscape,
-    agent: AgentKind,
+    label: &str,
     seed: u64,
     outputs: &Outputs,
+    path: bool,
 ) -> Result<EpisodeStats, EpisodeError> {
-    let mut sink = FrameSink::new(landscape, agent, seed, outputs)?;
+    let mut sink = FrameSink::new(landscape, label, seed, outputs, path)?;
     let mut failure = None;
     let stat = run_episode(env, policy, seed, |e, info| {
         if failure.is_none()
@@ -479,7 +505,16 @@ pub fn run_range(
             };
             let stat = if outputs.frames_dir.is_some() || outputs.gif.is_some() || outputs.recording.is_some()
             {
-                draw_episode(&mut env, &mut recorder, landscape, agent, episode_seed, outputs)?
+                let label = format!("{} agent", agent.name());
+                draw_episode(
+                    &mut env,
+                    &mut recorder,
+                    landscape,
+                    &label,
+                    episode_seed,
+                    outputs,
+                    false,
+                )?
             } else {
                 run_episode(&mut env, &mut recorder, episode_seed, |_, _| {})
             };
@@ -532,9 +567,14 @@ pub fn eval_report(stats: Vec<EpisodeStats>) -> EvalReport {
     }
 }
 
-/// Collects the first episode into PNG frames, a GIF and a Rerun recording.
+/// A position in image coordinates.
+type Point = (f32, f32);
+
+/// Collects one episode into PNG frames, a GIF and a Rerun recording.
 struct FrameSink<'a> {
     outputs: &'a Outputs,
+    /// The helicopter's cells and the drops so far, when the recording draws its path.
+    path: Option<(Vec<Point>, Vec<Point>)>,
     basemap: firecast_render::Basemap,
     options: firecast_render::RenderOptions,
     gif: Option<firecast_render::GifWriter>,
@@ -548,9 +588,10 @@ struct FrameSink<'a> {
 impl<'a> FrameSink<'a> {
     fn new(
         landscape: &Landscape,
-        agent: AgentKind,
+        label: &str,
         seed: u64,
         outputs: &'a Outputs,
+        path: bool,
     ) -> Result<Self, EpisodeError> {
         let options = firecast_render::RenderOptions::default();
         let basemap = firecast_render::Basemap::new(landscape, &options);
@@ -579,7 +620,7 @@ impl<'a> FrameSink<'a> {
                 let staging = path.parent().unwrap_or(Path::new(".")).to_path_buf();
                 let rec = firecast_recorder::Recording::create(
                     "firecast_helitack",
-                    &format!("{} agent, seed {seed}", agent.name()),
+                    &format!("{label}, seed {seed}"),
                     &staging,
                 )?;
                 log_terrain(&rec, landscape)?;
@@ -589,6 +630,7 @@ impl<'a> FrameSink<'a> {
         };
         Ok(Self {
             outputs,
+            path: path.then(Default::default),
             basemap,
             options,
             gif,
@@ -629,6 +671,14 @@ impl<'a> FrameSink<'a> {
                 helicopter,
                 dropped,
             )?;
+            if let Some((path, drops)) = &mut self.path {
+                let here = cell_centre(helicopter, self.height);
+                path.push(here);
+                if dropped {
+                    drops.push(here);
+                }
+                log_path(rec, path, dropped.then_some(drops.as_slice()))?;
+            }
         }
         self.step += 1;
         Ok(())
@@ -709,6 +759,43 @@ fn log_terrain(rec: &firecast_recorder::Recording, landscape: &Landscape) -> Res
     Ok(())
 }
 
+/// A cell's centre in image coordinates: x right, y down from the north edge.
+fn cell_centre(cell: [i32; 2], height: usize) -> Point {
+    (cell[0] as f32 + 0.5, (height as f32 - 1.0 - cell[1] as f32) + 0.5)
+}
+
+/// The helicopter's path up to this step and, on a drop, every drop so far (logged whole,
+/// so scrubbing the timeline shows what was flown and dropped until then; `env/drops` only
+/// holds the latest drop).
+fn log_path(
+    rec: &firecast_recorder::Recording,
+    path: &[Point],
+    drops: Option<&[Point]>,
+) -> Result<(), EpisodeError> {
+    use firecast_recorder::rerun;
+    let err = firecast_recorder::RecorderError::from;
+    let stream = rec.stream();
+    stream
+        .log(
+            "env/path",
+            &rerun::LineStrips2D::new([path.to_vec()])
+                .with_radii([0.3])
+                .with_colors([[255, 255, 255, 160]]),
+        )
+        .map_err(err)?;
+    if let Some(drops) = drops {
+        stream
+            .log(
+                "env/drops_so_far",
+                &rerun::Points2D::new(drops.iter().copied())
+                    .with_radii([5.28])
+                    .with_colors([[40, 120, 255, 90]]),
+            )
+            .map_err(err)?;
+    }
+    Ok(())
+}
+
 #[allow(clippy::too_many_arguments)]
 fn log_step(
     rec: &firecast_recorder::Recording,
@@ -732,11 +819,7 @@ fn log_step(
         .map_err(|e| firecast_recorder::RecorderError::Log(e.to_string()))?;
     let err = firecast_recorder::RecorderError::from;
     stream.log("env/fire", &image).map_err(err)?;
-    // Image coordinates: x right, y down from the north edge; cell centres.
-    let position = (
-        helicopter[0] as f32 + 0.5,
-        (height as f32 - 1.0 - helicopter[1] as f32) + 0.5,
-    );
+    let position = cell_centre(helicopter, height);
     stream
         .log(
             "env/helicopter",

@@ -14,6 +14,22 @@ pub enum RlError {
     Landscape(#[from] firecast_landscape::LandscapeError),
     #[error(transparent)]
     Render(#[from] firecast_render::RenderError),
+    #[error(transparent)]
+    Episode(#[from] firecast_episodes::EpisodeError),
+    /// A recorded rollout did not reproduce the evaluated episode.
+    #[error(
+        "recording the {role} PPO episode (training seed {train_seed}, held-out fire {fire}): the replay \
+         gave {replayed}, the evaluation {evaluated}; the policy chose another action on the fire alone \
+         than in the batch of fires (the forward passes differ in the last bits, as they can on a GPU); \
+         evaluate without recordings (--no-recordings, or `recordings: false`)"
+    )]
+    ReplayDiverged {
+        role: String,
+        train_seed: u64,
+        fire: usize,
+        evaluated: String,
+        replayed: String,
+    },
     #[error(
         "training diverged at update {update}: {what} is not finite; the last good checkpoint is kept{}",
         checkpoint.as_ref().map(|p| format!(" at {}", p.display())).unwrap_or_default()

@@ -1,9 +1,10 @@
 //! Table IV measured properly: every agent on the same held-out fires (paired), the PPO
 //! agent once per training seed; mean and IQM with 95 % stratified bootstrap intervals
 //! (strata = training seeds, resampling fires; Agarwal et al. 2021), the paired difference
-//! against the rule-based agent and the probability that PPO burns less.
+//! against the rule-based agent and the probability that PPO burns less. The best, median
+//! and worst PPO episodes are replayed one fire at a time into Rerun recordings.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use firecast_eval::bootstrap::{Interval, iqm, stratified_bootstrap};
 use firecast_sim::env::EnvCore;
@@ -15,11 +16,13 @@ use serde::{Deserialize, Serialize};
 use tch::Device;
 
 use crate::RlError;
+use crate::agent::PpoAgent;
+use crate::ensemble::EnsemblePolicy;
 use crate::env::ObsBatch;
-use crate::helitack::{self, FireDraw};
+use crate::helitack::{self, FireDraw, FireSet};
 use crate::policy::Policy;
 use crate::spec::FiresSpec;
-use crate::train::{POLICY_FILE, policy_actions};
+use crate::train::{POLICY_FILE, pick_action, policy_log_probs};
 
 /// A statistic of (agent, baseline) pairs.
 type PairStat<'a> = &'a dyn Fn(&[(f64, f64)]) -> Option<f64>;
@@ -84,6 +87,26 @@ pub struct EvalReport {
     pub agents: Vec<AgentSummary>,
     pub comparisons: Vec<PairedComparison>,
     pub episodes: Vec<Episode>,
+    /// Rerun recordings of the best, median and worst PPO episodes (none when recordings
+    /// were turned off or no PPO agent was evaluated).
+    #[serde(default)]
+    pub recordings: Vec<RolloutRecording>,
+}
+
+/// One PPO episode replayed into a Rerun recording.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RolloutRecording {
+    /// `best` (fewest cells burned), `median` or `worst` (most).
+    pub role: String,
+    pub train_seed: u64,
+    pub fire: usize,
+    /// The episode's seed (the fire's stochastic spread).
+    pub seed: u64,
+    pub cells_burned: u32,
+    pub timesteps: u32,
+    pub helitacks: u32,
+    /// Relative to the report folder: `recordings/ppo-best.rrd`.
+    pub path: PathBuf,
 }
 
 /// Settings of an evaluation.
@@ -95,6 +118,8 @@ pub struct EvalConfig {
     pub resamples: usize,
     pub level: f64,
     pub seed: u64,
+    /// Replay the best, median and worst PPO episodes into Rerun recordings.
+    pub recordings: bool,
 }
 
 impl Default for EvalConfig {
@@ -104,6 +129,7 @@ impl Default for EvalConfig {
             resamples: 10_000,
             level: 0.95,
             seed: 0,
+            recordings: true,
         }
     }
 }
@@ -131,9 +157,16 @@ pub fn load_policy(dir: &Path, device: Device) -> Result<Policy, RlError> {
     Ok(p)
 }
 
-fn episode_seed(base: u64, fire: usize) -> u64 {
+/// The seed of every agent's episode on held-out `fire` (paired across agents).
+pub fn episode_seed(base: u64, fire: usize) -> u64 {
     base.wrapping_mul(0x9E37_79B9_7F4A_7C15)
         ^ (fire as u64).wrapping_add(1).wrapping_mul(0xBF58_476D_1CE4_E5B9)
+}
+
+/// The stream sampled PPO actions on `fire` draw from: one per fire, so one fire replayed
+/// alone draws what it drew in the batch.
+pub fn action_seed(base: u64, train_seed: u64, fire: usize) -> u64 {
+    episode_seed(base ^ train_seed.rotate_left(17), fire)
 }
 
 struct Raw {
@@ -187,12 +220,8 @@ fn run_baseline(cores: &[EnvCore], make: &(dyn Fn() -> Box<dyn SimPolicy> + Sync
 }
 
 /// The PPO policy on every fire, all fires stepped together with one batched forward.
-fn run_ppo(
-    cores: &[EnvCore],
-    policy: &Policy,
-    cfg: &EvalConfig,
-    train_seed: u64,
-) -> Result<Vec<Raw>, RlError> {
+fn run_ppo(cores: &[EnvCore], agent: &EnsemblePolicy, cfg: &EvalConfig) -> Result<Vec<Raw>, RlError> {
+    let (policy, train_seed) = (&agent.policy, agent.seed);
     let n = cores.len();
     let mut envs: Vec<EnvCore> = cores.to_vec();
     let mut frames: Vec<Vec<u8>> = envs.iter().map(|e| vec![0u8; e.frames_len()]).collect();
@@ -210,7 +239,9 @@ fn run_ppo(
             ),
         ));
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed ^ train_seed.rotate_left(17));
+    let mut rngs: Vec<ChaCha8Rng> = (0..n)
+        .map(|f| ChaCha8Rng::seed_from_u64(action_seed(cfg.seed, train_seed, f)))
+        .collect();
     let mut done: Vec<Option<Raw>> = (0..n).map(|_| None).collect();
     let il = space.image_len();
     loop {
@@ -234,7 +265,16 @@ fn run_ppo(
                 vec,
             );
         }
-        let actions = policy_actions(policy, &obs, cfg.deterministic, &mut rng);
+        // As training saw them: the frozen normaliser on the vector part.
+        if let Some(norm) = &agent.normalize {
+            norm.normalize_obs(&mut obs.vector);
+        }
+        let logp = policy_log_probs(policy, &obs);
+        let actions: Vec<u8> = logp
+            .chunks(policy.num_actions)
+            .zip(&active)
+            .map(|(row, &f)| pick_action(row, cfg.deterministic, &mut rngs[f]))
+            .collect();
         // Environments and frames are disjoint: step the active ones in parallel.
         let mut stepped: Vec<(usize, Option<Raw>)> = envs
             .par_iter_mut()
@@ -394,11 +434,11 @@ pub const RULE: &str = "rule";
 pub const RULE_CONCENTRIC: &str = "rule-concentric";
 pub const NONE: &str = "none";
 
-/// Evaluates the PPO policies (one per training seed) and the baselines on the held-out
-/// fires of `fires`.
+/// Evaluates the PPO policies (one per training seed, each with its frozen observation
+/// normaliser) and the baselines on the held-out fires of `fires`.
 pub fn evaluate(
     fires: &FiresSpec,
-    policies: &[(u64, Policy)],
+    policies: &[EnsemblePolicy],
     cfg: &EvalConfig,
     progress: &dyn Fn(&str),
 ) -> Result<EvalReport, RlError> {
@@ -414,9 +454,9 @@ pub fn evaluate(
         &|| Box::new(RuleBasedAgent::concentric_circles()),
         cfg.seed,
     );
-    for (seed, p) in policies {
-        progress(&format!("PPO (training seed {seed})"));
-        raw.push((PPO.into(), Some(*seed), run_ppo(&cores, p, cfg, *seed)?));
+    for p in policies {
+        progress(&format!("PPO (training seed {})", p.seed));
+        raw.push((PPO.into(), Some(p.seed), run_ppo(&cores, p, cfg)?));
     }
     raw.push((RULE.into(), None, rule));
     raw.push((RULE_CONCENTRIC.into(), None, conc));
@@ -464,7 +504,132 @@ pub fn evaluate(
         agents,
         comparisons,
         episodes,
+        recordings: Vec::new(),
     })
+}
+
+/// The best (fewest cells burned), median and worst (most) PPO episodes, over every
+/// training seed and fire. Ties go to the lower training seed, then the lower fire; the
+/// median of an even count is the lower one.
+pub fn pick_rollouts(episodes: &[Episode]) -> Vec<(&'static str, &Episode)> {
+    let mut ppo: Vec<&Episode> = episodes
+        .iter()
+        .filter(|e| e.agent == PPO && e.train_seed.is_some())
+        .collect();
+    ppo.sort_by_key(|e| (e.cells_burned, e.train_seed, e.fire));
+    let (Some(first), Some(last)) = (ppo.first(), ppo.last()) else {
+        return Vec::new();
+    };
+    let worst = ppo
+        .iter()
+        .find(|e| e.cells_burned == last.cells_burned)
+        .unwrap_or(last);
+    vec![
+        ("best", *first),
+        ("median", ppo[(ppo.len() - 1) / 2]),
+        ("worst", *worst),
+    ]
+}
+
+/// The folder of the recordings inside the report folder.
+pub const RECORDINGS_DIR: &str = "recordings";
+
+/// Replays the best, median and worst PPO episodes of `report` (see [`pick_rollouts`]) one
+/// fire at a time with their policy, episode seed and action stream, writing
+/// `recordings/ppo-<role>.rrd` into the report folder `out`; fails if a replay does not
+/// reproduce its evaluated episode. An episode picked twice (few episodes) is replayed once
+/// and copied.
+pub fn record_rollouts(
+    fires: &FiresSpec,
+    policies: &[EnsemblePolicy],
+    report: &EvalReport,
+    cfg: &EvalConfig,
+    out: &Path,
+) -> Result<Vec<RolloutRecording>, RlError> {
+    let set: &FireSet = &fires.evaluate;
+    let dir = out.join(RECORDINGS_DIR);
+    std::fs::create_dir_all(&dir).map_err(|e| RlError::io("creating the recordings folder", &dir, e))?;
+    let mut done: Vec<RolloutRecording> = Vec::new();
+    for (role, ep) in pick_rollouts(&report.episodes) {
+        let train_seed = ep.train_seed.unwrap_or_default();
+        let file = format!("ppo-{role}.rrd");
+        let path = dir.join(&file);
+        let seed = episode_seed(cfg.seed, ep.fire);
+        let entry = RolloutRecording {
+            role: role.to_string(),
+            train_seed,
+            fire: ep.fire,
+            seed,
+            cells_burned: ep.cells_burned,
+            timesteps: ep.timesteps,
+            helitacks: ep.helitacks,
+            path: Path::new(RECORDINGS_DIR).join(&file),
+        };
+        if let Some(twin) = done
+            .iter()
+            .find(|r| r.train_seed == train_seed && r.fire == ep.fire)
+        {
+            std::fs::copy(out.join(&twin.path), &path)
+                .map_err(|e| RlError::io("copying a recording", &path, e))?;
+            done.push(entry);
+            continue;
+        }
+        let policy = policies.iter().find(|p| p.seed == train_seed).ok_or_else(|| {
+            RlError::config("recordings", format!("no policy of training seed {train_seed}"))
+        })?;
+        let draw = report
+            .fires
+            .iter()
+            .find(|d| d.index == ep.fire)
+            .ok_or_else(|| RlError::config("recordings", format!("no held-out fire {}", ep.fire)))?;
+        let (landscape, env_cfg) = set.fire(draw)?;
+        let mut env = firecast_sim::WildfireEnv::new(&landscape, &env_cfg)?;
+        let mut agent = PpoAgent::new(
+            &policy.policy,
+            policy.normalize.as_ref(),
+            landscape.width,
+            landscape.height,
+            cfg.deterministic,
+            action_seed(cfg.seed, train_seed, ep.fire),
+        )?;
+        let label = format!(
+            "ppo agent (training seed {train_seed}), held-out fire {}, {role} of {} episodes",
+            ep.fire,
+            report.episodes.iter().filter(|e| e.agent == PPO).count()
+        );
+        let outputs = firecast_episodes::Outputs {
+            recording: Some(path.clone()),
+            ..Default::default()
+        };
+        let stats =
+            firecast_episodes::record_episode(&mut env, &mut agent, &landscape, &label, seed, &outputs)?;
+        let replayed = (
+            stats.cells_burned,
+            stats.timesteps,
+            stats.helitacks,
+            stats.terminated,
+        );
+        let evaluated = (ep.cells_burned, ep.timesteps, ep.helitacks, ep.contained);
+        if replayed != evaluated {
+            // No recording of an episode that was not the evaluated one.
+            let _ = std::fs::remove_file(&path);
+            let show = |(c, t, h, done): (u32, u32, u32, bool)| {
+                format!(
+                    "{c} cells in {t} steps with {h} drops ({})",
+                    if done { "contained" } else { "not contained" }
+                )
+            };
+            return Err(RlError::ReplayDiverged {
+                role: role.to_string(),
+                train_seed,
+                fire: ep.fire,
+                evaluated: show(evaluated),
+                replayed: show(replayed),
+            });
+        }
+        done.push(entry);
+    }
+    Ok(done)
 }
 
 /// Table IV as markdown.
@@ -506,6 +671,24 @@ pub fn markdown(report: &EvalReport) -> String {
                 f(&c.cells_burned_diff, 0),
                 f(&c.relative_reduction, 3),
                 f(&c.probability_better, 3)
+            ));
+        }
+    }
+    if !report.recordings.is_empty() {
+        s.push_str(
+            "\nRerun recordings of PPO episodes (fire state, helicopter path, drops, burning and burnt \
+             cells per step; open with `rerun FILE`):\n\n| episode | training seed | fire | cells burned | steps | helitacks | file |\n|---|---|---|---|---|---|---|\n",
+        );
+        for r in &report.recordings {
+            s.push_str(&format!(
+                "| {} | {} | {} | {} | {} | {} | {} |\n",
+                r.role,
+                r.train_seed,
+                r.fire,
+                r.cells_burned,
+                r.timesteps,
+                r.helitacks,
+                r.path.display()
             ));
         }
     }

@@ -148,26 +148,7 @@ impl FireSet {
             let speed = uniform(&mut rng, self.wind_speed_mph);
             let dir = uniform(&mut rng, self.wind_from_deg);
             let d1 = uniform(&mut rng, self.dead_1h_frac);
-            let mut cfg = self.env.clone();
-            cfg.sim.wind.speed_mph = speed;
-            cfg.sim.wind.from_direction_deg = dir;
-            cfg.sim.kernel = KernelConfig::Rothermel {
-                moisture: FuelMoisture {
-                    dead_1h_frac: d1,
-                    dead_10h_frac: d1 + 0.01,
-                    dead_100h_frac: d1 + 0.02,
-                    live_herb_frac: self.live_herb_frac,
-                    live_woody_frac: self.live_woody_frac,
-                },
-                drop_moisture_increment: match &self.env.sim.kernel {
-                    KernelConfig::Rothermel {
-                        drop_moisture_increment,
-                        ..
-                    } => *drop_moisture_increment,
-                    KernelConfig::Concord { .. } => 0.05,
-                },
-            };
-            cfg.ignition = None;
+            let cfg = self.fire_config(speed, dir, d1, None);
             let mut core = EnvCore::new(&landscapes[li], &cfg)?;
             // A burnable ignition cell away from the edges (at most 1000 tries, then any).
             let mut ignition = [self.width / 2, self.height / 2];
@@ -191,6 +172,47 @@ impl FireSet {
             cores.push(core);
         }
         Ok((draws, cores))
+    }
+}
+
+impl FireSet {
+    /// The environment settings of a fire with this wind and moisture.
+    fn fire_config(&self, speed: f64, dir: f64, d1: f64, ignition: Option<[usize; 2]>) -> EnvConfig {
+        let mut cfg = self.env.clone();
+        cfg.sim.wind.speed_mph = speed;
+        cfg.sim.wind.from_direction_deg = dir;
+        cfg.sim.kernel = KernelConfig::Rothermel {
+            moisture: FuelMoisture {
+                dead_1h_frac: d1,
+                dead_10h_frac: d1 + 0.01,
+                dead_100h_frac: d1 + 0.02,
+                live_herb_frac: self.live_herb_frac,
+                live_woody_frac: self.live_woody_frac,
+            },
+            drop_moisture_increment: match &self.env.sim.kernel {
+                KernelConfig::Rothermel {
+                    drop_moisture_increment,
+                    ..
+                } => *drop_moisture_increment,
+                KernelConfig::Concord { .. } => 0.05,
+            },
+        };
+        cfg.ignition = ignition;
+        cfg
+    }
+
+    /// One drawn fire on its own: its landscape and the environment settings (ignition
+    /// included) that make `WildfireEnv::new(&landscape, &cfg)` play exactly what
+    /// [`FireSet::build`]'s environment of that fire plays (replays, recordings).
+    pub fn fire(&self, draw: &FireDraw) -> Result<(Landscape, EnvConfig), RlError> {
+        let landscape = self.landscape(draw.landscape_seed)?;
+        let cfg = self.fire_config(
+            draw.wind_speed_mph,
+            draw.wind_from_deg,
+            draw.dead_1h_frac,
+            Some(draw.ignition),
+        );
+        Ok((landscape, cfg))
     }
 }
 

@@ -6,8 +6,10 @@
 //! - [`normalize`]: `VecNormalize` (observation and return statistics);
 //! - [`policy`]: actor-critic networks (`mlp`, `compact`, `paper`);
 //! - [`train`]: the learning loop, checkpoints and exact resumption;
-//! - [`env`]: the batched-environment interface, with [`cartpole`] (the correctness gate).
+//! - [`env`]: the batched-environment interface, with [`cartpole`] (the correctness gate);
+//! - [`agent`]: a trained policy as a simulator `Policy` (one environment: replays, recordings).
 
+pub mod agent;
 pub mod bench;
 pub mod buffer;
 pub mod cartpole;

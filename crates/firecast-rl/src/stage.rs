@@ -190,7 +190,8 @@ pub fn load_run(
 }
 
 /// Evaluates a run folder on a fire file's evaluation fires and writes `evaluation.json`,
-/// `table4.md`, `episodes.csv` and the plots into `out`.
+/// `table4.md`, `episodes.csv`, the plots and (when `cfg.recordings`) the Rerun recordings
+/// of the best, median and worst PPO episodes (`recordings/`) into `out`.
 pub fn evaluate_run(
     run: &std::path::Path,
     fires: &std::path::Path,
@@ -199,10 +200,14 @@ pub fn evaluate_run(
     device: tch::Device,
     progress: &dyn Fn(&str),
 ) -> Result<crate::evaluate::EvalReport, RlError> {
-    let (_, policies) = load_run(run, device)?;
+    let (_, policies) = crate::ensemble::load_policies(run, device)?;
     let fires = FiresSpec::load(fires)?;
-    let report = crate::evaluate::evaluate(&fires, &policies, cfg, progress)?;
+    let mut report = crate::evaluate::evaluate(&fires, &policies, cfg, progress)?;
     std::fs::create_dir_all(out).map_err(|e| RlError::io("creating the report folder", out, e))?;
+    if cfg.recordings {
+        progress("recording the best, median and worst PPO episodes");
+        report.recordings = crate::evaluate::record_rollouts(&fires, &policies, &report, cfg, out)?;
+    }
     let json = serde_json::to_vec_pretty(&report).map_err(|e| RlError::config("report", e.to_string()))?;
     let write = |name: &str, bytes: &[u8]| {
         let p = out.join(name);
@@ -237,7 +242,8 @@ impl StageKind for EvaluateStage {
         "rl.evaluate"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: observations normalised as in training, one action stream per fire, recordings.
+        2
     }
     fn summary(&self) -> &'static str {
         "Table IV: PPO per training seed vs rule-based agents and no suppression on the same held-out fires"
@@ -261,7 +267,7 @@ impl StageKind for EvaluateStage {
             name: "report",
             required: true,
             many: false,
-            description: "table4.md, evaluation.json, episodes.csv, plots (directory)",
+            description: "table4.md, evaluation.json, episodes.csv, plots, recordings/ppo-{best,median,worst}.rrd (directory)",
         }];
         Ports {
             inputs: IN,
@@ -296,6 +302,11 @@ impl StageKind for EvaluateStage {
                 0,
                 a.cells_burned.iqm.estimate,
             );
+        }
+        if ctx.output_final_path("report").is_some() {
+            for r in &report.recordings {
+                let _ = ctx.artifact(&format!("recording/ppo-{}", r.role), &out.join(&r.path))?;
+            }
         }
         Ok(())
     }

@@ -662,26 +662,35 @@ fn sample(logp: &[f32], u: f64) -> usize {
     logp.len() - 1
 }
 
-/// Greedy or sampled actions from a trained policy (evaluation), without a trainer.
+/// Greedy or sampled actions from a trained policy (evaluation), without a trainer; rows
+/// draw from `rng` in order when sampling.
 pub fn policy_actions(policy: &Policy, obs: &ObsBatch, deterministic: bool, rng: &mut ChaCha8Rng) -> Vec<u8> {
+    policy_log_probs(policy, obs)
+        .chunks(policy.num_actions)
+        .map(|row| pick_action(row, deterministic, rng))
+        .collect()
+}
+
+/// Action log-probabilities of a batch, `n × num_actions` row-major.
+pub fn policy_log_probs(policy: &Policy, obs: &ObsBatch) -> Vec<f32> {
     let device = policy.device();
     let logits = tch::no_grad(|| policy.forward(&ObsTensors::from_batch(obs, device), false).0);
-    let logp: Vec<f32> = Vec::<f32>::try_from(
+    Vec::<f32>::try_from(
         logits
             .log_softmax(-1, Kind::Float)
             .to_device(Device::Cpu)
             .flatten(0, -1),
     )
-    .unwrap_or_default();
-    logp.chunks(policy.num_actions)
-        .map(|row| {
-            if deterministic {
-                argmax(row) as u8
-            } else {
-                sample(row, rng.random::<f64>()) as u8
-            }
-        })
-        .collect()
+    .unwrap_or_default()
+}
+
+/// One row's action: the greedy one, or one drawn from `rng` (one `f64` per call).
+pub fn pick_action(logp: &[f32], deterministic: bool, rng: &mut ChaCha8Rng) -> u8 {
+    if deterministic {
+        argmax(logp) as u8
+    } else {
+        sample(logp, rng.random::<f64>()) as u8
+    }
 }
 
 /// Log-probabilities and entropies under the policy (tests, diagnostics).

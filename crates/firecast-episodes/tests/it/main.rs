@@ -183,3 +183,40 @@ fn weather_errors_name_the_file_and_the_problem() {
         "{err}"
     );
 }
+
+#[test]
+fn any_policy_is_recorded_with_its_path_and_the_same_numbers() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut s = scenario();
+    s.env.max_steps = 120;
+    let land = s.landscape.load(dir.path()).unwrap();
+    let mut env = firecast_sim::WildfireEnv::new(&land, &s.env).unwrap();
+    let mut agent = firecast_sim::RuleBasedAgent::single_circle();
+    let plain = firecast_sim::run_episode(&mut env, &mut agent, 9, |_, _| {});
+    let path = dir.path().join("recordings/rule.rrd");
+    let outputs = Outputs {
+        recording: Some(path.clone()),
+        ..Outputs::default()
+    };
+    let recorded =
+        firecast_episodes::record_episode(&mut env, &mut agent, &land, "circle agent", 9, &outputs).unwrap();
+    assert_eq!(recorded, plain, "recording does not change the episode");
+    assert!(std::fs::metadata(&path).unwrap().len() > 0);
+    let rerun = std::path::PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("../../.venv/bin/rerun");
+    if !rerun.exists() {
+        return;
+    }
+    let out = std::process::Command::new(&rerun)
+        .args(["rrd", "print"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    for entity in ["env/fire", "env/path", "env/drops_so_far", "stats/cells_burnt"] {
+        assert!(text.contains(entity), "recording lacks {entity}");
+    }
+}

@@ -3,3 +3,4 @@
 mod cartpole;
 mod ensemble;
 mod golden;
+mod recordings;

@@ -1,0 +1,89 @@
+//! A trained PPO policy as a [`firecast_sim::Policy`] for one environment: observations
+//! encoded as the batched evaluation encodes them ([`helitack::encode`], then the frozen
+//! observation normaliser), actions from the same log-probabilities. With the same
+//! environment, episode seed and action seed it replays an evaluated episode, so anything
+//! that takes a `firecast_sim::Policy` (Rerun recordings, frames, GIFs) can draw it.
+
+use firecast_sim::{Action, Decision, Observation};
+use rand_chacha::ChaCha8Rng;
+use rand_chacha::rand_core::SeedableRng;
+
+use crate::RlError;
+use crate::env::ObsBatch;
+use crate::helitack;
+use crate::normalize::VecNormalize;
+use crate::policy::Policy;
+use crate::train::policy_actions;
+
+/// A trained policy playing one helitack environment.
+pub struct PpoAgent<'a> {
+    policy: &'a Policy,
+    normalize: Option<&'a VecNormalize>,
+    deterministic: bool,
+    /// Draws of sampled actions (one per step); untouched when greedy.
+    rng: ChaCha8Rng,
+    obs: ObsBatch,
+    width: usize,
+    height: usize,
+}
+
+impl<'a> PpoAgent<'a> {
+    /// An agent for a `width × height` grid; greedy when `deterministic`, otherwise
+    /// sampling with a stream seeded by `action_seed`. `normalize` is the run's frozen
+    /// observation normaliser, if it has one.
+    pub fn new(
+        policy: &'a Policy,
+        normalize: Option<&'a VecNormalize>,
+        width: usize,
+        height: usize,
+        deterministic: bool,
+        action_seed: u64,
+    ) -> Result<Self, RlError> {
+        let space = helitack::space(width, height);
+        if policy.space != space {
+            return Err(RlError::config(
+                "policy",
+                format!(
+                    "the policy was trained on observations {:?}, a {width}×{height} grid gives {space:?}",
+                    policy.space
+                ),
+            ));
+        }
+        Ok(Self {
+            policy,
+            normalize,
+            deterministic,
+            rng: ChaCha8Rng::seed_from_u64(action_seed),
+            obs: ObsBatch::new(space, 1),
+            width,
+            height,
+        })
+    }
+}
+
+impl firecast_sim::Policy for PpoAgent<'_> {
+    fn act(&mut self, obs: &Observation<'_>) -> Decision {
+        if (obs.width, obs.height) != (self.width, self.height) {
+            // `new` checked the grid; an environment of another size has no valid
+            // observation for this policy, so the helicopter only moves.
+            return Action::Down.into();
+        }
+        helitack::encode(
+            obs.frames,
+            obs.agent,
+            obs.on_fire,
+            self.width,
+            self.height,
+            &mut self.obs.image,
+            &mut self.obs.vector,
+        );
+        if let Some(n) = self.normalize {
+            n.normalize_obs(&mut self.obs.vector);
+        }
+        let action = policy_actions(self.policy, &self.obs, self.deterministic, &mut self.rng)
+            .first()
+            .copied()
+            .unwrap_or(0);
+        Action::try_from(action).unwrap_or(Action::Down).into()
+    }
+}

@@ -1,0 +1,213 @@
+//! `rl evaluate`'s Rerun recordings: the best, median and worst PPO episodes replayed one
+//! fire at a time reproduce the batched evaluation (two training seeds with an observation
+//! normaliser, four held-out fires of 40 steps on a 48×32 grid).
+
+use std::path::{Path, PathBuf};
+
+use firecast_rl::agent::PpoAgent;
+use firecast_rl::ensemble::load_policies;
+use firecast_rl::evaluate::{EvalConfig, EvalReport, PPO, action_seed, episode_seed};
+use firecast_rl::run::RunSink;
+use firecast_rl::spec::{EnvSpec, FiresSpec, PpoSpec, TrainSpec};
+use tch::Device;
+
+struct Quiet;
+impl RunSink for Quiet {}
+
+const FIRES: &str = r#"
+train:
+  landscape_seeds: [1]
+  width: 48
+  height: 32
+  fires: 2
+  seed: 0
+  wind_speed_mph: [2, 6]
+  dead_1h_frac: [0.04, 0.06]
+  ignition_margin_cells: 8
+  env: {max_steps: 40}
+evaluate:
+  landscape_seeds: [2, 3]
+  width: 48
+  height: 32
+  fires: 4
+  seed: 1
+  wind_speed_mph: [2, 6]
+  dead_1h_frac: [0.04, 0.08]
+  ignition_margin_cells: 8
+  env: {max_steps: 40}
+"#;
+
+/// Trains seeds 0 and 1 for 32 steps each, normalising observations; returns the run
+/// folder and the fire file.
+fn tiny_run(dir: &Path) -> (PathBuf, PathBuf) {
+    let fires = dir.join("fires.yaml");
+    std::fs::write(&fires, FIRES).expect("writing the fire file");
+    let overrides = serde_json::json!({
+        "n_envs": 2, "n_steps": 16, "batch_size": 16, "n_epochs": 1, "total_timesteps": 32,
+        "normalize": {"obs": true, "reward": true}
+    });
+    let spec = TrainSpec {
+        name: "tiny".into(),
+        description: None,
+        env: EnvSpec::Helitack { fires: None },
+        policy: None,
+        ppo: PpoSpec {
+            preset: "paper".into(),
+            overrides: overrides.as_object().cloned().unwrap_or_default(),
+        },
+        seeds: vec![0, 1],
+        checkpoint_every: 1,
+        device: "cpu".into(),
+    };
+    let out = dir.join("run");
+    firecast_rl::run::train(
+        &spec,
+        Some(&fires),
+        &dir.join("work"),
+        &out,
+        Device::Cpu,
+        &Quiet,
+        None,
+    )
+    .expect("training the tiny run");
+    (out, fires)
+}
+
+fn evaluate(run: &Path, fires: &Path, out: &Path, cfg: &EvalConfig) -> EvalReport {
+    firecast_rl::stage::evaluate_run(run, fires, out, cfg, Device::Cpu, &|_| {}).expect("the evaluation")
+}
+
+fn rerun_cli() -> PathBuf {
+    PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()))
+        .join("../../.venv/bin/rerun")
+}
+
+/// Every PPO episode, played again alone through the `firecast_sim::Policy` adapter.
+fn replay_all(run: &Path, fires: &Path, report: &EvalReport, cfg: &EvalConfig) {
+    let (_, policies) = load_policies(run, Device::Cpu).expect("loading the run");
+    let set = FiresSpec::load(fires).expect("the fire file").evaluate;
+    for e in report.episodes.iter().filter(|e| e.agent == PPO) {
+        let seed = e.train_seed.expect("a PPO episode has a training seed");
+        let p = policies.iter().find(|p| p.seed == seed).expect("its policy");
+        let (landscape, env_cfg) = set.fire(&report.fires[e.fire]).expect("the fire");
+        let mut env = firecast_sim::WildfireEnv::new(&landscape, &env_cfg).expect("the environment");
+        let mut agent = PpoAgent::new(
+            &p.policy,
+            p.normalize.as_ref(),
+            48,
+            32,
+            cfg.deterministic,
+            action_seed(cfg.seed, seed, e.fire),
+        )
+        .expect("the agent");
+        let stats =
+            firecast_sim::run_episode(&mut env, &mut agent, episode_seed(cfg.seed, e.fire), |_, _| {});
+        assert_eq!(
+            (
+                stats.cells_burned,
+                stats.timesteps,
+                stats.helitacks,
+                stats.terminated
+            ),
+            (e.cells_burned, e.timesteps, e.helitacks, e.contained),
+            "training seed {seed}, fire {}",
+            e.fire
+        );
+    }
+}
+
+#[test]
+fn evaluation_records_the_best_median_and_worst_ppo_episodes() {
+    let tmp = tempfile::tempdir().expect("a temporary folder");
+    let (run, fires) = tiny_run(tmp.path());
+    let cfg = EvalConfig {
+        resamples: 50,
+        ..EvalConfig::default()
+    };
+    assert!(cfg.recordings, "recording is the default");
+    let out = tmp.path().join("greedy");
+    let report = evaluate(&run, &fires, &out, &cfg);
+    let ppo: Vec<_> = report.episodes.iter().filter(|e| e.agent == PPO).collect();
+    assert_eq!(ppo.len(), 2 * 4);
+    replay_all(&run, &fires, &report, &cfg);
+
+    let roles: Vec<&str> = report.recordings.iter().map(|r| r.role.as_str()).collect();
+    assert_eq!(roles, ["best", "median", "worst"]);
+    let min = ppo.iter().map(|e| e.cells_burned).min();
+    let max = ppo.iter().map(|e| e.cells_burned).max();
+    assert_eq!(Some(report.recordings[0].cells_burned), min);
+    assert_eq!(Some(report.recordings[2].cells_burned), max);
+    for r in &report.recordings {
+        assert!(r.cells_burned >= report.recordings[0].cells_burned);
+        assert!(r.cells_burned <= report.recordings[2].cells_burned);
+        // The replayed episode is the evaluated one (evaluate_run fails otherwise).
+        let e = ppo
+            .iter()
+            .find(|e| e.train_seed == Some(r.train_seed) && e.fire == r.fire)
+            .expect("the recorded episode is an evaluated one");
+        assert_eq!(
+            (r.cells_burned, r.timesteps, r.helitacks),
+            (e.cells_burned, e.timesteps, e.helitacks)
+        );
+        assert_eq!(r.seed, episode_seed(cfg.seed, r.fire));
+        assert_eq!(
+            r.path,
+            Path::new("recordings").join(format!("ppo-{}.rrd", r.role))
+        );
+        let file = out.join(&r.path);
+        let size = std::fs::metadata(&file).map(|m| m.len()).unwrap_or(0);
+        assert!(size > 0, "{} is missing or empty", file.display());
+    }
+    // Listed in evaluation.json and table4.md.
+    let json: EvalReport =
+        serde_json::from_slice(&std::fs::read(out.join("evaluation.json")).expect("evaluation.json"))
+            .expect("evaluation.json parses");
+    assert_eq!(json.recordings, report.recordings);
+    let table = std::fs::read_to_string(out.join("table4.md")).expect("table4.md");
+    assert!(table.contains("recordings/ppo-median.rrd"), "{table}");
+    // Nothing half-written is left beside them.
+    let leftovers: Vec<String> = std::fs::read_dir(out.join("recordings"))
+        .expect("the recordings folder")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.ends_with(".rrd") || n.starts_with('.'))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+
+    let cli = rerun_cli();
+    if cli.exists() {
+        for r in &report.recordings {
+            let verify = std::process::Command::new(&cli)
+                .args(["rrd", "verify"])
+                .arg(out.join(&r.path))
+                .output()
+                .expect("running rerun");
+            assert!(
+                verify.status.success(),
+                "rerun rrd verify {}:\n{}\n{}",
+                r.path.display(),
+                String::from_utf8_lossy(&verify.stdout),
+                String::from_utf8_lossy(&verify.stderr)
+            );
+        }
+    }
+
+    // Sampled actions: one action stream per fire, so single-fire replays draw the same.
+    let sampled = EvalConfig {
+        deterministic: false,
+        ..cfg.clone()
+    };
+    let report = evaluate(&run, &fires, &tmp.path().join("sampled"), &sampled);
+    replay_all(&run, &fires, &report, &sampled);
+    assert_eq!(report.recordings.len(), 3);
+
+    // Turned off: no recordings and no folder.
+    let off = EvalConfig {
+        recordings: false,
+        ..cfg
+    };
+    let out = tmp.path().join("off");
+    let report = evaluate(&run, &fires, &out, &off);
+    assert!(report.recordings.is_empty());
+    assert!(!out.join("recordings").exists());
+}
