@@ -574,3 +574,69 @@ pub fn run_agent(
     };
     assemble(setup, agent.name(), description, out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::LandscapeSpec;
+
+    fn scenario(seed: u64) -> Scenario {
+        Scenario::new(
+            LandscapeSpec::Procedural {
+                seed,
+                width: 96,
+                height: 64,
+                center: Some([39.3, -107.4]),
+            },
+            EnvConfig {
+                max_steps: 20,
+                ..EnvConfig::default()
+            },
+        )
+    }
+
+    #[test]
+    fn an_ignition_on_water_or_off_the_landscape_is_refused() {
+        let root = std::path::Path::new(".");
+        let land = scenario(1).landscape.load(root).expect("landscape");
+        let water = (1..20)
+            .map(|s| (s, scenario(s).landscape.load(root).expect("landscape")))
+            .find_map(|(s, l)| {
+                let i = l.land_cover.iter().position(|&c| c == 17)?;
+                Some((s, l.cell_to_lat_lon(i % l.width, i / l.width)))
+            })
+            .expect("a landscape with water");
+        let Err(e) = Setup::new(scenario(water.0), root, Some([water.1.0, water.1.1])) else {
+            panic!("water accepted");
+        };
+        assert!(e.to_string().contains("nothing there can burn"), "{e}");
+        let (lat, lon) = land.cell_to_lat_lon(0, 0);
+        let Err(e) = Setup::new(scenario(1), root, Some([lat - 1.0, lon])) else {
+            panic!("a point off the landscape accepted");
+        };
+        assert!(e.to_string().contains("outside the landscape"), "{e}");
+    }
+
+    #[test]
+    fn runs_are_perturbed_by_their_seed_alone() {
+        let setup = Setup::new(scenario(1), std::path::Path::new("."), None)
+            .expect("setup")
+            .with_perturbation(Perturbation::default());
+        let (a, ca) = setup.run_env(7);
+        let (b, cb) = setup.run_env(7);
+        assert_eq!(ca, cb);
+        assert_eq!(a.sim.wind, b.sim.wind);
+        let (_, other) = setup.run_env(8);
+        assert_ne!(ca, other);
+        let base = setup.env().sim.wind;
+        for s in 0..50 {
+            let (_, c) = setup.run_env(s);
+            assert!(c.wind_speed_mph <= base.speed_mph * 1.25 + 1e-9);
+            assert!(c.wind_speed_mph >= base.speed_mph * 0.75 - 1e-9);
+        }
+        let calm = Setup::new(scenario(1), std::path::Path::new("."), None)
+            .expect("setup")
+            .with_perturbation(Perturbation::NONE);
+        assert_eq!(calm.run_env(3).0.sim.wind, calm.env().sim.wind);
+    }
+}
