@@ -426,17 +426,32 @@ fn demo_pipeline_runs_then_skips_everything() {
             std::fs::copy(entry.path(), p.path(&format!("pipelines/{name}"))).unwrap();
         }
     }
-    // The forecasting experiment with two cheap models: the full one takes minutes and is
-    // covered by the experiment tests.
+    // The demo's fire file, with 3 evaluation fires and 100-step episodes.
+    let fires = std::fs::read_to_string(repo_root().join("experiments/rl/demo-fires.yaml"))
+        .unwrap()
+        .replace("fires: 20", "fires: 3")
+        .replace("max_steps: 400", "max_steps: 100");
+    p.write("experiments/rl/demo-fires.yaml", &fires);
+    // The forecasting experiment with two cheap models and the helitack agent with one PPO
+    // update: the full ones take minutes and are covered by the experiment and rl tests.
     let quick = [
         "-S",
         "forecast_table3.models=[{kind: majority}, {kind: logistic_regression}]",
         "-S",
         "forecast_table3.evaluation={bootstrap: 50}",
+        "-S",
+        "helitack_agent_steps=1024",
+        "-S",
+        "helitack_agent_seeds=[0]",
+        "-S",
+        "helitack_table4.resamples=200",
     ];
     let first = p.run_pipeline("pipelines/demo.yaml", &quick);
     assert!(first.values().all(|o| o == "ran"), "{first:?}");
     assert!(p.path("build/demo/table3/table3.md").is_file());
+    let table4 = p.read("build/demo/helitack_table4/table4.md");
+    assert!(table4.contains("Table IV over 3 held-out fires"), "{table4}");
+    assert!(table4.contains("| ppo | 1 × 3 |"), "{table4}");
     let second = p.run_pipeline("pipelines/demo.yaml", &quick);
     assert!(second.values().all(|o| o == "up_to_date"), "{second:?}");
 }

@@ -1,6 +1,7 @@
 //! FireCast's bootstrap, so a fresh machine with only Rust and python3 needs two commands:
 //!
-//! - `cargo xtask demo`: set up, build, run `pipelines/demo.yaml`, list the runs;
+//! - `cargo xtask demo`: set up, build, run `pipelines/demo.yaml`, list the runs, print the
+//!   demo's Table III (forecasting) and Table IV (helitack agents);
 //! - `cargo xtask test`: set up, build, run the whole test suite.
 //!
 //! Setup is idempotent: it installs the pinned Python packages (torch 2.13.0 brings
@@ -37,7 +38,7 @@ fn main() -> ExitCode {
                  commands:\n  \
                  setup   install .venv (torch 2.13.0, rerun-sdk 0.36.3, test tools) and libduckdb 1.5.1\n  \
                  build   setup, then build the firecast binary (release)\n  \
-                 demo    setup, build, run pipelines/demo.yaml and list the runs\n  \
+                 demo    setup, build, run pipelines/demo.yaml, list the runs, print Tables III and IV\n  \
                  test    setup, build, run every test (extra args go to `cargo test`)\n  \
                  ci      test, then cargo fmt --check and cargo clippy -D warnings\n  \
                  env     setup, then print the environment the build uses"
@@ -408,7 +409,12 @@ fn demo(ctx: &Context, args: &[String]) -> Result<(), String> {
             .current_dir(&ctx.root)
             .args(["experiment", "compare", "build/demo/table3"]),
         "firecast experiment compare build/demo/table3",
-    )
+    )?;
+    // Table IV of the demo's PPO helitack agent (stages helitack_agent, helitack_table4).
+    let table4 = ctx.root.join("build/demo/helitack_table4/table4.md");
+    let text = std::fs::read_to_string(&table4).map_err(|e| format!("reading {}: {e}", table4.display()))?;
+    println!("\n{}", text.trim_end());
+    Ok(())
 }
 
 fn test(ctx: &Context, args: &[String]) -> Result<(), String> {

@@ -96,47 +96,50 @@ impl StageKind for ExperimentStage {
         Ok(v)
     }
     fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
-        let spec: ExperimentSpec = ctx.params()?;
-        let dataset = ctx.input("dataset")?.to_path_buf();
-        let out = ctx.output("report")?.to_path_buf();
-        let device = crate::parse_device(&spec.device)?;
-        firecast_learn::set_threads(ctx.jobs());
-        let windows = crate::data::Windows::load(&dataset)?;
-        let bar = ctx.progress_bar(1, "models");
-        let sink = StageSink {
-            ctx,
-            bar,
-            log: Mutex::new(Vec::new()),
-        };
-        let (result, predictions) = crate::experiment::run(&spec, &windows, device, &out, &sink)?;
-        sink.bar.finish_and_clear();
-        crate::table::write_all(&out, &result)?;
-        crate::plots::write_all(&out, &result, &predictions, &windows)?;
-        for p in &result.protocols {
-            for r in result.results.iter().filter(|r| r.protocol == p.name) {
-                for (k, v) in &r.test {
-                    if v.is_finite() {
-                        ctx.metric(&format!("{}/{}/{k}", p.name, r.model), 0, *v);
-                    }
-                }
-            }
-        }
-        // Saved models go to the artifact store (the run links dataset → models → metrics).
-        if ctx.output_final_path("report").is_some() {
-            for r in &result.results {
-                for s in &r.runs {
-                    let dir = out.join(&s.model_dir);
-                    for file in [crate::bundle::MODEL_FILE, crate::bundle::WEIGHTS_FILE] {
-                        let path = dir.join(file);
-                        if path.exists() {
-                            let name = format!("model/{}/{}/seed-{}", r.protocol, r.model, s.seed);
-                            let _ = ctx.artifact(&name, &path)?;
+        // libtorch's one generator: stages using it run one at a time (reproducible).
+        firecast_learn::exclusive(|| {
+            let spec: ExperimentSpec = ctx.params()?;
+            let dataset = ctx.input("dataset")?.to_path_buf();
+            let out = ctx.output("report")?.to_path_buf();
+            let device = crate::parse_device(&spec.device)?;
+            firecast_learn::set_threads(ctx.jobs());
+            let windows = crate::data::Windows::load(&dataset)?;
+            let bar = ctx.progress_bar(1, "models");
+            let sink = StageSink {
+                ctx,
+                bar,
+                log: Mutex::new(Vec::new()),
+            };
+            let (result, predictions) = crate::experiment::run(&spec, &windows, device, &out, &sink)?;
+            sink.bar.finish_and_clear();
+            crate::table::write_all(&out, &result)?;
+            crate::plots::write_all(&out, &result, &predictions, &windows)?;
+            for p in &result.protocols {
+                for r in result.results.iter().filter(|r| r.protocol == p.name) {
+                    for (k, v) in &r.test {
+                        if v.is_finite() {
+                            ctx.metric(&format!("{}/{}/{k}", p.name, r.model), 0, *v);
                         }
                     }
                 }
             }
-        }
-        Ok(())
+            // Saved models go to the artifact store (the run links dataset → models → metrics).
+            if ctx.output_final_path("report").is_some() {
+                for r in &result.results {
+                    for s in &r.runs {
+                        let dir = out.join(&s.model_dir);
+                        for file in [crate::bundle::MODEL_FILE, crate::bundle::WEIGHTS_FILE] {
+                            let path = dir.join(file);
+                            if path.exists() {
+                                let name = format!("model/{}/{}/seed-{}", r.protocol, r.model, s.seed);
+                                let _ = ctx.artifact(&name, &path)?;
+                            }
+                        }
+                    }
+                }
+            }
+            Ok(())
+        })
     }
 }
 
@@ -539,15 +542,17 @@ impl StageKind for PredictStage {
         Ok(v)
     }
     fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
-        let params: PredictParams = ctx.params()?;
-        let experiment = ctx.input("experiment")?.to_path_buf();
-        let gridmet = ctx.input("gridmet")?.to_path_buf();
-        let device = crate::parse_device(&params.device)?;
-        firecast_learn::set_threads(ctx.jobs());
-        let f = forecast_point(&experiment, &gridmet, &params, device)?;
-        std::fs::write(ctx.output("forecast")?, serde_json::to_vec_pretty(&f)?)?;
-        ctx.metric("probability", 0, f.probability);
-        ctx.log(format!(
+        // libtorch's one generator: stages using it run one at a time (reproducible).
+        firecast_learn::exclusive(|| {
+            let params: PredictParams = ctx.params()?;
+            let experiment = ctx.input("experiment")?.to_path_buf();
+            let gridmet = ctx.input("gridmet")?.to_path_buf();
+            let device = crate::parse_device(&params.device)?;
+            firecast_learn::set_threads(ctx.jobs());
+            let f = forecast_point(&experiment, &gridmet, &params, device)?;
+            std::fs::write(ctx.output("forecast")?, serde_json::to_vec_pretty(&f)?)?;
+            ctx.metric("probability", 0, f.probability);
+            ctx.log(format!(
             "{} ({}, protocol {}): P(ignition) at ({}, {}) on {} = {:.3} [{:.3}, {:.3}] over {} seeds, threshold {:.3}: {}",
             f.model,
             f.kind,
@@ -566,7 +571,8 @@ impl StageKind for PredictStage {
                 "no ignition expected"
             }
         ));
-        Ok(())
+            Ok(())
+        })
     }
 }
 

@@ -109,6 +109,17 @@ pub fn parse_device(s: &str) -> Result<tch::Device, String> {
     }
 }
 
+/// Runs `f` alone among the callers of this function in the process. libtorch has one CPU
+/// generator per process and draws from it for weight initialisation and dropout, so two
+/// pipeline stages training at once would take each other's random numbers and neither
+/// would be reproducible; every stage kind that uses libtorch runs its work inside this.
+/// Not reentrant: `f` must not call it again.
+pub fn exclusive<T>(f: impl FnOnce() -> T) -> T {
+    static STAGE_LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _guard = STAGE_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    f()
+}
+
 /// Runs `f` with libtorch's global generator seeded with `seed`, holding a process-wide lock
 /// so that weights drawn inside `f` do not depend on other threads drawing at the same time
 /// (libtorch has one CPU generator per process).

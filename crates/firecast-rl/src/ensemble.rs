@@ -289,45 +289,48 @@ impl StageKind for EnsembleStage {
     }
 
     fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
-        let params: EnsembleParams = ctx.params()?;
-        let run = ctx.input("run")?.to_path_buf();
-        let device = crate::parse_device(params.device.as_deref().unwrap_or("auto"))?;
-        firecast_learn::set_threads(ctx.jobs());
-        let setup = prepare_ensemble(ctx, &params)?;
-        let (summary, policies) = load_policies(&run, device)?;
-        let (w, h) = (setup.landscape.width, setup.landscape.height);
-        let space = helitack::space(w, h);
-        if let Some(p) = policies.iter().find(|p| p.policy.space != space) {
-            return Err(StageError::msg(format!(
-                "training run {}: the policy of training seed {} was trained on observations of {}, \
+        // libtorch's one generator: stages using it run one at a time (reproducible).
+        firecast_learn::exclusive(|| {
+            let params: EnsembleParams = ctx.params()?;
+            let run = ctx.input("run")?.to_path_buf();
+            let device = crate::parse_device(params.device.as_deref().unwrap_or("auto"))?;
+            firecast_learn::set_threads(ctx.jobs());
+            let setup = prepare_ensemble(ctx, &params)?;
+            let (summary, policies) = load_policies(&run, device)?;
+            let (w, h) = (setup.landscape.width, setup.landscape.height);
+            let space = helitack::space(w, h);
+            if let Some(p) = policies.iter().find(|p| p.policy.space != space) {
+                return Err(StageError::msg(format!(
+                    "training run {}: the policy of training seed {} was trained on observations of {}, \
                  but this {w}×{h} landscape gives {} (train on a landscape of the same size)",
-                run.display(),
-                p.seed,
-                space_text(p.policy.space),
-                space_text(space)
-            )));
-        }
-        let bar = ctx.progress_bar(params.runs as u64, "ppo policy");
-        let runs = run_policies(&setup, &policies, params.runs, params.seed, &|| bar.inc(1))?;
-        bar.finish_and_clear();
-        let description = describe(&run, &summary, &policies);
-        let ensemble = firecast_episodes::ensemble::assemble(&setup, "ppo", description, runs)?;
-        for (k, e) in ensemble.episodes.iter().enumerate() {
-            ctx.metric("cells_burned", k as i64, f64::from(e.cells_burned));
-            ctx.metric("helitacks", k as i64, f64::from(e.helitacks));
-        }
-        std::fs::write(ctx.output("ensemble")?, serde_json::to_vec(&ensemble)?)?;
-        let mean = ensemble
-            .episodes
-            .iter()
-            .map(|e| f64::from(e.cells_burned))
-            .sum::<f64>()
-            / ensemble.runs() as f64;
-        ctx.log(format!(
-            "ppo ({} policies): {} runs, {mean:.0} cells burned on average",
-            policies.len(),
-            ensemble.runs()
-        ));
-        Ok(())
+                    run.display(),
+                    p.seed,
+                    space_text(p.policy.space),
+                    space_text(space)
+                )));
+            }
+            let bar = ctx.progress_bar(params.runs as u64, "ppo policy");
+            let runs = run_policies(&setup, &policies, params.runs, params.seed, &|| bar.inc(1))?;
+            bar.finish_and_clear();
+            let description = describe(&run, &summary, &policies);
+            let ensemble = firecast_episodes::ensemble::assemble(&setup, "ppo", description, runs)?;
+            for (k, e) in ensemble.episodes.iter().enumerate() {
+                ctx.metric("cells_burned", k as i64, f64::from(e.cells_burned));
+                ctx.metric("helitacks", k as i64, f64::from(e.helitacks));
+            }
+            std::fs::write(ctx.output("ensemble")?, serde_json::to_vec(&ensemble)?)?;
+            let mean = ensemble
+                .episodes
+                .iter()
+                .map(|e| f64::from(e.cells_burned))
+                .sum::<f64>()
+                / ensemble.runs() as f64;
+            ctx.log(format!(
+                "ppo ({} policies): {} runs, {mean:.0} cells burned on average",
+                policies.len(),
+                ensemble.runs()
+            ));
+            Ok(())
+        })
     }
 }

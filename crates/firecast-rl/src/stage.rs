@@ -97,54 +97,58 @@ impl StageKind for TrainStage {
         Ok(v)
     }
     fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
-        let spec: TrainSpec = ctx.params()?;
-        let fires = ctx
-            .input("fires")
-            .ok()
-            .map(|p| p.strip_prefix(ctx.root()).unwrap_or(p).to_path_buf());
-        let fires_abs = fires.as_ref().map(|p| ctx.root().join(p));
-        let out = ctx.output("run")?.to_path_buf();
-        let device = crate::parse_device(&spec.device).map_err(stage_error)?;
-        firecast_learn::set_threads(ctx.jobs());
-        let work = crate::run::work_dir(ctx.root(), &spec, fires_abs.as_deref()).map_err(stage_error)?;
-        let stop_after = std::env::var(STOP_AFTER_ENV).ok().and_then(|v| v.parse().ok());
-        let bar = ctx.progress_bar(spec.ppo().map_err(stage_error)?.total_timesteps, "steps");
-        let sink = StageSink { ctx, bar };
-        let result = crate::run::train(
-            &spec,
-            fires_abs.as_deref(),
-            &work,
-            &out,
-            device,
-            &sink,
-            stop_after,
-        );
-        if let (Ok(summary), Some(rel)) = (&result, &fires) {
-            // Record the fire file as the pipeline named it (relative), not the absolute path.
-            let mut s = summary.clone();
-            s.fires_file = Some(rel.clone());
-            let path = out.join(SUMMARY_FILE);
-            let json = serde_json::to_vec_pretty(&s).map_err(|e| StageError::msg(e.to_string()))?;
-            std::fs::write(&path, json).map_err(|e| StageError::msg(format!("{}: {e}", path.display())))?;
-        }
-        sink.bar.finish_and_clear();
-        let summary = match result {
-            Ok(s) => s,
-            Err(RlError::Interrupted) => {
-                return Err(StageError::msg(format!(
-                    "stopped as asked ({STOP_AFTER_ENV}); checkpoints are in {}: run the stage again to resume",
-                    work.display()
-                )));
+        // libtorch's one generator: stages using it run one at a time (reproducible).
+        firecast_learn::exclusive(|| {
+            let spec: TrainSpec = ctx.params()?;
+            let fires = ctx
+                .input("fires")
+                .ok()
+                .map(|p| p.strip_prefix(ctx.root()).unwrap_or(p).to_path_buf());
+            let fires_abs = fires.as_ref().map(|p| ctx.root().join(p));
+            let out = ctx.output("run")?.to_path_buf();
+            let device = crate::parse_device(&spec.device).map_err(stage_error)?;
+            firecast_learn::set_threads(ctx.jobs());
+            let work = crate::run::work_dir(ctx.root(), &spec, fires_abs.as_deref()).map_err(stage_error)?;
+            let stop_after = std::env::var(STOP_AFTER_ENV).ok().and_then(|v| v.parse().ok());
+            let bar = ctx.progress_bar(spec.ppo().map_err(stage_error)?.total_timesteps, "steps");
+            let sink = StageSink { ctx, bar };
+            let result = crate::run::train(
+                &spec,
+                fires_abs.as_deref(),
+                &work,
+                &out,
+                device,
+                &sink,
+                stop_after,
+            );
+            if let (Ok(summary), Some(rel)) = (&result, &fires) {
+                // Record the fire file as the pipeline named it (relative), not the absolute path.
+                let mut s = summary.clone();
+                s.fires_file = Some(rel.clone());
+                let path = out.join(SUMMARY_FILE);
+                let json = serde_json::to_vec_pretty(&s).map_err(|e| StageError::msg(e.to_string()))?;
+                std::fs::write(&path, json)
+                    .map_err(|e| StageError::msg(format!("{}: {e}", path.display())))?;
             }
-            Err(e) => return Err(stage_error(e)),
-        };
-        if ctx.output_final_path("run").is_some() {
-            for s in &summary.seeds {
-                let path = out.join(&s.policy).join(crate::train::POLICY_FILE);
-                let _ = ctx.artifact(&format!("policy/seed-{}", s.seed), &path)?;
+            sink.bar.finish_and_clear();
+            let summary = match result {
+                Ok(s) => s,
+                Err(RlError::Interrupted) => {
+                    return Err(StageError::msg(format!(
+                        "stopped as asked ({STOP_AFTER_ENV}); checkpoints are in {}: run the stage again to resume",
+                        work.display()
+                    )));
+                }
+                Err(e) => return Err(stage_error(e)),
+            };
+            if ctx.output_final_path("run").is_some() {
+                for s in &summary.seeds {
+                    let path = out.join(&s.policy).join(crate::train::POLICY_FILE);
+                    let _ = ctx.artifact(&format!("policy/seed-{}", s.seed), &path)?;
+                }
             }
-        }
-        Ok(())
+            Ok(())
+        })
     }
 }
 
@@ -281,33 +285,36 @@ impl StageKind for EvaluateStage {
         Ok(v)
     }
     fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
-        let p: EvaluateParams = ctx.params()?;
-        let run = ctx.input("run")?.to_path_buf();
-        let fires = ctx.input("fires")?.to_path_buf();
-        let out = ctx.output("report")?.to_path_buf();
-        let device = crate::parse_device(&p.device).map_err(stage_error)?;
-        firecast_learn::set_threads(ctx.jobs());
-        let report = evaluate_run(&run, &fires, &out, &p.eval, device, &|m| {
-            ctx.log(format!("evaluating {m}"))
-        })
-        .map_err(stage_error)?;
-        for a in &report.agents {
-            ctx.metric(
-                &format!("{}/cells_burned_mean", a.agent),
-                0,
-                a.cells_burned.mean.estimate,
-            );
-            ctx.metric(
-                &format!("{}/cells_burned_iqm", a.agent),
-                0,
-                a.cells_burned.iqm.estimate,
-            );
-        }
-        if ctx.output_final_path("report").is_some() {
-            for r in &report.recordings {
-                let _ = ctx.artifact(&format!("recording/ppo-{}", r.role), &out.join(&r.path))?;
+        // libtorch's one generator: stages using it run one at a time (reproducible).
+        firecast_learn::exclusive(|| {
+            let p: EvaluateParams = ctx.params()?;
+            let run = ctx.input("run")?.to_path_buf();
+            let fires = ctx.input("fires")?.to_path_buf();
+            let out = ctx.output("report")?.to_path_buf();
+            let device = crate::parse_device(&p.device).map_err(stage_error)?;
+            firecast_learn::set_threads(ctx.jobs());
+            let report = evaluate_run(&run, &fires, &out, &p.eval, device, &|m| {
+                ctx.log(format!("evaluating {m}"))
+            })
+            .map_err(stage_error)?;
+            for a in &report.agents {
+                ctx.metric(
+                    &format!("{}/cells_burned_mean", a.agent),
+                    0,
+                    a.cells_burned.mean.estimate,
+                );
+                ctx.metric(
+                    &format!("{}/cells_burned_iqm", a.agent),
+                    0,
+                    a.cells_burned.iqm.estimate,
+                );
             }
-        }
-        Ok(())
+            if ctx.output_final_path("report").is_some() {
+                for r in &report.recordings {
+                    let _ = ctx.artifact(&format!("recording/ppo-{}", r.role), &out.join(&r.path))?;
+                }
+            }
+            Ok(())
+        })
     }
 }
