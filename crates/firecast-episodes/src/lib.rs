@@ -22,7 +22,9 @@ use firecast_sim::{
 };
 use serde::{Deserialize, Serialize};
 
-pub use stage::{EnsembleParams, EnsembleStage, EpisodesStage, RenderStage, prepare_ensemble};
+pub use stage::{
+    EnsembleParams, EnsembleStage, EpisodesStage, RenderStage, prepare_ensemble, write_ensemble,
+};
 pub use weather::{ResolvedWeather, WeatherSpec};
 
 /// Errors of scenario loading and episode runs. Paths come last.

@@ -683,6 +683,31 @@ pub const ENSEMBLE_OUTPUTS: &[Port] = &[Port {
     description: "every run's burnt area, drops and arrival times, and burn probability (JSON)",
 }];
 
+/// Writes an ensemble stage's output, with per-run metrics and a log line naming `who` played
+/// (shared by `sim.ensemble` and `rl.ensemble`).
+pub fn write_ensemble(
+    ctx: &StageContext<'_>,
+    ensemble: &crate::ensemble::Ensemble,
+    who: &str,
+) -> Result<(), StageError> {
+    for (k, e) in ensemble.episodes.iter().enumerate() {
+        ctx.metric("cells_burned", k as i64, f64::from(e.cells_burned));
+        ctx.metric("helitacks", k as i64, f64::from(e.helitacks));
+    }
+    std::fs::write(ctx.output("ensemble")?, serde_json::to_vec(ensemble)?)?;
+    let mean = ensemble
+        .episodes
+        .iter()
+        .map(|e| f64::from(e.cells_burned))
+        .sum::<f64>()
+        / ensemble.runs() as f64;
+    ctx.log(format!(
+        "{who}: {} runs, {mean:.0} cells burned on average",
+        ensemble.runs()
+    ));
+    Ok(())
+}
+
 /// `sim.ensemble`: a rule-based agent (or none) against one fire over many seeds.
 #[derive(Debug, Default)]
 pub struct EnsembleStage;
@@ -726,22 +751,6 @@ impl StageKind for EnsembleStage {
         let bar = ctx.progress_bar(params.runs as u64, &format!("{} agent", agent.name()));
         let ensemble = crate::ensemble::run_agent(&setup, agent, params.runs, params.seed, |_| bar.inc(1))?;
         bar.finish_and_clear();
-        for (k, e) in ensemble.episodes.iter().enumerate() {
-            ctx.metric("cells_burned", k as i64, f64::from(e.cells_burned));
-            ctx.metric("helitacks", k as i64, f64::from(e.helitacks));
-        }
-        std::fs::write(ctx.output("ensemble")?, serde_json::to_vec(&ensemble)?)?;
-        let mean = ensemble
-            .episodes
-            .iter()
-            .map(|e| f64::from(e.cells_burned))
-            .sum::<f64>()
-            / ensemble.runs() as f64;
-        ctx.log(format!(
-            "{}: {} runs, {mean:.0} cells burned on average",
-            agent.name(),
-            ensemble.runs()
-        ));
-        Ok(())
+        write_ensemble(ctx, &ensemble, agent.name())
     }
 }

@@ -216,7 +216,7 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
         .position(|e| e.strategy == "ppo")
         .or_else(|| ensembles.iter().position(|e| e.strategy != "none"));
     let landscape = first.landscape()?;
-    let cell_acres = first.grid.cell_size_ft.powi(2) / SQFT_PER_ACRE;
+    let cell_acres = crate::units::cell_acres(first.grid.cell_size_ft);
     let burnable = landscape
         .land_cover
         .iter()

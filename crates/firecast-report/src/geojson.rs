@@ -49,7 +49,7 @@ pub fn build(c: &Computed) -> Result<Value, ReportError> {
                     "strategy": e.strategy,
                     "hours_after_ignition": t,
                     "statistic": "median arrival over runs",
-                    "acres": cells as f64 * land.cell_size_ft.powi(2) / crate::units::SQFT_PER_ACRE,
+                    "acres": cells as f64 * crate::units::cell_acres(land.cell_size_ft),
                 }),
             ));
         }

@@ -411,7 +411,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
                 "<tr><td>{numbers}</td><td class=n>{hours}</td><td class=n>{:.5}</td><td class=n>{:.5}</td><td class=n>{}</td></tr>",
                 first.lat,
                 first.lon,
-                fmt_num(f64::from(quenched) * hd.cell_size_ft.powi(2) / 43_560.0, 1)
+                fmt_num(f64::from(quenched) * crate::units::cell_acres(hd.cell_size_ft), 1)
             )?;
             i = j + 1;
         }
@@ -547,8 +547,8 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         ),
         fmt_num(
             r.priority_zones.first().map_or(0.0, |z| {
-                ((z.cells[2] - z.cells[0]) * (z.cells[3] - z.cells[1])) as f64 * hd.cell_size_ft.powi(2)
-                    / 43_560.0
+                ((z.cells[2] - z.cells[0]) * (z.cells[3] - z.cells[1])) as f64
+                    * crate::units::cell_acres(hd.cell_size_ft)
             }),
             0
         ),

@@ -1,6 +1,11 @@
 //! Units, NWCG classes and wording shared by the computation and the documents.
 
 pub const SQFT_PER_ACRE: f64 = 43_560.0;
+
+/// Acres covered by one square cell of `cell_size_ft`.
+pub fn cell_acres(cell_size_ft: f64) -> f64 {
+    cell_size_ft.powi(2) / SQFT_PER_ACRE
+}
 pub const HA_PER_ACRE: f64 = 0.404_685_642_2;
 pub const M_PER_FT: f64 = 0.3048;
 /// 1 ch/h = 20.1168 m / 60 min.

@@ -314,23 +314,7 @@ impl StageKind for EnsembleStage {
             bar.finish_and_clear();
             let description = describe(&run, &summary, &policies);
             let ensemble = firecast_episodes::ensemble::assemble(&setup, "ppo", description, runs)?;
-            for (k, e) in ensemble.episodes.iter().enumerate() {
-                ctx.metric("cells_burned", k as i64, f64::from(e.cells_burned));
-                ctx.metric("helitacks", k as i64, f64::from(e.helitacks));
-            }
-            std::fs::write(ctx.output("ensemble")?, serde_json::to_vec(&ensemble)?)?;
-            let mean = ensemble
-                .episodes
-                .iter()
-                .map(|e| f64::from(e.cells_burned))
-                .sum::<f64>()
-                / ensemble.runs() as f64;
-            ctx.log(format!(
-                "ppo ({} policies): {} runs, {mean:.0} cells burned on average",
-                policies.len(),
-                ensemble.runs()
-            ));
-            Ok(())
+            firecast_episodes::write_ensemble(ctx, &ensemble, &format!("ppo ({} policies)", policies.len()))
         })
     }
 }
