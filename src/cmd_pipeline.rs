@@ -116,6 +116,7 @@ pub fn stage_kinds() -> StageKinds {
     kinds.register(firecast_report::ReportStage);
     firecast_dataset::stage::register(&mut kinds);
     kinds.register(firecast_forecast::stage::ExperimentStage);
+    kinds.register(firecast_forecast::stage::EvaluateStage);
     kinds.register(firecast_forecast::stage::PredictStage);
     kinds.register(firecast_rl::stage::TrainStage);
     kinds.register(firecast_rl::stage::EvaluateStage);
@@ -149,16 +150,39 @@ pub(crate) fn engine(settings: &Settings, observer: Arc<dyn RunObserver>) -> any
     })
 }
 
+/// An engine that records runs: the registry, with every stage run's metrics mirrored into
+/// a `metrics.rrd` artifact (and to a live Rerun viewer with `--rerun-connect`).
+pub(crate) fn tracked_engine(settings: &Settings) -> anyhow::Result<Engine> {
+    let registry: Arc<dyn RunObserver> = Arc::new(firecast_registry::Registry::open(&settings.registry)?);
+    let mut engine = engine(settings, registry.clone())?;
+    let store = engine
+        .store
+        .clone()
+        .ok_or_else(|| anyhow::anyhow!("no artifact store is configured"))?;
+    let viewer = settings
+        .rerun_connect
+        .as_deref()
+        .map(firecast_recorder::Viewer::parse)
+        .transpose()?;
+    engine.observer = Arc::new(firecast_recorder::MetricsMirror::new(
+        registry,
+        store,
+        engine.state_dir().join("state").join("recordings"),
+        viewer,
+        |message| eprintln!("warning: {message}"),
+    ));
+    Ok(engine)
+}
+
 pub fn run(settings: &Settings, command: PipelineCommand) -> anyhow::Result<ExitCode> {
     match command {
         PipelineCommand::Run(args) => {
             let plan = load(settings, &args.plan)?;
-            let observer: Arc<dyn RunObserver> = if args.dry_run {
-                Arc::new(NoObserver)
+            let mut engine = if args.dry_run {
+                engine(settings, Arc::new(NoObserver))?
             } else {
-                Arc::new(firecast_registry::Registry::open(&settings.registry)?)
+                tracked_engine(settings)?
             };
-            let mut engine = engine(settings, observer)?;
             if !args.dry_run {
                 engine.executor = executor(settings, &args, engine.store.clone())?;
             }
@@ -427,7 +451,7 @@ fn export_dvc(
         .iter()
         .map(|f| firecast_pipeline::load_plan(&settings.root, f, &[], &kinds))
         .collect::<Result<Vec<_>, _>>()?;
-    let text = firecast_pipeline::dvc::export(&plans, "firecast");
+    let text = firecast_pipeline::dvc::export(&plans, &kinds, "firecast");
     let path = settings.root.join(output);
     if check {
         let current = std::fs::read_to_string(&path).unwrap_or_default();
@@ -504,9 +528,7 @@ pub(crate) fn run_one_stage(
     let text = serde_json::to_string(&pipeline)?;
     let expanded = firecast_pipeline::spec::parse(&settings.root, file, &text, &[])?;
     let plan = firecast_pipeline::plan::plan(&expanded, &stage_kinds())?;
-    let observer: std::sync::Arc<dyn firecast_pipeline::RunObserver> =
-        std::sync::Arc::new(firecast_registry::Registry::open(&settings.registry)?);
-    let engine = engine(settings, observer)?;
+    let engine = tracked_engine(settings)?;
     let opts = firecast_pipeline::RunOptions {
         force,
         dry_run: false,

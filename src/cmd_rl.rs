@@ -44,7 +44,7 @@ pub struct TrainArgs {
     /// Continue from the last checkpoint (an error if there is none).
     #[arg(long, conflicts_with = "fresh")]
     pub resume: bool,
-    /// Discard the checkpoints of this spec and start over.
+    /// Discard the checkpoints of this spec and start over (runs even when nothing changed).
     #[arg(long)]
     pub fresh: bool,
     /// Stop every seed after this many steps, keeping checkpoints (resume later).
@@ -113,10 +113,18 @@ fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
     if args.fresh && work.exists() {
         std::fs::remove_dir_all(&work).with_context(|| format!("removing {}", work.display()))?;
     }
-    let has_checkpoint = spec
-        .seeds
-        .iter()
-        .any(|s| firecast_rl::train::Trainer::latest_checkpoint(&work.join(format!("seed-{s}"))).is_some());
+    // Checkpoints short of the budget: an interrupted run, which must run whatever the cache
+    // says. A finished run's last checkpoint is not one (re-invoking it is `up to date`).
+    let total = spec.ppo()?.total_timesteps;
+    let has_checkpoint = spec.seeds.iter().any(|s| {
+        firecast_rl::train::Trainer::latest_checkpoint(&work.join(format!("seed-{s}"))).is_some_and(|dir| {
+            dir.file_name()
+                .and_then(|n| n.to_str())
+                .and_then(|n| n.strip_prefix("step-"))
+                .and_then(|n| n.parse::<u64>().ok())
+                .is_none_or(|step| step < total)
+        })
+    });
     if args.resume && !has_checkpoint {
         anyhow::bail!(
             "nothing to resume: no checkpoint of this spec in {} (a changed spec or fire file is a new run)",
@@ -151,7 +159,7 @@ fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
         &spec.name,
         stage,
         None,
-        args.force || has_checkpoint,
+        args.force || args.fresh || has_checkpoint,
     )?;
     let summary: firecast_rl::run::TrainSummary = serde_json::from_slice(&std::fs::read(
         settings.root.join(&out).join(firecast_rl::run::SUMMARY_FILE),
@@ -167,7 +175,6 @@ fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
         "ep_rew_mean (last 100)",
         "ep_len_mean",
         "parameters",
-        "seconds",
     ]);
     for s in &summary.seeds {
         table.add_row(vec![
@@ -177,7 +184,6 @@ fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
             s.ep_rew_mean.map_or("-".into(), |v| format!("{v:.2}")),
             s.ep_len_mean.map_or("-".into(), |v| format!("{v:.1}")),
             s.parameters.to_string(),
-            format!("{:.1}", s.seconds),
         ]);
     }
     println!("{table}");

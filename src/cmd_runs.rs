@@ -38,6 +38,9 @@ pub enum RunsCommand {
         /// Show every param, not only those that differ.
         #[arg(long)]
         all: bool,
+        /// Only metrics whose key contains this text (repeatable: any of them).
+        #[arg(long)]
+        metric: Vec<String>,
     },
 }
 
@@ -159,92 +162,12 @@ pub fn run(settings: &Settings, command: RunsCommand) -> anyhow::Result<ExitCode
                 }
             }
         }
-        RunsCommand::Compare { runs, all } => {
+        RunsCommand::Compare { runs, all, metric } => {
             let details = runs
                 .iter()
-                .map(|r| registry.run_details(r))
+                .map(|r| comparable(&registry, r))
                 .collect::<Result<Vec<_>, _>>()?;
-            let rows: Vec<_> = details.iter().map(|d| d.run.clone()).collect();
-            let params = firecast_registry::params_side_by_side(&rows);
-            let mut metric_keys: Vec<String> = details
-                .iter()
-                .flat_map(|d| d.metrics.iter().map(|m| m.key.clone()))
-                .collect();
-            metric_keys.sort();
-            metric_keys.dedup();
-            if settings.json {
-                let metrics: serde_json::Map<String, serde_json::Value> = metric_keys
-                    .iter()
-                    .map(|k| {
-                        let per_run: Vec<_> = details
-                            .iter()
-                            .map(|d| {
-                                d.metrics
-                                    .iter()
-                                    .find(|m| &m.key == k)
-                                    .map(|m| serde_json::json!(m))
-                            })
-                            .collect();
-                        (k.clone(), serde_json::json!(per_run))
-                    })
-                    .collect();
-                output::print_json(&serde_json::json!({
-                    "runs": rows,
-                    "params": params,
-                    "metrics": metrics,
-                }))?;
-                return Ok(ExitCode::SUCCESS);
-            }
-            let mut header = vec!["".to_string()];
-            header.extend(rows.iter().map(|r| r.run_id.clone()));
-            let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
-            let mut table = output::table(&header_refs);
-            let mut add = |label: String, cells: Vec<String>| {
-                let mut row = vec![label];
-                row.extend(cells);
-                table.add_row(row);
-            };
-            add(
-                "pipeline".into(),
-                rows.iter().map(|r| r.pipeline.clone()).collect(),
-            );
-            add(
-                "stage".into(),
-                rows.iter().map(|r| r.stage.clone().unwrap_or_default()).collect(),
-            );
-            add("status".into(), rows.iter().map(|r| r.status.clone()).collect());
-            add(
-                "time".into(),
-                rows.iter().map(|r| output::seconds(r.duration_secs)).collect(),
-            );
-            for (key, values) in &params {
-                let differs = values.iter().any(|v| v != &values[0]);
-                if all || differs {
-                    let marker = if differs { "≠ " } else { "" };
-                    add(
-                        format!("{marker}param {key}"),
-                        values
-                            .iter()
-                            .map(|v| output::ellipsize(v.as_deref().unwrap_or("—"), 40))
-                            .collect(),
-                    );
-                }
-            }
-            for key in &metric_keys {
-                add(
-                    format!("metric {key} (last / min / max)"),
-                    details
-                        .iter()
-                        .map(|d| {
-                            d.metrics.iter().find(|m| &m.key == key).map_or_else(
-                                || "—".to_string(),
-                                |m| format!("{:.4} / {:.4} / {:.4}", m.last, m.min, m.max),
-                            )
-                        })
-                        .collect(),
-                );
-            }
-            output::print_table(&table)?;
+            compare(settings, &details, all, &metric)?;
         }
     }
     Ok(ExitCode::SUCCESS)
@@ -278,4 +201,140 @@ pub fn query(settings: &Settings, sql: &str) -> anyhow::Result<ExitCode> {
         println!("{} rows", result.rows.len());
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// A run as compared: a pipeline run with a single stage (what `experiment run` and
+/// `rl train` create) stands for that stage's run, so its params and metrics are compared.
+fn comparable(registry: &Registry, id: &str) -> anyhow::Result<firecast_registry::RunDetails> {
+    let details = registry.run_details(id)?;
+    if details.metrics.is_empty() && details.children.len() == 1 {
+        return Ok(registry.run_details(&details.children[0].run_id)?);
+    }
+    Ok(details)
+}
+
+/// `runs compare`: params that differ; each metric's mean over its steps (over seeds for an
+/// experiment's test metrics, which are logged at step = seed) with its range and count, and
+/// for two runs the difference of the means.
+fn compare(
+    settings: &Settings,
+    details: &[firecast_registry::RunDetails],
+    all: bool,
+    filters: &[String],
+) -> anyhow::Result<()> {
+    let rows: Vec<_> = details.iter().map(|d| d.run.clone()).collect();
+    let params = firecast_registry::params_side_by_side(&rows);
+    let mut metric_keys: Vec<String> = details
+        .iter()
+        .flat_map(|d| d.metrics.iter().map(|m| m.key.clone()))
+        .filter(|k| filters.is_empty() || filters.iter().any(|f| k.contains(f.as_str())))
+        .collect();
+    metric_keys.sort();
+    metric_keys.dedup();
+    let find =
+        |d: &firecast_registry::RunDetails, key: &str| d.metrics.iter().find(|m| m.key == key).cloned();
+    // Difference of the means, second run minus first; only for a pair.
+    let delta = |key: &str| -> Option<f64> {
+        match details {
+            [a, b] => Some(find(b, key)?.mean - find(a, key)?.mean),
+            _ => None,
+        }
+    };
+    if settings.json {
+        let differing: serde_json::Map<String, serde_json::Value> = params
+            .iter()
+            .filter(|(_, v)| all || v.iter().any(|x| x != &v[0]))
+            .map(|(k, v)| (k.clone(), serde_json::json!(v)))
+            .collect();
+        let metrics: serde_json::Map<String, serde_json::Value> = metric_keys
+            .iter()
+            .map(|k| {
+                let per_run: Vec<_> = details.iter().map(|d| find(d, k)).collect();
+                (
+                    k.clone(),
+                    serde_json::json!({"runs": per_run, "delta_mean": delta(k)}),
+                )
+            })
+            .collect();
+        output::print_json(&serde_json::json!({
+            "runs": rows,
+            "params": differing,
+            "metrics": metrics,
+        }))?;
+        return Ok(());
+    }
+    let pair = details.len() == 2;
+    let mut header = vec!["".to_string()];
+    header.extend(rows.iter().map(|r| r.run_id.clone()));
+    if pair {
+        header.push("Δ mean (2nd − 1st)".into());
+    }
+    let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
+    let mut table = output::table(&header_refs);
+    let mut add = |label: String, mut cells: Vec<String>, extra: Option<String>| {
+        let mut row = vec![label];
+        row.append(&mut cells);
+        if pair {
+            row.push(extra.unwrap_or_default());
+        }
+        table.add_row(row);
+    };
+    add(
+        "pipeline".into(),
+        rows.iter().map(|r| r.pipeline.clone()).collect(),
+        None,
+    );
+    add(
+        "stage".into(),
+        rows.iter().map(|r| r.stage.clone().unwrap_or_default()).collect(),
+        None,
+    );
+    add(
+        "status".into(),
+        rows.iter().map(|r| r.status.clone()).collect(),
+        None,
+    );
+    add(
+        "time".into(),
+        rows.iter().map(|r| output::seconds(r.duration_secs)).collect(),
+        None,
+    );
+    let mut same = 0;
+    for (key, values) in &params {
+        let differs = values.iter().any(|v| v != &values[0]);
+        if !differs {
+            same += 1;
+        }
+        if all || differs {
+            let marker = if differs { "≠ " } else { "" };
+            add(
+                format!("{marker}param {key}"),
+                values
+                    .iter()
+                    .map(|v| output::ellipsize(v.as_deref().unwrap_or("—"), 40))
+                    .collect(),
+                None,
+            );
+        }
+    }
+    for key in &metric_keys {
+        add(
+            format!("{key} (mean [min, max] n)"),
+            details
+                .iter()
+                .map(|d| {
+                    find(d, key).map_or_else(
+                        || "—".to_string(),
+                        |m| format!("{:.4} [{:.4}, {:.4}] {}", m.mean, m.min, m.max, m.count),
+                    )
+                })
+                .collect(),
+            delta(key).map(|d| format!("{d:+.4}")),
+        );
+    }
+    output::print_table(&table)?;
+    if !all && same > 0 {
+        println!("{same} params are equal in every run (--all shows them)");
+    }
+    Ok(())
 }

@@ -84,6 +84,12 @@ enum BenchCommand {
     /// PPO speed beside Stable-Baselines3 in the same command (CartPole-v1, MLP policy, same
     /// settings, one torch thread each): environment only, rollout, training.
     Ppo(cmd_rl::BenchPpoArgs),
+    /// Forecasting models beside their references in the same command: the flattened
+    /// baselines against scikit-learn / xgboost on the same exported split (accuracy within
+    /// ±1.5 points, AUROC within ±0.015, fit times), every network's parameter count against
+    /// PyTorch eager, the CNN-BiLSTM's training throughput against PyTorch eager (same net,
+    /// threads), and the full-size run projected. Exit status 1 when out of bounds.
+    Forecast(cmd_forecast::BenchForecastArgs),
 }
 
 fn main() -> ExitCode {
@@ -124,6 +130,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Bench(BenchCommand::Sim(args)) => cmd_sim::bench(&settings, &args),
         Command::Bench(BenchCommand::Gridmet(args)) => cmd_dataset::bench_gridmet(&settings, &args),
         Command::Bench(BenchCommand::Ppo(args)) => cmd_rl::bench_ppo(&settings, &args),
+        Command::Bench(BenchCommand::Forecast(args)) => cmd_forecast::bench_forecast(&settings, &args),
         Command::Doctor => doctor(&settings),
     }
 }

@@ -20,6 +20,9 @@ pub struct ProjectFile {
     pub executor: Option<ExecutorKind>,
     /// The Ray executor's settings.
     pub ray: Option<RaySettings>,
+    /// A running Rerun viewer that stage metrics also stream to
+    /// (`rerun+http://127.0.0.1:9876/proxy`).
+    pub rerun_connect: Option<String>,
 }
 
 /// Where pipeline stages run.
@@ -64,6 +67,8 @@ pub struct Settings {
     /// From `firecast.yaml` (flags and environment variables of `pipeline run` override it).
     pub executor: ExecutorKind,
     pub ray: RaySettings,
+    /// A Rerun viewer that stage runs' metrics stream to as well as to their `metrics.rrd`.
+    pub rerun_connect: Option<String>,
 }
 
 /// Raw global flags (clap fills these; env vars are applied by clap's `env`).
@@ -84,6 +89,12 @@ pub struct GlobalArgs {
     /// Do not draw progress bars.
     #[arg(long, global = true)]
     pub no_progress: bool,
+    /// Also stream every stage run's metrics live to this Rerun viewer, e.g.
+    /// rerun+http://127.0.0.1:9876/proxy (where `rerun` listens). Each run's metrics.rrd is
+    /// written either way; an unreachable viewer is a warning [default: `rerun_connect` in
+    /// firecast.yaml].
+    #[arg(long, global = true, env = "FIRECAST_RERUN_CONNECT", value_name = "URL")]
+    pub rerun_connect: Option<String>,
 }
 
 impl Settings {
@@ -116,6 +127,11 @@ impl Settings {
             progress: !args.no_progress && !args.json,
             executor: project.executor.unwrap_or_default(),
             ray: project.ray.unwrap_or_default(),
+            rerun_connect: args
+                .rerun_connect
+                .clone()
+                .or(project.rerun_connect)
+                .filter(|url| !url.trim().is_empty()),
         })
     }
 }

@@ -138,6 +138,41 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
     }
     assert!(n > 0, "the synthetic sources have duplicate reports to drop");
 
+    // pandas' default Parquet (snappy, pandas metadata) reads like our own: the same windows.
+    let py = venv_bin("python");
+    let rewrite = std::process::Command::new(&py)
+        .args([
+            "-c",
+            "import sys, pandas as pd, pyarrow.parquet as pq\n\
+             pd.read_parquet(sys.argv[1]).to_parquet(sys.argv[2])\n\
+             print(pq.ParquetFile(sys.argv[2]).metadata.row_group(0).column(0).compression)",
+            p.path("work/samples.parquet").to_str().unwrap(),
+            p.path("work/samples-pandas.parquet").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap_or_else(|e| panic!("{}: {e} (run `cargo xtask setup`)", py.display()));
+    assert!(rewrite.status.success(), "{}", describe(&rewrite));
+    assert_eq!(String::from_utf8_lossy(&rewrite.stdout).trim(), "SNAPPY");
+    let windows_from_pandas = p.json(&[
+        "dataset",
+        "windows",
+        "--samples",
+        "work/samples-pandas.parquet",
+        "--gridmet",
+        p.path("src/gridmet").to_str().unwrap(),
+        "--out",
+        "work/windows-pandas",
+    ]);
+    assert_eq!(
+        windows_from_pandas["samples_out"], first["samples"],
+        "{windows_from_pandas}"
+    );
+    assert_eq!(
+        std::fs::read(p.path("work/windows-pandas/days.parquet")).unwrap(),
+        std::fs::read(p.path("work/windows/days.parquet")).unwrap(),
+        "the same samples read from pandas' file give other windows"
+    );
+
     // Same sources, config and seeds: the same version, byte-identical tables.
     std::fs::remove_dir_all(p.path("work/windows")).unwrap();
     let second = build_paper_dataset(&p, "data/b");
@@ -199,6 +234,21 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
     ]);
     assert_eq!(imported["rows"], published["csv_rows"]);
     assert_eq!(imported["kept_positive"], first["positives"]);
+    // The imported windows build a dataset an experiment can use, labels intact.
+    let rebuilt = p.json(&[
+        "dataset",
+        "build",
+        "--windows",
+        "work/imported",
+        "--out",
+        "data/kaggle",
+        "--name",
+        "kaggle-import",
+        "--framing",
+        "paper",
+    ]);
+    assert_eq!(rebuilt["samples"], first["samples"], "{rebuilt}");
+    assert_eq!(rebuilt["positives"], first["positives"], "{rebuilt}");
 
     // A slug Kaggle would refuse is caught before anything is written.
     let out = p

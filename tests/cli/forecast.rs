@@ -290,3 +290,257 @@ fn bad_experiments_name_the_file_line_and_key() {
     let e = err(base);
     assert!(e.contains("data/a") && e.contains("dataset.json"), "{e}");
 }
+
+const BENCH_EXPERIMENT: &str = r#"
+name: cli-bench
+dataset: data/a
+protocols:
+  paper:
+    days: [-60, 14]
+    split: {method: stratified_random, test: 0.3, val: 0.25, seed: 42}
+seeds: [0, 1]
+device: cpu
+models:
+  - {kind: majority}
+  - {kind: logistic_regression}
+  - {kind: gaussian_nb}
+  - {kind: decision_tree, params: {max_depth: 4}}
+  - {kind: random_forest, params: {n_estimators: 10}}
+  - {kind: gradient_boosting, params: {n_estimators: 10}}
+  - {kind: knn}
+  - {kind: xgboost, params: {n_estimators: 10}}
+  - {kind: mlp, params: {max_epochs: 10, hidden: 16}}
+  - {name: cnn_bilstm_R, kind: cnn_bilstm, params: {max_epochs: 2, hidden: 16, layers: 1}}
+  - {kind: firecast, params: {max_epochs: 2}}
+"#;
+
+#[test]
+fn bench_forecast_compares_every_baseline_and_network_with_its_python_reference() {
+    let p = project_with_dataset();
+    p.write("experiments/bench.yaml", BENCH_EXPERIMENT);
+    // Never skipped: without the venv's scikit-learn, xgboost and torch the command fails.
+    let out = p
+        .firecast()
+        .args([
+            "--json",
+            "bench",
+            "forecast",
+            "--experiment",
+            "experiments/bench.yaml",
+            "--threads",
+            "1",
+            "--steps",
+            "3",
+            "--warmup",
+            "1",
+            "--rounds",
+            "2",
+            "--projection-steps",
+            "1",
+            "--project-to",
+            "5000",
+        ])
+        .output()
+        .unwrap();
+    let code = out.status.code();
+    assert!(
+        code == Some(0) || code == Some(1),
+        "bench forecast failed:\n{}",
+        describe(&out)
+    );
+    let r: serde_json::Value =
+        serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("not JSON ({e}):\n{}", describe(&out)));
+    assert_eq!(r["protocol"], "paper");
+    assert_eq!(r["threads"], 1);
+    let (train, test) = (r["train"].as_u64().unwrap(), r["test"].as_u64().unwrap());
+    assert!(train > 0 && test > 0, "{r}");
+    assert_eq!(r["flat_inputs"], 15 * 75);
+    for k in ["sklearn", "xgboost", "torch"] {
+        assert!(
+            r["versions"][k].as_str().is_some_and(|v| !v.is_empty()),
+            "{k}: {r}"
+        );
+    }
+
+    // Every flattened baseline, both sides' numbers, the bounds applied as documented.
+    let baselines = r["baselines"].as_array().unwrap();
+    let kinds: Vec<&str> = baselines.iter().map(|b| b["kind"].as_str().unwrap()).collect();
+    assert_eq!(
+        kinds,
+        [
+            "logistic_regression",
+            "gaussian_nb",
+            "decision_tree",
+            "random_forest",
+            "gradient_boosting",
+            "knn",
+            "xgboost",
+            "mlp"
+        ]
+    );
+    for b in baselines {
+        assert_eq!(b["from_experiment"], true, "{b}");
+        for k in [
+            "firecast_accuracy",
+            "reference_accuracy",
+            "firecast_auroc",
+            "reference_auroc",
+        ] {
+            let v = b[k].as_f64().unwrap_or_else(|| panic!("{k}: {b}"));
+            assert!((0.0..=1.0).contains(&v), "{k}: {b}");
+        }
+        for k in ["firecast_fit_seconds", "reference_fit_seconds", "speed_ratio"] {
+            assert!(b[k].as_f64().unwrap() > 0.0, "{k}: {b}");
+        }
+        let within = b["accuracy_delta_points"].as_f64().unwrap().abs() <= 1.5
+            && b["auroc_delta"].as_f64().unwrap().abs() <= 0.015;
+        assert_eq!(b["within_bounds"].as_bool().unwrap(), within, "{b}");
+    }
+    // Hyper-parameters reach the reference resolved: the experiment's value and the defaults.
+    assert_eq!(baselines[3]["params"]["n_estimators"], 10);
+    assert_eq!(baselines[3]["params"]["max_features"], "sqrt");
+    assert_eq!(baselines[6]["params"]["max_depth"], 6);
+    // Deterministic estimators on the same arrays agree to rounding.
+    for b in baselines
+        .iter()
+        .filter(|b| ["gaussian_nb", "knn", "xgboost"].contains(&b["kind"].as_str().unwrap()))
+    {
+        assert!(b["max_abs_proba_diff"].as_f64().unwrap() < 1e-3, "{b}");
+        assert_eq!(b["within_bounds"], true, "{b}");
+    }
+    // FireCast's MLP and scikit-learn's have the same size.
+    let mlp = &baselines[7];
+    assert_eq!(mlp["kind"], "mlp");
+    assert_eq!(mlp["firecast_parameters"], mlp["reference_parameters"], "{mlp}");
+    assert_eq!(mlp["firecast_parameters"], 1125 * 16 + 16 + 16 + 1);
+    let all = baselines.iter().all(|b| b["within_bounds"] == true);
+    assert_eq!(r["all_within_bounds"].as_bool().unwrap(), all);
+
+    // Every network: tch and PyTorch eager count the same parameters.
+    let counts = r["parameters"].as_array().unwrap();
+    let mut nets: Vec<&str> = counts.iter().map(|c| c["kind"].as_str().unwrap()).collect();
+    nets.sort_unstable();
+    assert_eq!(
+        nets,
+        [
+            "cnn_bilstm",
+            "cnn_bilstm_attn",
+            "firecast",
+            "lightts",
+            "lstm2",
+            "mlp"
+        ]
+    );
+    for c in counts {
+        assert!(c["tch"].as_i64().unwrap() > 0, "{c}");
+        assert_eq!(c["tch"], c["pytorch"], "{c}");
+    }
+    assert_eq!(r["all_parameters_equal"], true);
+    // The experiment's small R network is the one counted and timed.
+    let r_net = counts.iter().find(|c| c["model"] == "cnn_bilstm_R").unwrap();
+    assert_eq!(
+        (r_net["hidden"].as_i64(), r_net["width"].as_i64()),
+        (Some(16), Some(14))
+    );
+
+    // Throughput of the R network on both engines, same threads.
+    let t = &r["throughput"];
+    assert_eq!(t["model"], "cnn_bilstm_R");
+    assert_eq!((t["threads"].as_u64(), t["steps"].as_u64()), (Some(1), Some(3)));
+    for k in ["tch_samples_per_s", "pytorch_samples_per_s", "ratio"] {
+        let v = t[k].as_f64().unwrap();
+        assert!(v.is_finite() && v > 0.0, "{k}: {t}");
+    }
+    // Alternating rounds; the best of each side is the one compared.
+    assert_eq!(t["rounds"], 2);
+    for (side, best) in [
+        ("tch_rounds_samples_per_s", "tch_samples_per_s"),
+        ("pytorch_rounds_samples_per_s", "pytorch_samples_per_s"),
+    ] {
+        let rounds: Vec<f64> = t[side]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        assert_eq!(rounds.len(), 2, "{t}");
+        assert_eq!(
+            rounds.iter().copied().fold(0.0, f64::max),
+            t[best].as_f64().unwrap()
+        );
+    }
+
+    // The projection covers every model of the experiment, with its method.
+    let proj = &r["projection"];
+    assert_eq!(proj["windows"], 5000);
+    let share = proj["train_share"].as_f64().unwrap();
+    assert_eq!(
+        proj["train_rows"].as_u64().unwrap(),
+        (5000.0 * share).round() as u64
+    );
+    let models = proj["models"].as_array().unwrap();
+    assert_eq!(models.len(), 11);
+    for m in models {
+        let s = m["projected_seconds"].as_f64().unwrap();
+        assert!(s.is_finite() && s > 0.0, "{m}");
+        match m["kind"].as_str().unwrap() {
+            "mlp" | "cnn_bilstm" | "firecast" => {
+                assert_eq!(m["method"], "per epoch", "{m}");
+                assert_eq!(m["runs"], 2, "{m}");
+            }
+            kind => {
+                assert_eq!(m["method"], "power law", "{m}");
+                assert_eq!(m["measured"].as_array().unwrap().len(), 3, "{m}");
+                let b = m["exponent_used"].as_f64().unwrap();
+                assert!((1.0..=3.0).contains(&b), "{m}");
+                let runs = if kind == "random_forest" { 2 } else { 1 };
+                assert_eq!(m["runs"], runs, "{m}");
+            }
+        }
+    }
+    assert!(proj["total_seconds"].as_f64().unwrap() > 0.0);
+    assert!(proj["method"].as_str().unwrap().contains("ln t = a + b ln n"));
+
+    // The exit status says whether everything was within bounds.
+    assert_eq!(code == Some(0), all, "{}", describe(&out));
+
+    // Tables for people name both sides and the verdict.
+    let out = p
+        .firecast()
+        .args([
+            "bench",
+            "forecast",
+            "--experiment",
+            "experiments/bench.yaml",
+            "--threads",
+            "1",
+            "--steps",
+            "2",
+            "--warmup",
+            "0",
+            "--rounds",
+            "1",
+            "--projection-steps",
+            "1",
+            "--project-to",
+            "5000",
+        ])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    for want in [
+        "sklearn.ensemble.RandomForestClassifier",
+        "xgboost.XGBClassifier",
+        "sklearn.neural_network.MLPClassifier",
+        "tch / PyTorch =",
+        "Full-size projection",
+        "projected total",
+    ] {
+        assert!(text.contains(want), "{want}:\n{}", describe(&out));
+    }
+    assert_eq!(
+        out.status.code() == Some(0),
+        !text.contains("OUT OF BOUNDS"),
+        "{text}"
+    );
+}

@@ -3,9 +3,11 @@
 #![allow(clippy::unwrap_used)]
 
 mod dataset;
+mod dvc;
 mod forecast;
 mod pipeline;
 mod ray;
+mod recordings;
 mod registry;
 mod report;
 mod rl;
@@ -57,6 +59,7 @@ impl Project {
         cmd.current_dir(self.root())
             .env_remove("FIRECAST_REGISTRY")
             .env_remove("FIRECAST_STORE")
+            .env_remove("FIRECAST_RERUN_CONNECT")
             .arg("--no-progress");
         cmd
     }

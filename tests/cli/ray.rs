@@ -1,8 +1,8 @@
 //! `--executor ray` against a real Ray cluster on loopback: a head and a second worker
 //! node (`ray start` from `.venv`, each in its own session so teardown kills exactly its
 //! processes), an S3 store (moto) as the shared disk. Checks the lockfile and outputs equal
-//! the local run's (with a sharded `sim.episodes` stage on the cluster), that nothing is
-//! shipped twice, and the faults: a killed worker is retried, a pending job times out, a
+//! the local run's (with sharded `sim.episodes` and `data.windows` stages on the cluster),
+//! that nothing is shipped twice, and the faults: a killed worker is retried, a pending job times out, a
 //! failing stage names its worker and log, a killed driver resumes from what finished.
 
 use std::collections::BTreeMap;
@@ -217,6 +217,122 @@ const OUTPUTS: &[&str] = &[
     "build/helitack.trace.json",
 ];
 
+/// Synthetic sources, ignitions and samples: the inputs of the `data.windows` tests.
+const WINDOW_SOURCES: &str = r#"
+stages:
+  sources:
+    uses: data.synthesize
+    params:
+      seed: 3
+      region: {lat_min: 39.0, lat_max: 39.5, lon_min: -107.5, lon_max: -106.9}
+      years: [2019, 2019]
+      ignition_rate_scale: 3.5
+    outputs:
+      gridmet: build/sources/gridmet
+      incidents: build/sources/wfigs.csv
+      model: build/sources/MODEL.md
+      truth: build/sources/truth
+  ignitions:
+    uses: data.ignitions
+    inputs:
+      incidents: {from: sources.incidents}
+      gridmet: {from: sources.gridmet}
+    outputs:
+      ignitions: build/ignitions.parquet
+      report: build/ignitions.json
+      rejects: build/rejects.csv
+  samples:
+    uses: data.negatives
+    params:
+      variant: paper
+      seed: 42
+      period_start: "2019-03-02"
+      period_end: "2019-12-17"
+      far_min_km: 4
+      near_max_km: 30
+    inputs:
+      ignitions: {from: ignitions.ignitions}
+      gridmet: {from: sources.gridmet}
+    outputs:
+      samples: build/samples.parquet
+      report: build/samples.json
+"#;
+
+/// The 15 paper variables' windows (with the generator's truth) and a dataset built on them.
+const WINDOWS: &str = r#"
+stages:
+  windows:
+    uses: data.windows
+    inputs:
+      samples: build/samples.parquet
+      gridmet: gridmet
+      truth: build/sources/truth
+    outputs:
+      windows: build/windows
+  dataset:
+    uses: data.dataset
+    params: {name: shard-test}
+    inputs:
+      windows: {from: windows.windows}
+    outputs:
+      dataset: build/dataset
+"#;
+
+const WINDOW_FILES: &[&str] = &[
+    "build/windows/samples.parquet",
+    "build/windows/days.parquet",
+    "build/windows/windows.json",
+];
+
+/// A project whose `data.windows` stage has run unsharded, here. Its `gridmet/` holds the
+/// synthetic 2019 files plus copies named `*_2020.nc` (with 2019's days), so the late-December
+/// samples reach the merge and are dropped there for days missing in a file.
+fn windows_project() -> Project {
+    let p = Project::new();
+    p.write("pipelines/sources.yaml", WINDOW_SOURCES);
+    let ran = p.run_pipeline("pipelines/sources.yaml", &[]);
+    assert!(ran.values().all(|o| o == "ran"), "{ran:?}");
+    std::fs::create_dir_all(p.path("gridmet")).unwrap();
+    for entry in std::fs::read_dir(p.path("build/sources/gridmet")).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        std::fs::copy(&path, p.path("gridmet").join(&name)).unwrap();
+        std::fs::copy(
+            &path,
+            p.path("gridmet").join(name.replace("_2019.nc", "_2020.nc")),
+        )
+        .unwrap();
+    }
+    p.write("pipelines/windows.yaml", WINDOWS);
+    let ran = p.run_pipeline("pipelines/windows.yaml", &[]);
+    assert!(ran.values().all(|o| o == "ran"), "{ran:?}");
+    let manifest: serde_json::Value = serde_json::from_str(&p.read("build/windows/windows.json")).unwrap();
+    let dropped = &manifest["report"]["dropped"];
+    assert!(
+        dropped["days_missing_in_gridmet_file"].as_u64() > Some(0)
+            && dropped["window_outside_gridmet_years"].as_u64() > Some(0),
+        "{manifest}"
+    );
+    assert!(
+        manifest["truth"]["samples_with_value"].as_u64() > Some(0),
+        "{manifest}"
+    );
+    p
+}
+
+fn read_all(p: &Project, files: &[&str]) -> Vec<Vec<u8>> {
+    files.iter().map(|f| std::fs::read(p.path(f)).unwrap()).collect()
+}
+
+fn check_windows_equal(p: &Project, whole: &[Vec<u8>], shards: u32) {
+    for (file, bytes) in WINDOW_FILES.iter().zip(whole) {
+        assert!(
+            std::fs::read(p.path(file)).unwrap() == *bytes,
+            "{file} differs between the unsharded run and {shards} shards"
+        );
+    }
+}
+
 /// The lockfile without run ids (they differ between any two runs).
 fn lock_without_run_ids(p: &Project, file: &str) -> String {
     p.read(file)
@@ -308,6 +424,51 @@ fn ray_runs_match_local_and_survive_faults() {
         "{log}"
     );
     let first_run = started.elapsed();
+
+    // data.windows in 2 shards on the cluster (one per node) equals the local unsharded run.
+    let windows = windows_project();
+    let whole = read_all(&windows, WINDOW_FILES);
+    let whole_lock = lock_without_run_ids(&windows, "pipelines/windows.lock");
+    windows.write(
+        "pipelines/windows.yaml",
+        &WINDOWS.replace(
+            "    uses: data.windows\n",
+            "    uses: data.windows\n    shards: 2\n",
+        ),
+    );
+    let out = ray_run(
+        &windows,
+        &moto,
+        "pipelines/windows.yaml",
+        &["--ray-address", &address, "--force", "--only", "windows"],
+    );
+    assert!(out.status.success(), "{}", describe(&out));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(outcomes(&report)["windows"], "ran", "{report}");
+    check_windows_equal(&windows, &whole, 2);
+    assert_eq!(
+        lock_without_run_ids(&windows, "pipelines/windows.lock"),
+        whole_lock
+    );
+    let log = windows.read(&format!(
+        ".firecast/logs/{}.log",
+        report["stages"][0]["run_id"].as_str().unwrap()
+    ));
+    assert!(
+        log.contains("# shard 1/2 on") && log.contains("# merged 2 shards on the driver"),
+        "{log}"
+    );
+    // Each shard fetched its variables' files (16 variables x 2 years here), the grid's file,
+    // and shard 0 also the land mask's and the truth.
+    for line in [
+        "shard 0/2: fetched 15 of 32 files of input `gridmet` (gridmet, ",
+        "shard 1/2: fetched 17 of 32 files of input `gridmet` (gridmet, ",
+        "shard 0/2: fetched 1 of 1 files of input `truth` (build/sources/truth, ",
+        "shard 1/2: fetched 0 of 1 files of input `truth` (build/sources/truth, 0.0 of ",
+    ] {
+        assert!(log.contains(line), "{line}:\n{log}");
+    }
+    let windows_run = started.elapsed() - first_run;
 
     // Up to date: nothing is shipped.
     let jobs = cluster.jobs();
@@ -437,9 +598,10 @@ fn ray_runs_match_local_and_survive_faults() {
     assert_eq!(faults.read("two.txt"), "one\n");
 
     eprintln!(
-        "ray test: cluster up in {:.1}s, first pipeline run done at {:.1}s, all done in {:.1}s",
+        "ray test: cluster up in {:.1}s, first pipeline run done at {:.1}s, windows (local, then 2 shards on Ray) in {:.1}s, all done in {:.1}s",
         up.as_secs_f64(),
         first_run.as_secs_f64(),
+        windows_run.as_secs_f64(),
         started.elapsed().as_secs_f64()
     );
     let sessions = cluster.sessions.clone();
@@ -523,7 +685,8 @@ fn ray_executor_bad_input_is_named_before_any_work() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("pipelines/one.yaml:4:")
-            && stderr.contains("stage kind `cmd` cannot be sharded (kinds that can: sim.episodes)"),
+            && stderr
+                .contains("stage kind `cmd` cannot be sharded (kinds that can: data.windows, sim.episodes)"),
         "{stderr}"
     );
 }
@@ -573,6 +736,57 @@ fn sharded_episodes_equal_unsharded_locally() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("stages.helitack.shards: 5 shards for 4 episodes: use between 1 and 4"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn sharded_windows_equal_unsharded_locally() {
+    let p = windows_project();
+    let whole = read_all(&p, WINDOW_FILES);
+    let whole_lock = lock_without_run_ids(&p, "pipelines/windows.lock");
+    let sharded = |n: u32| {
+        WINDOWS.replace(
+            "    uses: data.windows\n",
+            &format!("    uses: data.windows\n    shards: {n}\n"),
+        )
+    };
+    for n in [3, 15] {
+        p.write("pipelines/windows.yaml", &sharded(n));
+        let report = p.json(&[
+            "pipeline",
+            "run",
+            "pipelines/windows.yaml",
+            "--force",
+            "--only",
+            "windows",
+        ]);
+        assert_eq!(outcomes(&report)["windows"], "ran", "{report}");
+        check_windows_equal(&p, &whole, n);
+        assert_eq!(lock_without_run_ids(&p, "pipelines/windows.lock"), whole_lock);
+        let log = p.read(&format!(
+            ".firecast/logs/{}.log",
+            report["stages"][0]["run_id"].as_str().unwrap()
+        ));
+        assert!(
+            log.contains(&format!("# shard {}/{n}", n - 1)) && log.contains(&format!("# merged {n} shards")),
+            "{log}"
+        );
+    }
+    // The dataset downstream sees the same windows: nothing to do.
+    let ran = p.run_pipeline("pipelines/windows.yaml", &[]);
+    assert!(ran.values().all(|o| o == "up_to_date"), "{ran:?}");
+
+    p.write("pipelines/windows.yaml", &sharded(16));
+    let out = p
+        .firecast()
+        .args(["pipeline", "status", "pipelines/windows.yaml"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("pipelines/windows.yaml:5:")
+            && stderr.contains("stages.windows.shards: 16 shards for 15 variables: use between 1 and 15"),
         "{stderr}"
     );
 }

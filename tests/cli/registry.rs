@@ -64,10 +64,26 @@ fn runs_lineage_metrics_datasets_round_trip() {
             .iter()
             .any(|l| l["direction"] == "output" && l["uri"] == "models/model.txt")
     );
-    let artifact_uri = show["artifacts"][0]["uri"].as_str().unwrap();
+    let artifact_uri = |name: &str| {
+        show["artifacts"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|a| a["name"] == name)
+            .and_then(|a| a["uri"].as_str())
+            .unwrap_or_else(|| panic!("no artifact {name}: {show}"))
+            .to_string()
+    };
+    let model = artifact_uri("model");
     assert!(
-        artifact_uri.ends_with(&format!("runs/{train_id}/model/model.txt")),
-        "{artifact_uri}"
+        model.ends_with(&format!("runs/{train_id}/model/model.txt")),
+        "{model}"
+    );
+    // The stage reported metrics, so its curves are a Rerun recording too.
+    let recording = artifact_uri("metrics");
+    assert!(
+        recording.ends_with(&format!("runs/{train_id}/metrics/metrics.rrd")),
+        "{recording}"
     );
 
     // The sql stage registered a dataset; query reaches it as a view.
@@ -107,7 +123,7 @@ fn runs_lineage_metrics_datasets_round_trip() {
     ]);
     let command = compare["params"]["command"].as_array().unwrap();
     assert_ne!(command[0], command[1]);
-    let last_losses: Vec<f64> = compare["metrics"]["loss"]
+    let last_losses: Vec<f64> = compare["metrics"]["loss"]["runs"]
         .as_array()
         .unwrap()
         .iter()
@@ -117,6 +133,10 @@ fn runs_lineage_metrics_datasets_round_trip() {
         (last_losses[1] / last_losses[0] - 5.0).abs() < 1e-9,
         "{last_losses:?}"
     );
+    // Means over the three steps (lr · 11/18) and their difference, second minus first.
+    let loss = &compare["metrics"]["loss"];
+    assert!((loss["runs"][0]["mean"].as_f64().unwrap() - 0.1 * 11.0 / 18.0).abs() < 1e-12);
+    assert!((loss["delta_mean"].as_f64().unwrap() - 0.4 * 11.0 / 18.0).abs() < 1e-12);
 
     // Tables for people.
     let text = p.ok(&[
@@ -127,7 +147,9 @@ fn runs_lineage_metrics_datasets_round_trip() {
     ]);
     let text = String::from_utf8_lossy(&text.stdout);
     assert!(text.contains("≠ param command"), "{text}");
-    assert!(text.contains("metric loss (last / min / max)"), "{text}");
+    assert!(text.contains("loss (mean [min, max] n)"), "{text}");
+    assert!(text.contains("+0.2444"), "{text}");
+    assert!(text.contains("params are equal in every run"), "{text}");
 }
 
 #[test]

@@ -73,17 +73,32 @@ fn cartpole_trains_and_reports_sb3_metrics() {
         "train/explained_variance",
         "train/value_loss",
         "train/policy_gradient_loss",
-        "time/fps",
+        "time/total_timesteps",
     ] {
         assert!(last.get(key).is_some(), "{key} missing in {last}");
     }
+    // Wall-clock speed is in the registry, not in the run's files: a forced rerun writes
+    // the same bytes.
+    assert!(last.get("time/fps").is_none(), "{last}");
+    let summary = p.read("experiments/runs/cp/summary.json");
+    // Re-invoking a finished run is up to date; `--fresh` trains again from scratch.
+    let again = p.ok(&["rl", "train", "--config", "cp.yaml"]);
+    assert!(String::from_utf8_lossy(&again.stdout).contains("up to date"), "{}", describe(&again));
+    p.ok(&["rl", "train", "--config", "cp.yaml", "--fresh"]);
+    assert_eq!(p.read("experiments/runs/cp/seed-0/metrics.jsonl"), metrics);
+    assert_eq!(p.read("experiments/runs/cp/summary.json"), summary);
     assert!(p.path("experiments/runs/cp/training.png").exists());
     // The registry has the per-update metrics under SB3's names.
     let rows = p.json(&[
         "query",
         "SELECT count(*) AS n FROM metrics WHERE key LIKE '%train/approx_kl'",
     ]);
-    assert!(rows.to_string().contains("16"), "{rows}");
+    assert!(rows.to_string().contains("32"), "{rows}");
+    let fps = p.json(&[
+        "query",
+        "SELECT count(*) AS n FROM metrics WHERE key LIKE '%time/fps'",
+    ]);
+    assert!(fps.to_string().contains("32"), "{fps}");
 }
 
 #[test]

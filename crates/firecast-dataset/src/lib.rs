@@ -28,6 +28,7 @@ pub mod table;
 pub mod time;
 pub mod truth;
 pub mod windows;
+mod windows_shard;
 
 /// What kind of sample a row is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -110,6 +111,9 @@ pub enum DatasetError {
     Parquet { path: PathBuf, message: String },
     #[error("polars: {0}")]
     Polars(String),
+    /// Shards of a sharded stage that do not fit together, or an error a shard carried over.
+    #[error("{0}")]
+    Shard(String),
 }
 
 impl DatasetError {

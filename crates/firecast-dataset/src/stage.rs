@@ -16,8 +16,8 @@ use crate::dataset::{DatasetConfig, DatasetManifest};
 use crate::kaggle::{ImportConfig, ImportReport};
 use crate::land::LandMask;
 use crate::sampling::{IgnitionCounts, IgnitionRules, IncidentPoint, NegativeConfig, TierReport};
-use crate::truth::TruthReport;
-use crate::windows::{ExtractConfig, ExtractReport};
+use crate::truth::{TruthLookup, TruthReport};
+use crate::windows::{ExtractConfig, ExtractHead, ExtractPlan, ExtractReport, Gathered};
 use crate::{DatasetError, table};
 
 /// Params of the ignition step.
@@ -198,19 +198,51 @@ pub fn run_windows_with_truth(
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<WindowsManifest, DatasetError> {
     let input = table::read_sample_list(samples)?;
-    let (mut windows, report) = crate::windows::extract(&input, gridmet, cfg, true, progress)?;
+    let plan = ExtractPlan::new(&input, gridmet, cfg)?;
+    let gathered = plan.gather(0..plan.n_features(), true, progress)?;
+    // Looked up before samples with missing days are dropped, as a sharded run must.
+    let truth = truth
+        .map(|dir| crate::truth::lookup_truth(&plan.head().kept, dir, true))
+        .transpose()?;
+    let grid = MapGrid::from_mask(&LandMask::from_gridmet_dir(gridmet)?);
+    finish_windows(
+        cfg,
+        plan.into_head(),
+        vec![gathered],
+        truth,
+        grid,
+        windows_source(gridmet),
+        out_dir,
+    )
+}
+
+/// Names, not absolute paths, so the same data built elsewhere is byte-identical; the files
+/// themselves are identified by their hashes in the report.
+pub(crate) fn windows_source(gridmet: &Path) -> String {
+    format!("GRIDMET files in `{}`", file_name(gridmet))
+}
+
+/// The gathered variables (all of them, or every shard's) → the window table and its
+/// manifest in `out_dir`: the one place both the whole and the sharded `data.windows` write.
+pub(crate) fn finish_windows(
+    cfg: &ExtractConfig,
+    head: ExtractHead,
+    parts: Vec<Gathered>,
+    truth: Option<TruthLookup>,
+    grid: MapGrid,
+    source: String,
+    out_dir: &Path,
+) -> Result<WindowsManifest, DatasetError> {
+    let (mut windows, report, slots) = crate::windows::assemble(head, parts)?;
     let truth = match truth {
-        Some(dir) => Some(crate::truth::attach_truth(&mut windows.samples, dir, true)?),
+        Some(lookup) => Some(lookup.apply(&mut windows.samples, &slots)?),
         None => None,
     };
-    let grid = MapGrid::from_mask(&LandMask::from_gridmet_dir(gridmet)?);
     let manifest = WindowsManifest {
         config: cfg.clone(),
         report,
         grid,
-        // Names, not absolute paths, so the same data built elsewhere is byte-identical;
-        // the files themselves are identified by their hashes in the report.
-        source: format!("GRIDMET files in `{}`", file_name(gridmet)),
+        source,
         truth,
     };
     write_windows(out_dir, &windows, &manifest)?;
@@ -503,12 +535,20 @@ impl StageKind for WindowsStage {
         bar.finish_and_clear();
         ctx.metric("windows", 0, m.report.samples_out as f64);
         ctx.metric("gridmet_files_read", 0, m.report.files_read as f64);
-        ctx.log(format!(
-            "{} of {} samples have windows; {} files read; dropped {:?}",
-            m.report.samples_out, m.report.samples_in, m.report.files_read, m.report.dropped
-        ));
+        ctx.log(windows_line(&m));
         Ok(())
     }
+    fn sharded(&self) -> Option<&dyn firecast_pipeline::ShardedKind> {
+        Some(self)
+    }
+}
+
+/// The stage log's summary of a windows extraction.
+pub(crate) fn windows_line(m: &WindowsManifest) -> String {
+    format!(
+        "{} of {} samples have windows; {} files read; dropped {:?}",
+        m.report.samples_out, m.report.samples_in, m.report.files_read, m.report.dropped
+    )
 }
 
 /// `data.import_kaggle`.

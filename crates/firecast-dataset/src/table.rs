@@ -273,9 +273,97 @@ fn read_batches(path: &Path) -> Result<ParquetContents, DatasetError> {
         .collect();
     let reader = builder.build().map_err(|e| err(e.to_string()))?;
     let batches = reader
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| err(e.to_string()))?;
+        .map(|b| b.map_err(|e| err(e.to_string())).and_then(|b| normalise(b, path)))
+        .collect::<Result<Vec<_>, _>>()?;
     Ok((batches, metadata, names))
+}
+
+/// Other writers' spellings of our column types, made ours: pandas 3 and pyarrow write
+/// strings as `large_string` (or string views) and may keep timestamps in ns or us.
+fn normalise(batch: RecordBatch, path: &Path) -> Result<RecordBatch, DatasetError> {
+    let wanted = |dt: &DataType| match dt {
+        DataType::LargeUtf8 | DataType::Utf8View => Some(DataType::Utf8),
+        DataType::Timestamp(unit, tz) if *unit != TimeUnit::Millisecond => {
+            Some(DataType::Timestamp(TimeUnit::Millisecond, tz.clone()))
+        }
+        _ => None,
+    };
+    if !batch
+        .schema()
+        .fields()
+        .iter()
+        .any(|f| wanted(f.data_type()).is_some())
+    {
+        return Ok(batch);
+    }
+    let schema = batch.schema();
+    let mut fields = Vec::with_capacity(schema.fields().len());
+    let mut columns = Vec::with_capacity(schema.fields().len());
+    for (field, column) in schema.fields().iter().zip(batch.columns()) {
+        match wanted(field.data_type()) {
+            Some(to) => {
+                let cast = arrow::compute::cast(column, &to).map_err(|e| DatasetError::Parquet {
+                    path: path.to_path_buf(),
+                    message: format!(
+                        "column `{}`: cannot read {} as {to}: {e}",
+                        field.name(),
+                        field.data_type()
+                    ),
+                })?;
+                fields.push(Field::new(field.name(), to, field.is_nullable()));
+                columns.push(cast);
+            }
+            None => {
+                fields.push(field.as_ref().clone());
+                columns.push(column.clone());
+            }
+        }
+    }
+    RecordBatch::try_new(Arc::new(Schema::new(fields)), columns).map_err(|e| pq_err(path)(e.to_string()))
+}
+
+/// `source_row` as written by us (nullable u64), or by pandas, which stores a nullable
+/// integer column as float64 with NaN for the missing rows.
+fn source_rows(batch: &RecordBatch, path: &Path) -> Result<Vec<Option<u64>>, DatasetError> {
+    let bad = |message: String| DatasetError::Parquet {
+        path: path.to_path_buf(),
+        message: format!("column `source_row`: {message}"),
+    };
+    let column = batch
+        .column_by_name("source_row")
+        .ok_or_else(|| bad("missing".into()))?;
+    if let Some(a) = column.as_any().downcast_ref::<UInt64Array>() {
+        return Ok((0..a.len())
+            .map(|k| (!a.is_null(k)).then(|| a.value(k)))
+            .collect());
+    }
+    if let Some(a) = column.as_any().downcast_ref::<Float64Array>() {
+        return (0..a.len())
+            .map(|k| {
+                let v = a.value(k);
+                if a.is_null(k) || v.is_nan() {
+                    Ok(None)
+                } else if v >= 0.0 && v.fract() == 0.0 && v < 2f64.powi(53) {
+                    Ok(Some(v as u64))
+                } else {
+                    Err(bad(format!("row {k}: {v} is not a row number")))
+                }
+            })
+            .collect();
+    }
+    if let Some(a) = column.as_any().downcast_ref::<arrow::array::Int64Array>() {
+        return (0..a.len())
+            .map(|k| {
+                if a.is_null(k) {
+                    return Ok(None);
+                }
+                u64::try_from(a.value(k))
+                    .map(Some)
+                    .map_err(|_| bad(format!("row {k}: {} is not a row number", a.value(k))))
+            })
+            .collect();
+    }
+    Err(bad(format!("type {} (expected uint64)", column.data_type())))
 }
 
 /// Reads a window table written by [`write_window_table`].
@@ -453,8 +541,8 @@ pub fn read_sample_list(path: &Path) -> Result<Vec<crate::windows::SampleIn>, Da
         let lon = column::<Float64Array>(b, "longitude", path)?;
         let t = column::<TimestampMillisecondArray>(b, "event_time", path)?;
         let tier = column::<StringArray>(b, "tier", path)?;
-        let src = column::<UInt64Array>(b, "source_row", path)?;
-        for k in 0..b.num_rows() {
+        let src = source_rows(b, path)?;
+        for (k, source_row) in src.into_iter().enumerate() {
             out.push(crate::windows::SampleIn {
                 sample_id: id.value(k),
                 lat: lat.value(k),
@@ -464,7 +552,7 @@ pub fn read_sample_list(path: &Path) -> Result<Vec<crate::windows::SampleIn>, Da
                     path: path.to_path_buf(),
                     message: format!("row {k}: unknown tier `{}`", tier.value(k)),
                 })?,
-                source_row: (!src.is_null(k)).then(|| src.value(k)),
+                source_row,
             });
         }
     }

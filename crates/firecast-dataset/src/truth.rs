@@ -62,6 +62,40 @@ pub fn attach_truth(
     dir: &Path,
     hash_sources: bool,
 ) -> Result<TruthReport, DatasetError> {
+    let lookup = lookup_truth(samples, dir, hash_sources)?;
+    let slots: Vec<usize> = (0..samples.len()).collect();
+    lookup.apply(samples, &slots)
+}
+
+/// A truth file read for a lookup.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TruthFile {
+    pub name: String,
+    /// BLAKE3, when the lookup hashed its sources.
+    pub hash: Option<String>,
+}
+
+/// The truth of every sample with what went wrong kept per year and per sample, not raised:
+/// the windows look the truth up before they know which samples lose their window to a
+/// file's missing days, and only the samples that keep one may fail it
+/// ([`TruthLookup::apply`]).
+#[derive(Debug)]
+pub struct TruthLookup {
+    /// The folder's name.
+    pub source: String,
+    /// Per year with samples: its file, or why it could not be read.
+    pub years: BTreeMap<i32, Result<TruthFile, DatasetError>>,
+    /// Per sample: its probability (`None`: masked), or why its file has none for it.
+    pub values: Vec<Result<Option<f32>, DatasetError>>,
+}
+
+/// Looks up the truth of every sample (see [`attach_truth`]), keeping errors per year and
+/// per sample.
+pub fn lookup_truth(
+    samples: &[WindowSample],
+    dir: &Path,
+    hash_sources: bool,
+) -> Result<TruthLookup, DatasetError> {
     let files = list_truth_files(dir)?;
     let mut by_year: BTreeMap<i32, Vec<usize>> = BTreeMap::new();
     for (k, s) in samples.iter().enumerate() {
@@ -70,64 +104,121 @@ pub fn attach_truth(
             .or_default()
             .push(k);
     }
-    let mut jobs = Vec::with_capacity(by_year.len());
-    for (year, members) in by_year {
-        let path = files
-            .get(&year)
-            .cloned()
-            .ok_or_else(|| DatasetError::MissingSource {
-                path: dir.join(truth_file_name(year)),
-                what: format!("true ignition probability (`{TRUTH_VARIABLE}`) for {year}"),
-            })?;
-        jobs.push((path, members));
-    }
-    let shared: &[WindowSample] = samples;
+    let jobs: Vec<(i32, Option<&PathBuf>, Vec<usize>)> = by_year
+        .into_iter()
+        .map(|(year, members)| (year, files.get(&year), members))
+        .collect();
     let results: Vec<Result<_, DatasetError>> = jobs
         .par_iter()
-        .map(|(path, members)| {
-            let values = read_year(path, shared, members)?;
+        .map(|(_, path, members)| {
+            let Some(path) = path else {
+                return Ok(None);
+            };
+            let values = read_year(path, samples, members)?;
             let hash = if hash_sources {
                 Some(crate::hash_file(path)?)
             } else {
                 None
             };
-            Ok((values, hash))
+            Ok(Some((values, hash)))
         })
         .collect();
-    let mut report = TruthReport {
+    let mut lookup = TruthLookup {
         source: dir
             .file_name()
             .map_or_else(|| dir.display().to_string(), |n| n.to_string_lossy().into_owned()),
-        ..Default::default()
+        years: BTreeMap::new(),
+        values: samples.iter().map(|_| Ok(None)).collect(),
     };
-    for ((path, members), result) in jobs.iter().zip(results) {
-        let (values, hash) = result?;
-        report.files_read += 1;
-        if let Some(h) = hash {
-            let name = path
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            report.source_hashes.insert(name, h);
-        }
-        for (&k, v) in members.iter().zip(values) {
-            samples[k].true_probability = v;
-            if v.is_some() {
-                report.samples_with_value += 1;
-            } else {
-                report.samples_masked += 1;
+    for ((year, path, members), result) in jobs.into_iter().zip(results) {
+        let file = match (path, result) {
+            (None, _) => Err(DatasetError::MissingSource {
+                path: dir.join(truth_file_name(year)),
+                what: format!("true ignition probability (`{TRUTH_VARIABLE}`) for {year}"),
+            }),
+            (Some(_), Err(e)) => Err(e),
+            (Some(path), Ok(found)) => {
+                let (values, hash) = found.unwrap_or_default();
+                for (k, v) in members.into_iter().zip(values) {
+                    lookup.values[k] = v;
+                }
+                Ok(TruthFile {
+                    name: path
+                        .file_name()
+                        .map(|n| n.to_string_lossy().into_owned())
+                        .unwrap_or_default(),
+                    hash,
+                })
             }
-        }
+        };
+        lookup.years.insert(year, file);
     }
-    Ok(report)
+    Ok(lookup)
 }
 
-/// The truth of `samples[members]` from one yearly file, in `members` order.
+impl TruthLookup {
+    /// Sets the truth of `samples`, where `samples[k]` is sample `slots[k]` of the lookup, and
+    /// reports what [`attach_truth`] on exactly these samples reports, errors included.
+    pub fn apply(
+        mut self,
+        samples: &mut [WindowSample],
+        slots: &[usize],
+    ) -> Result<TruthReport, DatasetError> {
+        if samples.len() != slots.len() || slots.iter().any(|&s| s >= self.values.len()) {
+            return Err(DatasetError::Shard(format!(
+                "{} samples at {} slots of a truth lookup of {} samples",
+                samples.len(),
+                slots.len(),
+                self.values.len()
+            )));
+        }
+        let mut by_year: BTreeMap<i32, Vec<usize>> = BTreeMap::new();
+        for (k, s) in samples.iter().enumerate() {
+            by_year
+                .entry(crate::time::year_of(s.event_day))
+                .or_default()
+                .push(k);
+        }
+        let mut report = TruthReport {
+            source: self.source.clone(),
+            ..Default::default()
+        };
+        // A year without a file is reported before any read error, as the lookup of these
+        // samples alone would.
+        let missing = by_year
+            .keys()
+            .copied()
+            .find(|y| matches!(self.years.get(y), Some(Err(DatasetError::MissingSource { .. }))));
+        for year in missing.into_iter().chain(by_year.keys().copied()) {
+            let file = self
+                .years
+                .remove(&year)
+                .ok_or_else(|| DatasetError::Shard(format!("the truth lookup has no entry for {year}")))??;
+            report.files_read += 1;
+            if let Some(h) = file.hash {
+                report.source_hashes.insert(file.name, h);
+            }
+            for &k in &by_year[&year] {
+                let v = std::mem::replace(&mut self.values[slots[k]], Ok(None))?;
+                samples[k].true_probability = v;
+                if v.is_some() {
+                    report.samples_with_value += 1;
+                } else {
+                    report.samples_masked += 1;
+                }
+            }
+        }
+        Ok(report)
+    }
+}
+
+/// The truth of `samples[members]` from one yearly file, in `members` order; a member off
+/// the file's grid or days gets its error, the others their values.
 fn read_year(
     path: &Path,
     samples: &[WindowSample],
     members: &[usize],
-) -> Result<Vec<Option<f32>>, DatasetError> {
+) -> Result<Vec<Result<Option<f32>, DatasetError>>, DatasetError> {
     let file = GridmetFile::open_named(path, TRUTH_VARIABLE)?;
     let bad = |message: String| DatasetError::Input {
         path: path.to_path_buf(),
@@ -136,6 +227,7 @@ fn read_year(
     let days = file.days();
     // Per unique cell: the (member slot, day index) pairs it must supply.
     let mut by_cell: BTreeMap<(usize, usize), Vec<(usize, usize)>> = BTreeMap::new();
+    let mut out: Vec<Result<Option<f32>, DatasetError>> = members.iter().map(|_| Ok(None)).collect();
     for (slot, &k) in members.iter().enumerate() {
         let s = &samples[k];
         let cell = file
@@ -149,17 +241,19 @@ fn read_year(
                      file's grid; the truth must come from the generator run that wrote the GRIDMET files",
                     s.sample_id, s.cell_lat, s.cell_lon
                 ))
-            })?;
+            });
         let t = days.binary_search(&s.event_day).map_err(|_| {
             bad(format!(
                 "`{TRUTH_VARIABLE}`: sample {} is on {}, a day this file does not have",
                 s.sample_id,
                 crate::time::format_date(s.event_day)
             ))
-        })?;
-        by_cell.entry(cell).or_default().push((slot, t));
+        });
+        match (cell, t) {
+            (Ok(cell), Ok(t)) => by_cell.entry(cell).or_default().push((slot, t)),
+            (Err(e), _) | (_, Err(e)) => out[slot] = Err(e),
+        }
     }
-    let mut out = vec![None; members.len()];
     let cells: Vec<_> = by_cell.into_iter().collect();
     for chunk in cells.chunks(CELLS_PER_READ) {
         let span = |needs: &[(usize, usize)]| {
@@ -191,7 +285,7 @@ fn read_year(
                 let (a, b) = span(needs);
                 let series = file.gather(&[*cell], a..b)?;
                 for &(slot, t) in needs {
-                    out[slot] = value(series.first().and_then(|s| s.get(t - a)));
+                    out[slot] = Ok(value(series.first().and_then(|s| s.get(t - a))));
                 }
             }
         } else {
@@ -199,7 +293,7 @@ fn read_year(
             let series = file.gather(&keys, d0..d1)?;
             for ((_, needs), s) in chunk.iter().zip(&series) {
                 for &(slot, t) in needs {
-                    out[slot] = value(s.get(t - d0));
+                    out[slot] = Ok(value(s.get(t - d0)));
                 }
             }
         }
@@ -245,4 +339,84 @@ pub fn summarize(table: &crate::windows::WindowTable) -> Option<TruthSummary> {
         mean_positive: mean(true),
         mean_negative: mean(false),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    fn sample(k: u32, year: i32) -> WindowSample {
+        WindowSample {
+            sample_id: k,
+            lat: 40.0,
+            lon: -105.0,
+            time_ms: 0,
+            event_day: crate::time::parse_date(&format!("{year}-06-01")).unwrap(),
+            tier: crate::Tier::Positive,
+            source_row: None,
+            cell: (k, k),
+            cell_lat: 40.0,
+            cell_lon: -105.0,
+            true_probability: None,
+        }
+    }
+
+    /// Slots 0–2 in 2019 (slot 1 off the file's grid), slot 3 in 2020 (no file).
+    fn lookup() -> TruthLookup {
+        TruthLookup {
+            source: "truth".into(),
+            years: BTreeMap::from([
+                (
+                    2019,
+                    Ok(TruthFile {
+                        name: truth_file_name(2019),
+                        hash: Some("h".into()),
+                    }),
+                ),
+                (
+                    2020,
+                    Err(DatasetError::MissingSource {
+                        path: PathBuf::from(truth_file_name(2020)),
+                        what: "truth for 2020".into(),
+                    }),
+                ),
+            ]),
+            values: vec![
+                Ok(Some(0.5)),
+                Err(DatasetError::Input {
+                    path: PathBuf::from(truth_file_name(2019)),
+                    message: "not on this file's grid".into(),
+                }),
+                Ok(None),
+                Ok(Some(0.25)),
+            ],
+        }
+    }
+
+    #[test]
+    fn only_the_samples_that_keep_their_windows_may_fail_the_truth() {
+        let mut kept = vec![sample(0, 2019), sample(2, 2019)];
+        let report = lookup().apply(&mut kept, &[0, 2]).unwrap();
+        assert_eq!(kept[0].true_probability, Some(0.5));
+        assert_eq!(kept[1].true_probability, None);
+        assert_eq!(
+            (
+                report.files_read,
+                report.samples_with_value,
+                report.samples_masked
+            ),
+            (1, 1, 1)
+        );
+        assert_eq!(report.source_hashes.len(), 1);
+
+        let mut off_grid = vec![sample(0, 2019), sample(1, 2019)];
+        let e = lookup().apply(&mut off_grid, &[0, 1]).unwrap_err();
+        assert!(e.to_string().contains("not on this file's grid"), "{e}");
+
+        // The missing year is reported first, whatever else fails.
+        let mut all = vec![sample(1, 2019), sample(3, 2020)];
+        let e = lookup().apply(&mut all, &[1, 3]).unwrap_err();
+        assert!(matches!(e, DatasetError::MissingSource { .. }), "{e}");
+    }
 }

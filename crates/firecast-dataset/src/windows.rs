@@ -7,6 +7,7 @@
 //! batch at a time, so memory stays at the output plus one block per thread.
 
 use std::collections::BTreeMap;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use firecast_data::gridmet::{GridmetFile, GridmetVariable};
@@ -164,9 +165,10 @@ pub struct WindowSample {
 }
 
 impl WindowSample {
-    /// Fire on the sample's date.
+    /// Fire on the sample's date (an imported positive window's event day is its ignition
+    /// day, so it counts too).
     pub fn label(&self) -> bool {
-        self.tier == Tier::Positive
+        self.tier.is_positive()
     }
 }
 
@@ -249,7 +251,8 @@ pub struct SampleIn {
 
 struct Task {
     variable: GridmetVariable,
-    feature: usize,
+    /// Column within the gathered features.
+    column: usize,
     path: PathBuf,
     /// `(sample slot, first window day slot, first day index in the file, number of days)`
     needs: Vec<(usize, usize, i32, usize)>,
@@ -265,156 +268,308 @@ pub fn extract(
     hash_sources: bool,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<(WindowTable, ExtractReport), DatasetError> {
-    cfg.check()?;
-    let variables = cfg.resolve_variables()?;
-    let files = list_gridmet_files(dir)?;
-    let mut by_key: BTreeMap<(&'static str, i32), PathBuf> = BTreeMap::new();
-    for f in &files {
-        by_key.insert((f.variable.short_name(), f.year), f.path.clone());
-    }
-    let years: Vec<i32> = files
-        .iter()
-        .filter(|f| variables.contains(&f.variable))
-        .map(|f| f.year)
-        .collect();
-    let (Some(&y0), Some(&y1)) = (years.iter().min(), years.iter().max()) else {
-        return Err(DatasetError::Input {
-            path: dir.to_path_buf(),
-            message: format!(
-                "no GRIDMET files for {} (expected names like {})",
-                cfg.variables.join(", "),
-                variables[0].file_name(2020)
-            ),
-        });
-    };
-    // The grid comes from the first file; every other file must have the same axes.
-    let first_path = by_key
-        .iter()
-        .find(|((s, _), _)| *s == variables[0].short_name())
-        .map(|(_, p)| p.clone())
-        .unwrap_or_else(|| files[0].path.clone());
-    let first_var = GridmetVariable::from_file_name(&first_path).map_or(variables[0], |v| v.0);
-    let grid = GridmetFile::open(&first_path, first_var)?;
+    let plan = ExtractPlan::new(samples, dir, cfg)?;
+    let gathered = plan.gather(0..plan.n_features(), hash_sources, progress)?;
+    let (table, report, _) = assemble(plan.into_head(), vec![gathered])?;
+    Ok((table, report))
+}
 
-    let mut report = ExtractReport {
-        samples_in: samples.len() as u64,
-        years: (y0, y1),
-        ..Default::default()
-    };
-    let n_days = (cfg.last_offset - cfg.first_offset + 1) as usize;
-    let mut kept: Vec<WindowSample> = Vec::with_capacity(samples.len());
-    // Cell indices in the files' own axes, for reading.
-    let mut local: Vec<(usize, usize)> = Vec::with_capacity(samples.len());
-    for s in samples {
-        let event_day = time::gridmet_day(s.time_ms, cfg.day_boundary);
-        let (first, last) = (event_day + cfg.first_offset, event_day + cfg.last_offset);
-        if time::year_of(first) < y0 || time::year_of(last) > y1 {
-            *report
-                .dropped
-                .entry("window_outside_gridmet_years".into())
-                .or_default() += 1;
-            continue;
+/// What the samples, the settings and the files on disk decide before any value is read.
+/// A sharded extraction computes it in every shard alike; shard 0 hands it to the merge.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExtractHead {
+    pub features: Vec<String>,
+    pub first_offset: i32,
+    pub n_days: usize,
+    /// The samples with a window, in input order, before those with days missing in a file
+    /// are dropped (their index here is their *slot*).
+    pub kept: Vec<WindowSample>,
+    /// `samples_in`, `years` and the samples dropped so far.
+    pub report: ExtractReport,
+}
+
+/// An extraction split in two: which samples have windows (from the samples, the file names
+/// and the first file's grid), then the values of any range of the variables
+/// ([`ExtractPlan::gather`]), so the variables can be read in separate shards, each file by
+/// exactly one of them, and put together by [`assemble`].
+pub struct ExtractPlan {
+    dir: PathBuf,
+    variables: Vec<GridmetVariable>,
+    by_key: BTreeMap<(&'static str, i32), PathBuf>,
+    lats: Vec<f64>,
+    lons: Vec<f64>,
+    last_offset: i32,
+    /// Cell indices of each slot in the files' own axes, for reading.
+    local: Vec<(usize, usize)>,
+    head: ExtractHead,
+}
+
+impl ExtractPlan {
+    pub fn new(samples: &[SampleIn], dir: &Path, cfg: &ExtractConfig) -> Result<Self, DatasetError> {
+        cfg.check()?;
+        let variables = cfg.resolve_variables()?;
+        let files = list_gridmet_files(dir)?;
+        let mut by_key: BTreeMap<(&'static str, i32), PathBuf> = BTreeMap::new();
+        for f in &files {
+            by_key.insert((f.variable.short_name(), f.year), f.path.clone());
         }
-        let Some((j, i)) = grid.nearest_cell(s.lat, s.lon) else {
-            *report.dropped.entry("outside_gridmet_grid".into()).or_default() += 1;
-            continue;
-        };
-        local.push((j, i));
-        kept.push(WindowSample {
-            sample_id: s.sample_id,
-            lat: s.lat,
-            lon: s.lon,
-            time_ms: s.time_ms,
-            event_day,
-            tier: s.tier,
-            source_row: s.source_row,
-            cell: crate::geo::gridmet_cell_index(grid.lats()[j], grid.lons()[i]),
-            cell_lat: grid.lats()[j],
-            cell_lon: grid.lons()[i],
-            true_probability: None,
-        });
-    }
-
-    // One task per (variable, year) file that some window touches.
-    let mut tasks: BTreeMap<(usize, i32), Task> = BTreeMap::new();
-    for (slot, s) in kept.iter().enumerate() {
-        let first = s.event_day + cfg.first_offset;
-        let mut day = first;
-        while day <= s.event_day + cfg.last_offset {
-            let year = time::year_of(day);
-            let year_end = time::parse_date(&format!("{year}-12-31")).unwrap_or(day);
-            let last = year_end.min(s.event_day + cfg.last_offset);
-            for (f, v) in variables.iter().enumerate() {
-                let task = match tasks.entry((f, year)) {
-                    std::collections::btree_map::Entry::Occupied(o) => o.into_mut(),
-                    std::collections::btree_map::Entry::Vacant(e) => {
-                        let path = by_key.get(&(v.short_name(), year)).cloned().ok_or_else(|| {
-                            DatasetError::MissingSource {
-                                path: dir.join(v.file_name(year)),
-                                what: format!("GRIDMET `{}` for {year}", v.short_name()),
-                            }
-                        })?;
-                        e.insert(Task {
-                            variable: *v,
-                            feature: f,
-                            path,
-                            needs: Vec::new(),
-                        })
-                    }
-                };
-                task.needs
-                    .push((slot, (day - first) as usize, day, (last - day + 1) as usize));
-            }
-            day = last + 1;
-        }
-    }
-
-    let nf = variables.len();
-    let mut values = vec![f32::NAN; kept.len() * n_days * nf];
-    let mut invalid = vec![false; kept.len()];
-    let tasks: Vec<Task> = tasks.into_values().collect();
-    let total = tasks.len() as u64;
-    let batch = rayon::current_num_threads().max(1);
-    let done = std::sync::atomic::AtomicU64::new(0);
-    for chunk in tasks.chunks(batch) {
-        let results: Vec<Result<TaskResult, DatasetError>> = chunk
-            .par_iter()
-            .map(|task| {
-                let r = run_task(task, &local, grid.lats(), grid.lons(), hash_sources);
-                let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                progress(d, total);
-                r
-            })
+        // The years and the grid come from every variable, whichever ones a shard reads.
+        let years: Vec<i32> = files
+            .iter()
+            .filter(|f| variables.contains(&f.variable))
+            .map(|f| f.year)
             .collect();
-        for (task, result) in chunk.iter().zip(results) {
-            let result = result?;
-            report.files_read += 1;
-            if let Some(h) = result.hash {
-                let name = task
-                    .path
-                    .file_name()
-                    .map(|n| n.to_string_lossy().into_owned())
-                    .unwrap_or_default();
-                report.source_hashes.insert(name, h);
+        let (Some(&y0), Some(&y1)) = (years.iter().min(), years.iter().max()) else {
+            return Err(DatasetError::Input {
+                path: dir.to_path_buf(),
+                message: format!(
+                    "no GRIDMET files for {} (expected names like {})",
+                    cfg.variables.join(", "),
+                    variables[0].file_name(2020)
+                ),
+            });
+        };
+        // The grid comes from the first file; every other file must have the same axes.
+        let first_path = by_key
+            .iter()
+            .find(|((s, _), _)| *s == variables[0].short_name())
+            .map(|(_, p)| p.clone())
+            .unwrap_or_else(|| files[0].path.clone());
+        let first_var = GridmetVariable::from_file_name(&first_path).map_or(variables[0], |v| v.0);
+        let grid = GridmetFile::open(&first_path, first_var)?;
+
+        let mut report = ExtractReport {
+            samples_in: samples.len() as u64,
+            years: (y0, y1),
+            ..Default::default()
+        };
+        let n_days = (cfg.last_offset - cfg.first_offset + 1) as usize;
+        let mut kept: Vec<WindowSample> = Vec::with_capacity(samples.len());
+        let mut local: Vec<(usize, usize)> = Vec::with_capacity(samples.len());
+        for s in samples {
+            let event_day = time::gridmet_day(s.time_ms, cfg.day_boundary);
+            let (first, last) = (event_day + cfg.first_offset, event_day + cfg.last_offset);
+            if time::year_of(first) < y0 || time::year_of(last) > y1 {
+                *report
+                    .dropped
+                    .entry("window_outside_gridmet_years".into())
+                    .or_default() += 1;
+                continue;
             }
-            for (need, series) in task.needs.iter().zip(&result.series) {
-                let (slot, day_slot, _, len) = *need;
-                match series {
-                    Some(series) => {
-                        for (k, v) in series.iter().enumerate().take(len) {
-                            values[(slot * n_days + day_slot + k) * nf + task.feature] = *v;
+            let Some((j, i)) = grid.nearest_cell(s.lat, s.lon) else {
+                *report.dropped.entry("outside_gridmet_grid".into()).or_default() += 1;
+                continue;
+            };
+            local.push((j, i));
+            kept.push(WindowSample {
+                sample_id: s.sample_id,
+                lat: s.lat,
+                lon: s.lon,
+                time_ms: s.time_ms,
+                event_day,
+                tier: s.tier,
+                source_row: s.source_row,
+                cell: crate::geo::gridmet_cell_index(grid.lats()[j], grid.lons()[i]),
+                cell_lat: grid.lats()[j],
+                cell_lon: grid.lons()[i],
+                true_probability: None,
+            });
+        }
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            by_key,
+            lats: grid.lats().to_vec(),
+            lons: grid.lons().to_vec(),
+            last_offset: cfg.last_offset,
+            local,
+            head: ExtractHead {
+                features: variables.iter().map(|v| v.short_name().to_string()).collect(),
+                first_offset: cfg.first_offset,
+                n_days,
+                kept,
+                report,
+            },
+            variables,
+        })
+    }
+
+    pub fn n_features(&self) -> usize {
+        self.variables.len()
+    }
+
+    pub fn head(&self) -> &ExtractHead {
+        &self.head
+    }
+
+    pub fn into_head(self) -> ExtractHead {
+        self.head
+    }
+
+    /// Reads the variables `features` (indices into the configured variables) for every kept
+    /// sample: one task per `(variable, year)` file some window touches, files in parallel.
+    pub fn gather(
+        &self,
+        features: Range<usize>,
+        hash_sources: bool,
+        progress: &(dyn Fn(u64, u64) + Sync),
+    ) -> Result<Gathered, DatasetError> {
+        let variables = self.variables.get(features.clone()).ok_or_else(|| {
+            DatasetError::Shard(format!(
+                "features {}..{} of {} variables",
+                features.start,
+                features.end,
+                self.variables.len()
+            ))
+        })?;
+        let head = &self.head;
+        let (first_offset, n_days) = (head.first_offset, head.n_days);
+        let mut tasks: BTreeMap<(usize, i32), Task> = BTreeMap::new();
+        for (slot, s) in head.kept.iter().enumerate() {
+            let first = s.event_day + first_offset;
+            let mut day = first;
+            while day <= s.event_day + self.last_offset {
+                let year = time::year_of(day);
+                let year_end = time::parse_date(&format!("{year}-12-31")).unwrap_or(day);
+                let last = year_end.min(s.event_day + self.last_offset);
+                for (column, v) in variables.iter().enumerate() {
+                    let task = match tasks.entry((column, year)) {
+                        std::collections::btree_map::Entry::Occupied(o) => o.into_mut(),
+                        std::collections::btree_map::Entry::Vacant(e) => {
+                            let path =
+                                self.by_key.get(&(v.short_name(), year)).cloned().ok_or_else(|| {
+                                    DatasetError::MissingSource {
+                                        path: self.dir.join(v.file_name(year)),
+                                        what: format!("GRIDMET `{}` for {year}", v.short_name()),
+                                    }
+                                })?;
+                            e.insert(Task {
+                                variable: *v,
+                                column,
+                                path,
+                                needs: Vec::new(),
+                            })
                         }
+                    };
+                    task.needs
+                        .push((slot, (day - first) as usize, day, (last - day + 1) as usize));
+                }
+                day = last + 1;
+            }
+        }
+
+        let nf = variables.len();
+        let mut out = Gathered {
+            features,
+            values: vec![f32::NAN; head.kept.len() * n_days * nf],
+            invalid: vec![false; head.kept.len()],
+            files_read: 0,
+            source_hashes: BTreeMap::new(),
+        };
+        let tasks: Vec<Task> = tasks.into_values().collect();
+        let total = tasks.len() as u64;
+        let batch = rayon::current_num_threads().max(1);
+        let done = std::sync::atomic::AtomicU64::new(0);
+        for chunk in tasks.chunks(batch) {
+            let results: Vec<Result<TaskResult, DatasetError>> = chunk
+                .par_iter()
+                .map(|task| {
+                    let r = run_task(task, &self.local, &self.lats, &self.lons, hash_sources);
+                    let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                    progress(d, total);
+                    r
+                })
+                .collect();
+            for (task, result) in chunk.iter().zip(results) {
+                let result = result?;
+                out.files_read += 1;
+                if let Some(h) = result.hash {
+                    let name = task
+                        .path
+                        .file_name()
+                        .map(|n| n.to_string_lossy().into_owned())
+                        .unwrap_or_default();
+                    out.source_hashes.insert(name, h);
+                }
+                for (need, series) in task.needs.iter().zip(&result.series) {
+                    let (slot, day_slot, _, len) = *need;
+                    match series {
+                        Some(series) => {
+                            for (k, v) in series.iter().enumerate().take(len) {
+                                out.values[(slot * n_days + day_slot + k) * nf + task.column] = *v;
+                            }
+                        }
+                        None => out.invalid[slot] = true,
                     }
-                    None => invalid[slot] = true,
                 }
             }
         }
+        Ok(out)
+    }
+}
+
+/// The values of a contiguous range of the variables for every kept sample (slot), before
+/// samples with days missing in a file are dropped.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gathered {
+    /// Indices into the configured variables.
+    pub features: Range<usize>,
+    /// `values[(slot * n_days + d) * features.len() + k]`, NaN = missing.
+    pub values: Vec<f32>,
+    /// Slots with a day missing in one of these variables' files.
+    pub invalid: Vec<bool>,
+    pub files_read: u64,
+    /// BLAKE3 of every file read, by file name.
+    pub source_hashes: BTreeMap<String, String>,
+}
+
+/// Puts the gathered variables (every one exactly once, in order) together: drops the samples
+/// with days missing in any file and counts the missing values, as an unsharded extraction
+/// does. Also returns each output sample's slot in `head.kept`.
+pub fn assemble(
+    head: ExtractHead,
+    parts: Vec<Gathered>,
+) -> Result<(WindowTable, ExtractReport, Vec<usize>), DatasetError> {
+    let nf = head.features.len();
+    let (n, n_days) = (head.kept.len(), head.n_days);
+    let mut next = 0;
+    for p in &parts {
+        let width = p.features.end.saturating_sub(p.features.start);
+        if p.features.start != next
+            || p.features.end > nf
+            || width == 0
+            || p.values.len() != n * n_days * width
+            || p.invalid.len() != n
+        {
+            return Err(DatasetError::Shard(format!(
+                "gathered variables {}..{} ({} values, {} slots) do not continue variables 0..{next} \
+                 of {nf} for {n} samples x {n_days} days",
+                p.features.start,
+                p.features.end,
+                p.values.len(),
+                p.invalid.len()
+            )));
+        }
+        next = p.features.end;
+    }
+    if next != nf {
+        return Err(DatasetError::Shard(format!(
+            "the gathered variables cover {next} of {nf}"
+        )));
+    }
+    let mut report = head.report;
+    let invalid: Vec<bool> = (0..n).map(|slot| parts.iter().any(|p| p.invalid[slot])).collect();
+    for p in &parts {
+        report.files_read += p.files_read;
+        report
+            .source_hashes
+            .extend(p.source_hashes.iter().map(|(k, v)| (k.clone(), v.clone())));
     }
 
     // Drop samples whose days were not in a file (a partial year at the end of the record).
-    let mut samples_out = Vec::with_capacity(kept.len());
-    let mut values_out = Vec::with_capacity(values.len());
-    for (slot, s) in kept.into_iter().enumerate() {
+    let mut samples_out = Vec::with_capacity(n);
+    let mut slots = Vec::with_capacity(n);
+    let mut values_out = Vec::with_capacity(n * n_days * nf);
+    for (slot, s) in head.kept.into_iter().enumerate() {
         if invalid[slot] {
             *report
                 .dropped
@@ -422,24 +577,36 @@ pub fn extract(
                 .or_default() += 1;
             continue;
         }
-        values_out.extend_from_slice(&values[slot * n_days * nf..(slot + 1) * n_days * nf]);
+        if let [one] = parts.as_slice() {
+            values_out.extend_from_slice(&one.values[slot * n_days * nf..(slot + 1) * n_days * nf]);
+        } else {
+            for d in 0..n_days {
+                for p in &parts {
+                    let w = p.features.len();
+                    let at = (slot * n_days + d) * w;
+                    values_out.extend_from_slice(&p.values[at..at + w]);
+                }
+            }
+        }
         samples_out.push(s);
+        slots.push(slot);
     }
-    for (f, v) in variables.iter().enumerate() {
+    for (f, name) in head.features.iter().enumerate() {
         let missing = values_out.chunks(nf).filter(|row| row[f].is_nan()).count() as u64;
-        report.missing_values.insert(v.short_name().to_string(), missing);
+        report.missing_values.insert(name.clone(), missing);
     }
     report.samples_out = samples_out.len() as u64;
     Ok((
         WindowTable {
-            features: variables.iter().map(|v| v.short_name().to_string()).collect(),
-            first_offset: cfg.first_offset,
+            features: head.features,
+            first_offset: head.first_offset,
             n_days,
             samples: samples_out,
             values: values_out,
             row_labels: None,
         },
         report,
+        slots,
     ))
 }
 
@@ -549,4 +716,96 @@ fn run_task(
         None
     };
     Ok(TaskResult { series, hash })
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    fn head(n: usize) -> ExtractHead {
+        ExtractHead {
+            features: vec!["a".into(), "b".into(), "c".into()],
+            first_offset: -1,
+            n_days: 2,
+            kept: (0..n as u32)
+                .map(|k| WindowSample {
+                    sample_id: k,
+                    lat: 40.0,
+                    lon: -105.0,
+                    time_ms: 0,
+                    event_day: 40_000,
+                    tier: Tier::Positive,
+                    source_row: None,
+                    cell: (k, k),
+                    cell_lat: 40.0,
+                    cell_lon: -105.0,
+                    true_probability: None,
+                })
+                .collect(),
+            report: ExtractReport::default(),
+        }
+    }
+
+    /// Value of slot `s`, day `d`, feature `f`; feature 2 of slot 2 is missing.
+    fn value(s: usize, d: usize, f: usize) -> f32 {
+        if (s, f) == (2, 2) {
+            f32::NAN
+        } else {
+            (s * 100 + d * 10 + f) as f32
+        }
+    }
+
+    fn part(features: Range<usize>, invalid: Vec<bool>, hash: &str) -> Gathered {
+        let mut values = Vec::new();
+        for s in 0..invalid.len() {
+            for d in 0..2 {
+                values.extend(features.clone().map(|f| value(s, d, f)));
+            }
+        }
+        Gathered {
+            features,
+            values,
+            invalid,
+            files_read: 1,
+            source_hashes: BTreeMap::from([(hash.to_string(), "h".to_string())]),
+        }
+    }
+
+    #[test]
+    fn a_sample_missing_days_in_one_range_is_dropped_from_every_variable() {
+        let whole = part(0..3, vec![false, true, false, false], "all");
+        let (t, r, slots) = assemble(head(4), vec![whole]).unwrap();
+        let split = vec![
+            part(0..1, vec![false, true, false, false], "a"),
+            part(1..3, vec![false, false, false, false], "bc"),
+        ];
+        let (ts, rs, slots_s) = assemble(head(4), split).unwrap();
+        assert_eq!(slots, vec![0, 2, 3]);
+        assert_eq!(slots_s, slots);
+        assert_eq!(ts.samples, t.samples);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&ts.values), bits(&t.values));
+        // Output row 1 is slot 2, whose third variable is missing.
+        assert_eq!(t.row(1, 1)[..2], [value(2, 1, 0), value(2, 1, 1)]);
+        assert!(t.row(1, 1)[2].is_nan());
+        assert_eq!(r.dropped.get("days_missing_in_gridmet_file"), Some(&1));
+        assert_eq!(r.missing_values.get("c"), Some(&2));
+        assert_eq!(r.samples_out, 3);
+        // Everything but the files and their hashes is the same.
+        assert_eq!(rs.files_read, 2);
+        assert_eq!(rs.source_hashes.len(), 2);
+        assert_eq!(
+            ExtractReport {
+                files_read: 0,
+                source_hashes: BTreeMap::new(),
+                ..rs
+            },
+            ExtractReport {
+                files_read: 0,
+                source_hashes: BTreeMap::new(),
+                ..r
+            }
+        );
+    }
 }

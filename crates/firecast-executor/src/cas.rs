@@ -96,6 +96,46 @@ pub fn get_path(store: &ArtifactStore, stored: &StoredContent, dest: &Path) -> R
     }
 }
 
+/// Download the files of a stored folder flagged in `keep` (one flag per manifest entry) to
+/// `dest`, each checked against its hash, and leave the others as empty files: a sharded
+/// kind's word that the shard does not read them. Returns how many were fetched.
+pub fn get_folder_files(
+    store: &ArtifactStore,
+    stored: &StoredContent,
+    dest: &Path,
+    keep: &[bool],
+) -> Result<usize, ExecutorError> {
+    let Some(files) = &stored.manifest else {
+        return Err(ExecutorError::Integrity(format!(
+            "{} is a file, not a folder",
+            stored.content.hash
+        )));
+    };
+    if keep.len() != files.len() || manifest_hash(files).hash != stored.content.hash {
+        return Err(ExecutorError::Integrity(format!(
+            "the manifest for {} does not match its hash {} or the {} files chosen",
+            dest.display(),
+            stored.content.hash,
+            keep.len()
+        )));
+    }
+    let mut fetched = 0;
+    for (file, &wanted) in files.iter().zip(keep) {
+        let path = dest.join(&file.path);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent)
+                .map_err(|e| ExecutorError::io("cannot create folder", parent, e))?;
+        }
+        if wanted {
+            get_object(store, &file.hash, &path)?;
+            fetched += 1;
+        } else {
+            std::fs::File::create(&path).map_err(|e| ExecutorError::io("cannot create", &path, e))?;
+        }
+    }
+    Ok(fetched)
+}
+
 fn get_object(store: &ArtifactStore, hash: &str, dest: &Path) -> Result<(), ExecutorError> {
     store.get_to_file(&object_key(hash), dest)?;
     let got = hash_file_contents(dest)?;
@@ -138,6 +178,24 @@ mod tests {
         assert_eq!(hashes.hash_path(&out).unwrap(), stored.content);
         get_path(&store, &single, &dir.path().join("out/one.txt")).unwrap();
         assert_eq!(std::fs::read(dir.path().join("out/one.txt")).unwrap(), b"alpha");
+
+        // A shard's share of the folder: the other file is there, empty.
+        let part = dir.path().join("out/part");
+        let names: Vec<&str> = stored
+            .manifest
+            .as_ref()
+            .unwrap()
+            .iter()
+            .map(|f| f.path.as_str())
+            .collect();
+        assert_eq!(names, ["a.txt", "sub/b.txt"]);
+        assert_eq!(
+            get_folder_files(&store, &stored, &part, &[false, true]).unwrap(),
+            1
+        );
+        assert_eq!(std::fs::read(part.join("a.txt")).unwrap(), b"");
+        assert_eq!(std::fs::read(part.join("sub/b.txt")).unwrap(), b"beta");
+        assert!(get_folder_files(&store, &stored, &dir.path().join("out/bad"), &[true]).is_err());
     }
 
     #[test]

@@ -144,6 +144,9 @@ fn run(
     std::fs::create_dir_all(&work.0).map_err(|e| format!("cannot create {}: {e}", work.0.display()))?;
     let root = work.0.as_path();
 
+    // A shard fetches only the files of a folder input its kind says it reads.
+    let sharded = shard.and_then(|s| kind.sharded().map(|k| (s, k)));
+    let mut fetch_log = Vec::new();
     let mut inputs: BTreeMap<String, Vec<PathBuf>> = BTreeMap::new();
     for (name, list) in &task.inputs {
         let mut paths = Vec::new();
@@ -154,8 +157,39 @@ fn run(
                     std::fs::create_dir_all(parent)
                         .map_err(|e| format!("cannot create {}: {e}", parent.display()))?;
                 }
-                cas::get_path(store, &input.stored, &dest)
-                    .map_err(|e| format!("cannot fetch input `{name}` ({}): {e}", input.rel))?;
+                let cannot = |e: ExecutorError| format!("cannot fetch input `{name}` ({}): {e}", input.rel);
+                let keep = match (sharded, &input.stored.manifest) {
+                    (Some((s, k)), Some(files)) => {
+                        let names: Vec<&str> = files.iter().map(|f| f.path.as_str()).collect();
+                        k.shard_reads(&task.params, s, name, &names).map(|keep| (s, keep))
+                    }
+                    _ => None,
+                };
+                match keep {
+                    Some((s, keep)) => {
+                        let fetched =
+                            cas::get_folder_files(store, &input.stored, &dest, &keep).map_err(cannot)?;
+                        let files = input.stored.manifest.as_deref().unwrap_or_default();
+                        let mb = |only_fetched: bool| {
+                            files
+                                .iter()
+                                .zip(&keep)
+                                .filter(|&(_, &k)| k || !only_fetched)
+                                .map(|(f, _)| f.size)
+                                .sum::<u64>() as f64
+                                / 1e6
+                        };
+                        fetch_log.push(format!(
+                            "shard {s}: fetched {fetched} of {} files of input `{name}` ({}, {:.1} of {:.1} MB), \
+                             the rest left empty",
+                            keep.len(),
+                            input.rel,
+                            mb(true),
+                            mb(false)
+                        ));
+                    }
+                    None => cas::get_path(store, &input.stored, &dest).map_err(cannot)?,
+                }
             }
             paths.push(dest);
         }
@@ -194,7 +228,7 @@ fn run(
             shard,
         },
     );
-    result.log = report.log;
+    result.log = fetch_log.into_iter().chain(report.log).collect();
     result.warnings = report.warnings;
     result.pending_artifacts = report.pending_artifacts;
     result.events = observer.into_events();

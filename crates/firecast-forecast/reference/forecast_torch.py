@@ -3,20 +3,30 @@ the architectures in crates/firecast-forecast/src/neural.rs, written from the sp
 generated from the Rust code).
 
     python forecast_torch.py count  WIDTH DAYS          -> JSON {kind: parameter count}
+    python forecast_torch.py count-spec JSON            -> JSON {name: parameter count}
     python forecast_torch.py bench  KIND WIDTH DAYS N BATCH STEPS THREADS
+                                    [WARMUP HIDDEN LAYERS DROPOUT LR WEIGHT_DECAY]
                                                         -> JSON {samples_per_s, ...}
 
-`count` lets a test check that the tch nets have exactly PyTorch's parameter counts; `bench`
-times training steps (forward, BCE, backward, AdamW step) for `firecast bench forecast`.
+`count` lets a test check that the tch nets (default sizes) have exactly PyTorch's parameter
+counts; `count-spec` does it for a list of {"name", "kind", "width", "days", "hidden",
+"layers", "dropout"} (sizes as an experiment sets them). `bench` times training steps
+(forward, BCE, backward, AdamW step) for `firecast bench forecast`; the warm-up steps run
+first and are not timed.
 """
 
 import json
 import math
 import sys
 import time
+import warnings
 
 import torch
 from torch import nn
+
+# A one-layer recurrent net with a dropout setting is legal (FireCast accepts it too); the
+# warning would only clutter the bench's output.
+warnings.filterwarnings("ignore", message="dropout option adds dropout")
 
 
 class CnnBiLstmR(nn.Module):
@@ -120,37 +130,63 @@ class Mlp(nn.Module):
         return self.out(torch.relu(self.hidden(x.flatten(1)))).squeeze(1)
 
 
-def build(kind, width, days):
+# FireCast's defaults per kind: (hidden, layers, dropout).
+DEFAULTS = {
+    "cnn_bilstm": (128, 3, 0.25),
+    "cnn_bilstm_attn": (150, 3, 0.1),
+    "firecast": (32, 1, 0.2),
+    "lstm2": (64, 2, 0.2),
+    "lightts": (32, 1, 0.1),
+    "mlp": (100, 1, 0.0),
+}
+
+
+def build(kind, width, days, hidden=None, layers=None, dropout=None):
     # `width` counts every input channel (variables, plus month sin/cos where a model adds them).
+    if kind not in DEFAULTS:
+        raise SystemExit(f"unknown kind {kind}")
+    d_hidden, d_layers, d_dropout = DEFAULTS[kind]
+    h = d_hidden if hidden is None else int(hidden)
+    n = d_layers if layers is None else int(layers)
+    p = d_dropout if dropout is None else float(dropout)
     if kind == "cnn_bilstm":
-        return CnnBiLstmR(width)
-    if kind == "cnn_bilstm_attn":
-        return AttnNet(width, kind, 150, 3, 0.1)
-    if kind == "firecast":
-        return AttnNet(width, kind, 32, 1, 0.2)
+        return CnnBiLstmR(width, h, n, p)
+    if kind in ("cnn_bilstm_attn", "firecast"):
+        return AttnNet(width, kind, h, n, p)
     if kind == "lstm2":
-        return Lstm2(width)
+        return Lstm2(width, h, n, p)
     if kind == "lightts":
-        return LightTs(width, days)
-    if kind == "mlp":
-        return Mlp(width, days)
-    raise SystemExit(f"unknown kind {kind}")
+        return LightTs(width, days, h, p)
+    return Mlp(width, days, h)
 
 
 KINDS = ["cnn_bilstm", "cnn_bilstm_attn", "firecast", "lstm2", "lightts", "mlp"]
 
 
 def count(width, days):
-    return {k: sum(p.numel() for p in build(k, width, days).parameters() if p.requires_grad) for k in KINDS}
+    return {k: n_params(build(k, width, days)) for k in KINDS}
 
 
-def bench(kind, width, days, n, batch, steps, threads):
+def n_params(net):
+    return sum(p.numel() for p in net.parameters() if p.requires_grad)
+
+
+def count_spec(entries):
+    return {
+        e["name"]: n_params(build(e["kind"], int(e["width"]), int(e["days"]), e.get("hidden"),
+                                  e.get("layers"), e.get("dropout")))
+        for e in entries
+    }
+
+
+def bench(kind, width, days, n, batch, steps, threads, warmup=3, hidden=None, layers=None,
+          dropout=None, lr=1e-4, weight_decay=0.01):
     torch.set_num_threads(threads)
     torch.manual_seed(0)
-    net = build(kind, width, days)
+    net = build(kind, width, days, hidden, layers, dropout)
     x = torch.randn(n, days, width)
     y = (torch.rand(n) < 0.4).float()
-    opt = torch.optim.AdamW(net.parameters(), lr=1e-4)
+    opt = torch.optim.AdamW(net.parameters(), lr=lr, weight_decay=weight_decay)
     loss_fn = nn.BCEWithLogitsLoss()
     net.train()
 
@@ -161,22 +197,30 @@ def bench(kind, width, days, n, batch, steps, threads):
         loss.backward()
         opt.step()
 
-    for i in range(3):
+    for i in range(warmup):
         step(i)
     t0 = time.perf_counter()
     for i in range(steps):
         step(i)
     dt = time.perf_counter() - t0
-    return {"kind": kind, "steps": steps, "batch": batch, "threads": threads, "seconds": dt,
-            "samples_per_s": steps * batch / dt, "torch": torch.__version__}
+    return {"kind": kind, "steps": steps, "warmup_steps": warmup, "batch": batch,
+            "threads": torch.get_num_threads(), "seconds": dt, "samples_per_s": steps * batch / dt,
+            "parameters": n_params(net), "torch": torch.__version__}
 
 
 if __name__ == "__main__":
     mode = sys.argv[1]
     if mode == "count":
         print(json.dumps(count(int(sys.argv[2]), int(sys.argv[3]))))
+    elif mode == "count-spec":
+        print(json.dumps(count_spec(json.loads(sys.argv[2]))))
     elif mode == "bench":
         kind, width, days, n, batch, steps, threads = sys.argv[2:9]
-        print(json.dumps(bench(kind, int(width), int(days), int(n), int(batch), int(steps), int(threads))))
+        extra = {}
+        for key, conv, value in zip(["warmup", "hidden", "layers", "dropout", "lr", "weight_decay"],
+                                    [int, int, int, float, float, float], sys.argv[9:15]):
+            extra[key] = conv(value)
+        print(json.dumps(bench(kind, int(width), int(days), int(n), int(batch), int(steps), int(threads),
+                               **extra)))
     else:
         raise SystemExit(__doc__)

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use crate::ForecastError;
 use crate::data::{Block, Windows};
 use crate::models::{FitContext, Inputs, ModelConfig, Trained};
-use crate::spec::{ClusterBy, ExperimentSpec, ThresholdRule};
+use crate::spec::{ClusterBy, Evaluation, ExperimentSpec, ThresholdRule};
 
 /// The reported numbers of one model under one protocol, pooled over its seeds.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -49,9 +49,10 @@ pub struct SeedRun {
     pub seed: u64,
     pub threshold: f64,
     pub threshold_rule: String,
-    pub fit_seconds: f64,
     pub report: BinaryReport,
-    pub validation: BinaryReport,
+    /// Validation scores at the chosen threshold (none when saved models are re-scored).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub validation: Option<BinaryReport>,
     pub epochs: Option<usize>,
     pub best_epoch: Option<usize>,
     /// Where the fitted model was written, relative to the report folder.
@@ -122,11 +123,10 @@ pub struct ExperimentResult {
     pub protocols: Vec<ProtocolInfo>,
     pub results: Vec<ModelResult>,
     pub paired: Vec<PairedTest>,
-    pub seconds: f64,
 }
 
 /// A model's test scores: (label, kind, scores per seed, threshold per seed).
-type ModelScores = (String, String, Vec<Vec<f64>>, Vec<f64>);
+pub(crate) type ModelScores = (String, String, Vec<Vec<f64>>, Vec<f64>);
 
 /// Where the run reports: progress lines and metrics (the registry, Rerun).
 pub trait Sink: Sync {
@@ -139,7 +139,7 @@ pub trait Sink: Sync {
 pub struct Quiet;
 impl Sink for Quiet {}
 
-fn family(kind: &str) -> &'static str {
+pub(crate) fn family(kind: &str) -> &'static str {
     match kind {
         "majority" | "climatology" | "fire_danger_index" | "minirocket" | "window_stats_xgboost" => {
             "reference"
@@ -219,7 +219,7 @@ fn metric_of(name: &str, y: &[bool], p: &[f64], threshold: f64, bins: usize) -> 
 }
 
 /// Cluster ids of the test samples (GRIDMET cells, or each sample alone).
-fn clusters(w: &Windows, idx: &[usize], by: ClusterBy) -> Vec<u64> {
+pub(crate) fn clusters(w: &Windows, idx: &[usize], by: ClusterBy) -> Vec<u64> {
     idx.iter()
         .map(|&s| match by {
             ClusterBy::Cell => (u64::from(w.meta[s].cell.0) << 32) | u64::from(w.meta[s].cell.1),
@@ -401,6 +401,9 @@ pub fn run(
                 for (k, v) in report_metrics(&report) {
                     sink.metric(&format!("{pname}/{label}/test/{k}"), seed as i64, v);
                 }
+                // Times go to the registry and the log only: the stage's files stay the
+                // same bytes for the same config and seeds.
+                sink.metric(&format!("{pname}/{label}/fit_seconds"), seed as i64, fit_seconds);
                 fits_done += 1;
                 sink.progress("experiment", fits_done as u64, total_fits as u64);
                 sink.message(&format!(
@@ -413,9 +416,8 @@ pub fn run(
                     seed,
                     threshold,
                     threshold_rule: rule_label(rule),
-                    fit_seconds,
                     report,
-                    validation,
+                    validation: Some(validation),
                     epochs,
                     best_epoch,
                     model_dir: model_rel,
@@ -424,51 +426,33 @@ pub fn run(
                 per_seed_scores.push(pt);
             }
             let thresholds: Vec<f64> = runs.iter().map(|r| r.threshold).collect();
-            let (test, intervals) =
-                seed_mean_with_intervals(&yte, &per_seed_scores, &thresholds, &test_clusters, spec);
-            let mut seed_std = BTreeMap::new();
-            for k in TABLE_METRICS {
-                let vals: Vec<f64> = runs.iter().map(|r| report_metrics(&r.report)[k]).collect();
-                let mean = vals.iter().sum::<f64>() / vals.len() as f64;
-                let var =
-                    vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (vals.len().max(2) - 1) as f64;
-                seed_std.insert(k.to_string(), if vals.len() > 1 { var.sqrt() } else { 0.0 });
-            }
-            let by_year = breakdown_by_year(windows, &split.test, &yte, &per_seed_scores[0], thresholds[0]);
-            let by_tier = breakdown_by_tier(windows, &split.test, &yte, &per_seed_scores[0], thresholds[0]);
-            // Skill above no skill as a share of the oracle's: (m − m₀) / (oracle − m₀).
-            let skill_vs_oracle = oracle.as_ref().map(|o| {
-                [("auroc", 0.5), ("auprc", prevalence)]
-                    .into_iter()
-                    .map(|(k, none)| {
-                        let m = test.get(k).copied().unwrap_or(f64::NAN);
-                        (k.to_string(), (m - none) / (o[k] - none))
-                    })
-                    .collect::<BTreeMap<_, _>>()
-            });
-            test_scores.push((
-                label.clone(),
-                entry.kind.clone(),
-                per_seed_scores,
-                thresholds.clone(),
-            ));
-            results.push(ModelResult {
-                protocol: pname.clone(),
-                model: label,
-                kind: entry.kind.clone(),
-                family: family(&entry.kind).into(),
+            results.push(summarise(
+                TestSide {
+                    protocol: pname,
+                    windows,
+                    rows: &split.test,
+                    labels: &yte,
+                    clusters: &test_clusters,
+                    oracle: oracle.as_ref(),
+                },
+                &label,
+                &entry.kind,
                 seeds,
-                test,
-                intervals,
-                seed_std,
                 runs,
-                by_year,
-                by_tier,
+                &per_seed_scores,
                 parameters,
-                skill_vs_oracle,
-            });
+                &spec.evaluation,
+            ));
+            test_scores.push((label, entry.kind.clone(), per_seed_scores, thresholds));
         }
-        let paired_result = paired_test(pname, &results, &test_scores, &yte, &test_clusters, spec);
+        let paired_result = paired_test(
+            pname,
+            &results,
+            &test_scores,
+            &yte,
+            &test_clusters,
+            &spec.evaluation,
+        );
         predictions.push(ProtocolPredictions {
             protocol: pname.clone(),
             sample_ids: split.test.iter().map(|&s| windows.meta[s].sample_id).collect(),
@@ -502,9 +486,74 @@ pub fn run(
         protocols,
         results,
         paired,
-        seconds: started.elapsed().as_secs_f64(),
     };
+    sink.metric("experiment_seconds", 0, started.elapsed().as_secs_f64());
     Ok((result, predictions))
+}
+
+/// The scored side of one protocol: which samples, their labels and bootstrap clusters.
+pub(crate) struct TestSide<'a> {
+    pub protocol: &'a str,
+    pub windows: &'a Windows,
+    /// Sample indices into `windows`.
+    pub rows: &'a [usize],
+    pub labels: &'a [bool],
+    pub clusters: &'a [u64],
+    pub oracle: Option<&'a BTreeMap<String, f64>>,
+}
+
+/// One model's row: seed-averaged metrics with intervals, spread over seeds, breakdowns by
+/// year and tier (first seed), and skill as a share of the oracle's.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn summarise(
+    side: TestSide<'_>,
+    label: &str,
+    kind: &str,
+    seeds: Vec<u64>,
+    runs: Vec<SeedRun>,
+    per_seed_scores: &[Vec<f64>],
+    parameters: Option<i64>,
+    evaluation: &Evaluation,
+) -> ModelResult {
+    let yte = side.labels;
+    let thresholds: Vec<f64> = runs.iter().map(|r| r.threshold).collect();
+    let (test, intervals) =
+        seed_mean_with_intervals(yte, per_seed_scores, &thresholds, side.clusters, evaluation);
+    let mut seed_std = BTreeMap::new();
+    for k in TABLE_METRICS {
+        let vals: Vec<f64> = runs.iter().map(|r| report_metrics(&r.report)[k]).collect();
+        let mean = vals.iter().sum::<f64>() / vals.len() as f64;
+        let var = vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (vals.len().max(2) - 1) as f64;
+        seed_std.insert(k.to_string(), if vals.len() > 1 { var.sqrt() } else { 0.0 });
+    }
+    let by_year = breakdown_by_year(side.windows, side.rows, yte, &per_seed_scores[0], thresholds[0]);
+    let by_tier = breakdown_by_tier(side.windows, side.rows, yte, &per_seed_scores[0], thresholds[0]);
+    let prevalence = yte.iter().filter(|&&l| l).count() as f64 / yte.len().max(1) as f64;
+    // Skill above no skill as a share of the oracle's: (m − m₀) / (oracle − m₀).
+    let skill_vs_oracle = side.oracle.map(|o| {
+        [("auroc", 0.5), ("auprc", prevalence)]
+            .into_iter()
+            .map(|(k, none)| {
+                let m = test.get(k).copied().unwrap_or(f64::NAN);
+                (k.to_string(), (m - none) / (o[k] - none))
+            })
+            .collect::<BTreeMap<_, _>>()
+    });
+    ModelResult {
+        protocol: side.protocol.to_string(),
+        model: label.to_string(),
+        kind: kind.to_string(),
+        family: family(kind).into(),
+        seeds,
+        test,
+        intervals,
+        seed_std,
+        runs,
+        by_year,
+        by_tier,
+        parameters,
+        skill_vs_oracle,
+    }
 }
 
 /// Seed-averaged metrics and their bootstrap intervals: on each resample of the test
@@ -514,9 +563,9 @@ fn seed_mean_with_intervals(
     scores: &[Vec<f64>],
     thresholds: &[f64],
     clusters: &[u64],
-    spec: &ExperimentSpec,
+    evaluation: &Evaluation,
 ) -> (BTreeMap<String, f64>, BTreeMap<String, (f64, f64)>) {
-    let bins = spec.evaluation.calibration_bins;
+    let bins = evaluation.calibration_bins;
     let mean_metric = |name: &str, idx: Option<&[usize]>| -> Option<f64> {
         let mut sum = 0.0;
         for (p, &t) in scores.iter().zip(thresholds) {
@@ -539,8 +588,8 @@ fn seed_mean_with_intervals(
     let resamples = firecast_eval::bootstrap::resample_indices(
         y.len(),
         Some(clusters),
-        spec.evaluation.bootstrap,
-        spec.evaluation.seed,
+        evaluation.bootstrap,
+        evaluation.seed,
     );
     let mut draws: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
     for idx in &resamples {
@@ -550,7 +599,7 @@ fn seed_mean_with_intervals(
             }
         }
     }
-    let alpha = (1.0 - spec.evaluation.level) / 2.0;
+    let alpha = (1.0 - evaluation.level) / 2.0;
     let intervals = draws
         .into_iter()
         .map(|(k, mut v)| {
@@ -640,13 +689,13 @@ fn breakdown_by_tier(
 
 /// The best model (by mean test AUROC) against the best other model of the paper's
 /// baselines and references, on the first seed's scores.
-fn paired_test(
+pub(crate) fn paired_test(
     protocol: &str,
     results: &[ModelResult],
     scores: &[ModelScores],
     y: &[bool],
     clusters: &[u64],
-    spec: &ExperimentSpec,
+    evaluation: &Evaluation,
 ) -> Option<PairedTest> {
     let here: Vec<&ModelResult> = results.iter().filter(|r| r.protocol == protocol).collect();
     let auroc = |r: &ModelResult| r.test.get("auroc").copied().unwrap_or(f64::NAN);
@@ -676,9 +725,9 @@ fn paired_test(
         pa,
         pb,
         Some(clusters),
-        spec.evaluation.bootstrap,
-        spec.evaluation.seed,
-        spec.evaluation.level,
+        evaluation.bootstrap,
+        evaluation.seed,
+        evaluation.level,
         firecast_eval::metrics::average_precision,
     )
     .ok()?;

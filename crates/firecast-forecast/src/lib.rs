@@ -13,12 +13,18 @@
 //!   intervals over GRIDMET cells, paired tests;
 //! - [`table`], [`plots`]: Table III (Markdown, CSV, JSON), DVC metrics and plot files, PNG
 //!   plots; [`bundle`]: fitted models on disk; [`predict`]: a model asked about a place
-//!   and a date; [`stage`]: the `forecast.experiment` pipeline stage kind.
+//!   and a date; [`evaluate`]: saved models scored on another dataset; [`stage`]: the
+//!   `forecast.experiment`, `forecast.evaluate` and `forecast.predict` pipeline stage kinds.
+//! - [`bench`]: `firecast bench forecast` — the flattened baselines against scikit-learn /
+//!   xgboost on the same exported split, network sizes and training speed against PyTorch
+//!   eager, and the full-size run projected.
 
 use std::path::{Path, PathBuf};
 
+pub mod bench;
 pub mod bundle;
 pub mod data;
+pub mod evaluate;
 pub mod experiment;
 pub mod features;
 pub mod minirocket;

@@ -233,8 +233,12 @@ impl NeuralConfig {
     pub fn parse(kind: NeuralKind, params: &serde_json::Value) -> Result<Self, ForecastError> {
         let mut merged =
             serde_json::to_value(Self::defaults(kind)).map_err(|e| ForecastError::Model(e.to_string()))?;
-        if let (Some(m), Some(p)) = (merged.as_object_mut(), params.as_object()) {
+        // `kind` is serialised but not read back: drop it even when `params` is absent
+        // (`{kind: mlp}`), or the strict read below calls it an unknown field.
+        if let Some(m) = merged.as_object_mut() {
             m.remove("kind");
+        }
+        if let (Some(m), Some(p)) = (merged.as_object_mut(), params.as_object()) {
             for (k, v) in p {
                 if k == "kind" {
                     return Err(ForecastError::Config {
@@ -957,6 +961,13 @@ impl NeuralModel {
         Ok(scores(&self.net, &x, 1024))
     }
 
+    /// The network's inputs for `inputs`, exactly as training and [`Self::predict`] build
+    /// them (chosen variables, training-split scaling, month sin/cos): `[N, days, width]`
+    /// row-major. The bench hands these to scikit-learn's MLP so both fit the same numbers.
+    pub fn prepared_inputs(&self, inputs: &Inputs<'_>) -> Result<Vec<f32>, ForecastError> {
+        Ok(input_tensor(&self.config, &self.features, inputs, self.scaler.as_ref())?.0)
+    }
+
     pub fn parameter_count(&self) -> i64 {
         self.vs
             .trainable_variables()
@@ -1030,6 +1041,93 @@ pub fn count_parameters(cfg: &NeuralConfig, width: i64, days: i64) -> i64 {
     vs.trainable_variables().iter().map(|t| t.numel() as i64).sum()
 }
 
+/// Training speed of one network, measured as the PyTorch reference measures it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TrainingThroughput {
+    pub kind: String,
+    pub batch: usize,
+    pub warmup_steps: usize,
+    pub steps: usize,
+    pub threads: usize,
+    pub seconds: f64,
+    pub samples_per_s: f64,
+}
+
+/// Times `steps` training steps of `cfg`'s network on `[rows, days, width]` standard-normal
+/// inputs with 40 % positive labels: a random batch of `cfg.batch_size` rows, forward in
+/// training mode, BCE on the logits, backward, an AdamW step (`cfg.lr`, `cfg.weight_decay`).
+/// `warmup` steps run first and are not timed (allocator and kernel warm-up). This is what
+/// `forecast_torch.py bench` does in PyTorch eager, so the two rates compare the same work.
+pub fn training_throughput(
+    cfg: &NeuralConfig,
+    width: i64,
+    days: i64,
+    rows: i64,
+    warmup: usize,
+    steps: usize,
+    seed: u64,
+) -> Result<TrainingThroughput, ForecastError> {
+    if rows < 1 || steps == 0 {
+        return Err(ForecastError::Config {
+            key: "steps".into(),
+            message: "the throughput bench needs at least one row and one timed step".into(),
+        });
+    }
+    let device = Device::Cpu;
+    tch::manual_seed(seed as i64);
+    let vs = nn::VarStore::new(device);
+    let net = net(cfg, &vs.root(), width, days);
+    let x = Tensor::randn([rows, days, width], (Kind::Float, device));
+    let y = Tensor::rand([rows], (Kind::Float, device))
+        .lt(0.4)
+        .to_kind(Kind::Float);
+    let mut opt = nn::AdamW {
+        wd: cfg.weight_decay,
+        ..Default::default()
+    }
+    .build(&vs, cfg.lr)
+    .map_err(|e| ForecastError::Model(e.to_string()))?;
+    let batch = cfg.batch_size as i64;
+    let mut step = || -> Result<(), ForecastError> {
+        let idx = Tensor::randint(rows, [batch], (Kind::Int64, device));
+        let logits = net.forward_t(&x.index_select(0, &idx), true);
+        let loss = logits.binary_cross_entropy_with_logits::<Tensor>(
+            &y.index_select(0, &idx),
+            None,
+            None,
+            tch::Reduction::Mean,
+        );
+        opt.zero_grad();
+        loss.backward();
+        opt.step();
+        if loss.double_value(&[]).is_finite() {
+            Ok(())
+        } else {
+            Err(ForecastError::Model(format!(
+                "{}: the bench loss is not finite",
+                cfg.kind.as_str()
+            )))
+        }
+    };
+    for _ in 0..warmup {
+        step()?;
+    }
+    let t0 = std::time::Instant::now();
+    for _ in 0..steps {
+        step()?;
+    }
+    let seconds = t0.elapsed().as_secs_f64();
+    Ok(TrainingThroughput {
+        kind: cfg.kind.as_str().into(),
+        batch: cfg.batch_size,
+        warmup_steps: warmup,
+        steps,
+        threads: tch::get_num_threads().max(1) as usize,
+        seconds,
+        samples_per_s: (steps * cfg.batch_size) as f64 / seconds.max(1e-12),
+    })
+}
+
 #[allow(dead_code)]
 fn _assert_module_traits(l: &nn::Linear) -> Tensor {
     l.forward(&Tensor::zeros([1, 1], (Kind::Float, Device::Cpu)))
@@ -1038,4 +1136,21 @@ fn _assert_module_traits(l: &nn::Linear) -> Tensor {
 #[allow(dead_code)]
 fn _assert_module_t(b: &nn::BatchNorm, x: &Tensor) -> Tensor {
     b.forward_t(x, false)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    #[test]
+    fn absent_params_mean_the_kinds_defaults() {
+        // `{kind: mlp}` in an experiment file has no params at all.
+        for kind in [NeuralKind::Mlp, NeuralKind::CnnBilstm, NeuralKind::Firecast] {
+            let cfg = NeuralConfig::parse(kind, &serde_json::Value::Null).unwrap();
+            assert_eq!(cfg, NeuralConfig::defaults(kind));
+        }
+        let e = NeuralConfig::parse(NeuralKind::Mlp, &serde_json::json!({"kind": "lstm2"})).unwrap_err();
+        assert!(e.to_string().contains("kind"), "{e}");
+    }
 }

@@ -1,6 +1,8 @@
 //! Pictures of an experiment: ROC and precision–recall curves overlaid per protocol,
 //! reliability diagrams, confusion matrices, an AUROC forest plot with intervals, training
-//! curves; plus the same data in DVCLive's plot-file shapes and a long predictions CSV.
+//! curves; plus the same data as DVCLive's plot files, one per model and protocol (what
+//! `dvc plots` reads: [`dvc_plot_file`]), all models of a protocol in one file for scripts
+//! (`roc_<protocol>.json`, …), and a long predictions CSV.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -46,6 +48,23 @@ fn mean_scores(scores: &[Vec<f64>]) -> Vec<f64> {
     (0..n)
         .map(|i| scores.iter().map(|s| s[i]).sum::<f64>() / scores.len() as f64)
         .collect()
+}
+
+/// The DVCLive plots written per model and protocol: (file stem, its plot).
+pub const DVC_PLOTS: [(&str, firecast_pipeline::dvc::SklearnPlot); 4] = [
+    ("roc", firecast_pipeline::dvc::SklearnPlot::Roc),
+    (
+        "precision_recall",
+        firecast_pipeline::dvc::SklearnPlot::PrecisionRecall,
+    ),
+    ("calibration", firecast_pipeline::dvc::SklearnPlot::Calibration),
+    ("confusion", firecast_pipeline::dvc::SklearnPlot::ConfusionMatrix),
+];
+
+/// A model's DVCLive plot file under one protocol, relative to the experiment folder:
+/// `plots/<plot>_<protocol>_<model>.json` with `plot` a stem of [`DVC_PLOTS`].
+pub fn dvc_plot_file(plot: &str, protocol: &str, model: &str) -> String {
+    format!("plots/{plot}_{protocol}_{}.json", sanitize(model))
 }
 
 /// Writes every plot and plot file of `result` into `out/plots`, and `predictions.csv`.
@@ -132,9 +151,23 @@ pub fn write_all(
             )
             .map_err(|e| ForecastError::Model(e.to_string()))?;
             let (prob_true, prob_pred) = (cal.prob_true.clone(), cal.prob_pred.clone());
-            dvc_roc.insert(model.clone(), firecast_eval::dvc::roc_plot(&roc_pts));
-            dvc_pr.insert(model.clone(), firecast_eval::dvc::precision_recall_plot(&pr_pts));
-            dvc_cal.insert(model.clone(), firecast_eval::dvc::calibration_plot(&cal));
+            let (roc_file, pr_file, cal_file) = (
+                firecast_eval::dvc::roc_plot(&roc_pts),
+                firecast_eval::dvc::precision_recall_plot(&pr_pts),
+                firecast_eval::dvc::calibration_plot(&cal),
+            );
+            // One curve per file, exactly DVCLive's shape: DVC merges the lists of a file
+            // row by row, so several models in one file would not plot.
+            for (stem, value) in [
+                ("roc", &roc_file),
+                ("precision_recall", &pr_file),
+                ("calibration", &cal_file),
+            ] {
+                write_json(&out.join(dvc_plot_file(stem, p, model)), value)?;
+            }
+            dvc_roc.insert(model.clone(), roc_file);
+            dvc_pr.insert(model.clone(), pr_file);
+            dvc_cal.insert(model.clone(), cal_file);
             // Confusion matrix of the first seed at its threshold.
             if let (Some(first), Some(&t)) = (scores.first(), thresholds.first()) {
                 let c = firecast_eval::metrics::Confusion::at(y, first, t);
@@ -145,7 +178,7 @@ pub fn write_all(
                     .save_png(&path)
                     .map_err(render_err(&path))?;
                 write_json(
-                    &dir.join(format!("confusion_{p}_{}.json", sanitize(model))),
+                    &out.join(dvc_plot_file("confusion", p, model)),
                     &firecast_eval::dvc::confusion(y, first, t)
                         .map_err(|e| ForecastError::Model(e.to_string()))?,
                 )?;

@@ -6,8 +6,11 @@
 //! `forecast.predict`: one place and day scored by every training seed of one model of such
 //! an experiment; the seeds' mean, their range and the mean threshold.
 
+use std::collections::BTreeMap;
+use std::path::PathBuf;
 use std::sync::Mutex;
 
+use firecast_pipeline::dvc::MetricsAndPlots;
 use firecast_pipeline::{ParamsError, Port, Ports, StageContext, StageError, StageKind, typed_params};
 
 use crate::experiment::Sink;
@@ -60,7 +63,8 @@ impl StageKind for ExperimentStage {
         "forecast.experiment"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: DVCLive plot files per model and protocol.
+        2
     }
     fn summary(&self) -> &'static str {
         "ignition dataset -> Table III: every model x protocol x seed, intervals, paired tests, plots, saved models"
@@ -94,6 +98,39 @@ impl StageKind for ExperimentStage {
             },
         })?;
         Ok(v)
+    }
+    /// `metrics.json` (`{protocol: {model: {metric: value}}}`) and, per protocol, the ROC,
+    /// precision-recall and calibration curves of every model overlaid, and their confusion
+    /// matrices side by side.
+    fn metrics_and_plots(
+        &self,
+        params: &serde_json::Value,
+        outputs: &BTreeMap<String, PathBuf>,
+    ) -> MetricsAndPlots {
+        let (Ok(spec), Some(out)) = (
+            firecast_pipeline::stage::deserialize_params::<ExperimentSpec>(params),
+            outputs.get("report"),
+        ) else {
+            return MetricsAndPlots::default();
+        };
+        let models: Vec<String> = spec.models.iter().map(crate::spec::ModelEntry::label).collect();
+        let mut found = MetricsAndPlots {
+            metrics: vec![out.join("metrics.json")],
+            plots: Vec::new(),
+        };
+        for protocol in spec.protocols.keys() {
+            for (stem, plot) in crate::plots::DVC_PLOTS {
+                let files = models
+                    .iter()
+                    .map(|m| out.join(crate::plots::dvc_plot_file(stem, protocol, m)));
+                found.plots.push(plot.plot(
+                    format!("{stem}-{protocol}"),
+                    &format!("{}, protocol {protocol}", spec.name),
+                    files,
+                ));
+            }
+        }
+        found
     }
     fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
         // libtorch's one generator: stages using it run one at a time (reproducible).
@@ -138,6 +175,85 @@ impl StageKind for ExperimentStage {
                     }
                 }
             }
+            Ok(())
+        })
+    }
+}
+
+/// `forecast.evaluate`: the saved models of an experiment (its report folder, or any folder
+/// of model bundles) scored on another dataset, reported like an experiment.
+#[derive(Debug, Default)]
+pub struct EvaluateStage;
+
+impl StageKind for EvaluateStage {
+    fn name(&self) -> &'static str {
+        "forecast.evaluate"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn summary(&self) -> &'static str {
+        "saved models + another ignition dataset -> the experiment's table, intervals, paired test and plots"
+    }
+    fn ports(&self) -> Ports {
+        const IN: &[Port] = &[
+            port(
+                "models",
+                true,
+                "saved models: an experiment's report folder or model folders (directory)",
+            ),
+            port("dataset", true, "ignition dataset to score them on (directory)"),
+        ];
+        const OUT: &[Port] = &[port(
+            "report",
+            true,
+            "table, results.json, metrics, plots (directory)",
+        )];
+        Ports {
+            inputs: IN,
+            outputs: OUT,
+            open: false,
+        }
+    }
+    fn resolve_params(&self, raw: &serde_json::Value) -> Result<serde_json::Value, ParamsError> {
+        let (params, v) = typed_params::<crate::evaluate::EvaluateParams>(raw)?;
+        crate::parse_device(&params.device).map_err(|e| ParamsError {
+            path: "device".into(),
+            message: e.to_string(),
+        })?;
+        Ok(v)
+    }
+    /// `metrics.json` only: which models and protocols get plot files is known once the
+    /// saved models are read.
+    fn metrics_and_plots(
+        &self,
+        _params: &serde_json::Value,
+        outputs: &BTreeMap<String, PathBuf>,
+    ) -> MetricsAndPlots {
+        MetricsAndPlots {
+            metrics: outputs.get("report").map(|o| o.join("metrics.json")).into_iter().collect(),
+            plots: Vec::new(),
+        }
+    }
+    fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
+        firecast_learn::exclusive(|| {
+            let params: crate::evaluate::EvaluateParams = ctx.params()?;
+            let models = ctx.input("models")?.to_path_buf();
+            let dataset = ctx.input("dataset")?.to_path_buf();
+            let out = ctx.output("report")?.to_path_buf();
+            let device = crate::parse_device(&params.device)?;
+            firecast_learn::set_threads(ctx.jobs());
+            let windows = crate::data::Windows::load(&dataset)?;
+            let bar = ctx.progress_bar(1, "models");
+            let sink = StageSink {
+                ctx,
+                bar,
+                log: Mutex::new(Vec::new()),
+            };
+            let (result, predictions) = crate::evaluate::evaluate(&models, &windows, &params, device, &sink)?;
+            sink.bar.finish_and_clear();
+            crate::table::write_all(&out, &result)?;
+            crate::plots::write_all(&out, &result, &predictions, &windows)?;
             Ok(())
         })
     }

@@ -226,7 +226,7 @@ pub fn csv(result: &ExperimentResult) -> String {
     for m in metrics {
         let _ = write!(out, ",{m},{m}_low,{m}_high,{m}_seed_std");
     }
-    out.push_str(",parameters,fit_seconds\n");
+    out.push_str(",parameters\n");
     for p in &result.protocols {
         for r in rows(result, &p.name) {
             let first = r.runs.first();
@@ -247,12 +247,7 @@ pub fn csv(result: &ExperimentResult) -> String {
                 let sd = r.seed_std.get(m).copied().unwrap_or(f64::NAN);
                 let _ = write!(out, ",{v},{lo},{hi},{sd}");
             }
-            let fit: f64 = r.runs.iter().map(|s| s.fit_seconds).sum::<f64>() / r.runs.len().max(1) as f64;
-            let _ = writeln!(
-                out,
-                ",{},{fit}",
-                r.parameters.map_or(String::new(), |p| p.to_string())
-            );
+            let _ = writeln!(out, ",{}", r.parameters.map_or(String::new(), |p| p.to_string()));
         }
     }
     out

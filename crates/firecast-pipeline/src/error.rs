@@ -107,18 +107,63 @@ impl StageError {
 
 impl fmt::Display for StageError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.0)?;
+        // Many errors already print their source inline (`{context}: {source}`); a cause
+        // whose text ends what is written so far is not repeated.
+        let mut text = self.0.to_string();
         let mut source = self.0.source();
         while let Some(cause) = source {
-            write!(f, ": {cause}")?;
+            let cause_text = cause.to_string();
+            if !text.ends_with(&cause_text) {
+                text.push_str(": ");
+                text.push_str(&cause_text);
+            }
             source = cause.source();
         }
-        Ok(())
+        f.write_str(&text)
     }
 }
 
 impl<E: std::error::Error + Send + Sync + 'static> From<E> for StageError {
     fn from(error: E) -> Self {
         Self(Box::new(error))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::StageError;
+
+    #[derive(Debug, thiserror::Error)]
+    enum Inner {
+        #[error("libxgboost.so not found")]
+        Missing,
+    }
+
+    #[derive(Debug, thiserror::Error)]
+    enum Outer {
+        /// Prints its source inline, as many errors here do.
+        #[error("model `xgboost`: {source}")]
+        Inline {
+            #[source]
+            source: Inner,
+        },
+        /// Leaves the source to the chain.
+        #[error("cannot fit")]
+        Chained {
+            #[source]
+            source: Inner,
+        },
+    }
+
+    #[test]
+    fn the_chain_is_printed_once() {
+        let inline = StageError::from(Outer::Inline {
+            source: Inner::Missing,
+        });
+        assert_eq!(inline.to_string(), "model `xgboost`: libxgboost.so not found");
+        let chained = StageError::from(Outer::Chained {
+            source: Inner::Missing,
+        });
+        assert_eq!(chained.to_string(), "cannot fit: libxgboost.so not found");
     }
 }

@@ -17,13 +17,11 @@ pub fn locate_key(source: &str, path: &[&str]) -> Option<(usize, usize)> {
             continue;
         }
         let mut indent = raw_line.len() - trimmed.len();
-        // Left the block of the last matched key?
-        while let Some(&top) = matched_indents.last() {
-            if indent <= top {
-                matched_indents.pop();
-            } else {
-                break;
-            }
+        // Leaving the block of the last matched key ends the search: keys are unique in a
+        // mapping, so the next segment is not elsewhere (a key of the same name further down,
+        // say a `windows:` input of another stage, must not match).
+        if matched_indents.last().is_some_and(|&top| indent <= top) {
+            break;
         }
         let depth = matched_indents.len();
         if depth >= path.len() {
@@ -102,5 +100,13 @@ stages:
         );
         assert_eq!(locate_key(SOURCE, &["stages", "missing"]), Some((4, 1)));
         assert_eq!(locate_key(SOURCE, &["nothing"]), None);
+    }
+
+    #[test]
+    fn a_later_key_of_the_same_name_does_not_match() {
+        // `windows` reappears as an input of the next stage.
+        let source = "stages:\n  windows:\n    uses: data.windows\n    shards: 16\n  dataset:\n    inputs:\n      windows: {from: windows.windows}\n";
+        assert_eq!(locate_key(source, &["stages", "windows", "shards"]), Some((4, 5)));
+        assert_eq!(locate_key(source, &["stages", "windows", "params"]), Some((2, 3)));
     }
 }

@@ -79,6 +79,16 @@ pub trait StageKind: Send + Sync {
     fn sharded(&self) -> Option<&dyn ShardedKind> {
         None
     }
+    /// The metrics and plot files (DVC's formats) this kind writes inside its outputs, given
+    /// the resolved params and each output's path relative to the root; the DVC export
+    /// declares them so `dvc metrics show` and `dvc plots show` find them.
+    fn metrics_and_plots(
+        &self,
+        _params: &serde_json::Value,
+        _outputs: &BTreeMap<String, PathBuf>,
+    ) -> crate::dvc::MetricsAndPlots {
+        crate::dvc::MetricsAndPlots::default()
+    }
 }
 
 /// One shard of a sharded stage: `index` of `count` (`--shard 2/8`).
@@ -136,6 +146,19 @@ pub trait ShardedKind: Send + Sync {
         parts: &[PathBuf],
         outputs: &BTreeMap<String, PathBuf>,
     ) -> Result<Vec<String>, StageError>;
+    /// Which of `files` (paths inside the folder given as input `input`) shard `shard` reads;
+    /// `None` (the default): all of them. A remote worker fetches only these and leaves the
+    /// others as empty files, so the folder lists the same in every shard while each shard
+    /// moves only its own data (a shard that opens one anyway fails on an empty file).
+    fn shard_reads(
+        &self,
+        _params: &serde_json::Value,
+        _shard: Shard,
+        _input: &str,
+        _files: &[&str],
+    ) -> Option<Vec<bool>> {
+        None
+    }
 }
 
 /// The kinds a `firecast` binary knows.

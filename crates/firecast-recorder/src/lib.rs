@@ -1,5 +1,7 @@
 //! Rerun recordings (`.rrd`) of pipeline and training runs, written into the artifact
-//! store. Later crates log rollouts and training curves through [`Recording`].
+//! store. Later crates log rollouts and training curves through [`Recording`];
+//! [`MetricsMirror`] turns every stage run's metrics into a `metrics.rrd` of scalar time
+//! series, and can stream them to a running viewer as well ([`Viewer`]).
 //!
 //! `.rrd` is a viewing format, not an archive: Rerun only promises that a viewer reads
 //! files of its own and the previous minor version. Canonical numbers live in the
@@ -7,9 +9,13 @@
 //! the same version: `pip install rerun-sdk==0.36.3` then `rerun FILE.rrd`.
 
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use firecast_store::{ArtifactStore, StoredArtifact};
 
+mod metrics;
+
+pub use metrics::{METRICS_ARTIFACT, MetricsMirror, entity_path};
 pub use rerun;
 
 /// The Rerun version recordings are written with (the viewer must match).
@@ -36,11 +42,72 @@ pub enum RecorderError {
     },
     #[error(transparent)]
     Store(#[from] firecast_store::StoreError),
+    #[error(
+        "`{url}` is not a Rerun viewer address: {message} (expected rerun+http://HOST:PORT/proxy, e.g. rerun+http://127.0.0.1:9876/proxy)"
+    )]
+    ViewerUrl { url: String, message: String },
+    #[error("no Rerun viewer listens at {url}: {message}")]
+    ViewerUnreachable { url: String, message: String },
 }
 
-/// A recording being written to a local staging file.
+/// A running Rerun viewer (or `rerun --serve-grpc`) that recordings also stream to.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Viewer {
+    url: String,
+    /// `host:port` to probe.
+    address: String,
+}
+
+impl Viewer {
+    /// A viewer's gRPC address: `rerun+http://HOST:PORT/proxy` (what `rerun` prints).
+    pub fn parse(url: &str) -> Result<Self, RecorderError> {
+        use std::str::FromStr as _;
+        let bad = |message: String| RecorderError::ViewerUrl {
+            url: url.to_string(),
+            message,
+        };
+        let uri = rerun::external::re_uri::ProxyUri::from_str(url).map_err(|e| bad(e.to_string()))?;
+        Ok(Self {
+            url: url.to_string(),
+            address: format!("{}:{}", uri.origin.host, uri.origin.port),
+        })
+    }
+
+    pub fn url(&self) -> &str {
+        &self.url
+    }
+
+    /// Whether something accepts connections there. Rerun's gRPC sink retries an absent
+    /// viewer forever and then blocks the logging thread once its queue is full, so a
+    /// stream is only opened to a viewer that answered.
+    pub fn probe(&self, timeout: Duration) -> Result<(), RecorderError> {
+        use std::net::ToSocketAddrs as _;
+        let unreachable = |message: String| RecorderError::ViewerUnreachable {
+            url: self.url.clone(),
+            message,
+        };
+        let addresses = self
+            .address
+            .to_socket_addrs()
+            .map_err(|e| unreachable(e.to_string()))?;
+        let mut last = String::from("the host name resolves to no address");
+        for address in addresses {
+            match std::net::TcpStream::connect_timeout(&address, timeout) {
+                Ok(_) => return Ok(()),
+                Err(e) => last = e.to_string(),
+            }
+        }
+        Err(unreachable(last))
+    }
+}
+
+/// A recording being written to a local staging file (and, optionally, to a viewer).
 pub struct Recording {
     stream: rerun::RecordingStream,
+    /// A second stream with the same recording id to a live viewer. Separate from the file
+    /// stream (not one stream with two sinks) so a viewer that goes away never makes the
+    /// file's flush fail: Rerun's multi-sink flush reports the worst error of its sinks.
+    live: Option<rerun::RecordingStream>,
     staging: PathBuf,
 }
 
@@ -59,6 +126,19 @@ impl Recording {
         application_id: &str,
         recording_name: &str,
         staging_dir: &Path,
+    ) -> Result<Self, RecorderError> {
+        Self::create_with_viewer(application_id, recording_name, None, staging_dir, None)
+    }
+
+    /// Like [`Recording::create`], with a fixed recording id (so the file and a live view
+    /// are the same recording in the viewer) and scalars also streamed to `viewer`. Check the
+    /// viewer with [`Viewer::probe`] first: an absent one would block logging.
+    pub fn create_with_viewer(
+        application_id: &str,
+        recording_name: &str,
+        recording_id: Option<&str>,
+        staging_dir: &Path,
+        viewer: Option<&Viewer>,
     ) -> Result<Self, RecorderError> {
         // Rerun would silently rewrite an invalid id (and append a hash); refuse instead,
         // so recordings group under the name the user chose.
@@ -84,11 +164,25 @@ impl Recording {
             })
             .collect();
         let staging = staging_dir.join(format!(".{safe_name}.rrd.partial"));
-        let stream = rerun::RecordingStreamBuilder::new(app_id)
-            .recording_name(recording_name)
-            .enabled(true)
-            .save(&staging)?;
-        Ok(Self { stream, staging })
+        let builder = || {
+            let b = rerun::RecordingStreamBuilder::new(app_id.clone())
+                .recording_name(recording_name)
+                .enabled(true);
+            match recording_id {
+                Some(id) => b.recording_id(id),
+                None => b,
+            }
+        };
+        let stream = builder().save(&staging)?;
+        let live = match viewer {
+            Some(v) => Some(builder().connect_grpc_opts(v.url())?),
+            None => None,
+        };
+        Ok(Self {
+            stream,
+            live,
+            staging,
+        })
     }
 
     /// The Rerun stream, for logging any archetype.
@@ -106,19 +200,53 @@ impl Recording {
     ) -> Result<(), RecorderError> {
         let timeline = rerun::TimelineName::try_new(timeline)
             .map_err(|e| RecorderError::Timeline(timeline.to_string(), e.to_string()))?;
-        self.stream.set_time_sequence(timeline, step);
-        self.stream.log(entity_path, &rerun::Scalars::single(value))?;
+        // Time is per thread and per stream: set and log on the same thread, every time.
+        for stream in std::iter::once(&self.stream).chain(&self.live) {
+            stream.set_time_sequence(timeline, step);
+            stream.log(entity_path, &rerun::Scalars::single(value))?;
+        }
         Ok(())
     }
 
-    fn close(self) -> Result<PathBuf, RecorderError> {
+    /// Whether scalars are also streamed to a viewer.
+    pub fn is_live(&self) -> bool {
+        self.live.is_some()
+    }
+
+    /// Send what is queued to the viewer (waiting at most `timeout`) and stop streaming to
+    /// it; the file is not affected.
+    pub fn disconnect_viewer(&mut self, timeout: Duration) -> Result<(), RecorderError> {
+        match self.live.take() {
+            Some(live) => live
+                .flush_with_timeout(timeout)
+                .map_err(|e| RecorderError::Flush(e.to_string())),
+            None => Ok(()),
+        }
+    }
+
+    fn close(mut self) -> Result<PathBuf, RecorderError> {
+        // A viewer's trouble is not the file's: its error is dropped here (callers that care
+        // call `disconnect_viewer` first).
+        let _ignored = self.disconnect_viewer(Duration::from_secs(10));
         self.stream
             .flush_blocking()
             .map_err(|e| RecorderError::Flush(e.to_string()))?;
-        let Self { stream, staging } = self;
+        let Self { stream, staging, .. } = self;
         // Dropping the last handle closes the file sink.
         drop(stream);
         Ok(staging)
+    }
+
+    /// Stop without finishing: the staging file is removed, nothing is published.
+    pub fn abandon(self) {
+        let Self {
+            stream,
+            live,
+            staging,
+        } = self;
+        drop(live);
+        drop(stream);
+        let _ignored = std::fs::remove_file(&staging);
     }
 
     /// Finish and move the recording to `dest` (never visible half-written).

@@ -134,6 +134,8 @@ pub struct MetricSummary {
     pub min_step: i64,
     pub max: f64,
     pub max_step: i64,
+    /// Mean over steps: over seeds for an experiment's test metrics (logged at step = seed).
+    pub mean: f64,
 }
 
 /// An artifact row.
@@ -417,7 +419,7 @@ impl Registry {
         )?;
         let mut stmt = conn.prepare(
             "SELECT key, count(*), arg_max(step, step), arg_max(value, step), min(value), arg_min(step, value),
-                    max(value), arg_max(step, value)
+                    max(value), arg_max(step, value), avg(value)
              FROM metrics WHERE run_id = ? GROUP BY key ORDER BY key",
         )?;
         let metrics = stmt
@@ -431,6 +433,7 @@ impl Registry {
                     min_step: r.get(5)?,
                     max: r.get(6)?,
                     max_step: r.get(7)?,
+                    mean: r.get(8)?,
                 })
             })?
             .collect::<Result<_, _>>()?;

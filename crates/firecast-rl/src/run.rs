@@ -35,8 +35,6 @@ pub struct SeedSummary {
     /// Folder of the final policy (relative to the run's output).
     pub policy: String,
     pub parameters: i64,
-    /// Seconds of this process's training (not counting earlier, resumed parts).
-    pub seconds: f64,
 }
 
 /// `summary.json`.
@@ -70,6 +68,11 @@ impl TrainSink for SeedSink<'_> {
         row.insert("timesteps".into(), timesteps.into());
         for (k, v) in metrics {
             self.run.metric(self.seed, timesteps, k, *v);
+            // Wall-clock speed goes to the registry only, so the run's files are the same
+            // bytes for the same config and seed.
+            if k == "time/fps" {
+                continue;
+            }
             row.insert(
                 k.clone(),
                 serde_json::Number::from_f64(*v).map_or(serde_json::Value::Null, Into::into),
@@ -194,8 +197,14 @@ pub fn train(
             ep_len_mean: mean(&|e| e.length as f64),
             policy: format!("seed-{seed}/policy"),
             parameters: trainer.policy.parameter_count(),
-            seconds: started.elapsed().as_secs_f64(),
         });
+        // Seconds of this process's training (not earlier, resumed parts): registry only.
+        sink.metric(
+            seed,
+            trainer.num_timesteps,
+            "time/seconds",
+            started.elapsed().as_secs_f64(),
+        );
     }
     let summary = TrainSummary {
         name: spec.name.clone(),

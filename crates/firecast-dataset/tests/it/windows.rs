@@ -135,3 +135,72 @@ fn a_missing_file_or_unknown_variable_is_an_error_that_names_it() {
         "`variables[1]`: unknown GRIDMET variable `tmax`"
     );
 }
+
+/// What a sharded `data.windows` does: the variables gathered in separate ranges and put
+/// together give the whole extraction, with every kind of dropped sample (outside the years,
+/// off the grid, days missing in a file: `*_2020.nc` are copies of 2019's files, so 2020's
+/// days are not in them). The stage's shards and merge are checked end to end by the CLI
+/// tests (`tests/cli/ray.rs`).
+#[test]
+fn variables_gathered_in_ranges_assemble_into_the_whole_extraction() {
+    use firecast_dataset::windows::{ExtractPlan, assemble};
+
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    for f in ["pr_2018.nc", "pr_2019.nc", "tmmx_2018.nc", "tmmx_2019.nc"] {
+        std::fs::copy(fixtures().join("gridmet").join(f), dir.join(f)).unwrap();
+    }
+    for v in ["pr", "tmmx"] {
+        std::fs::copy(
+            fixtures().join("gridmet").join(format!("{v}_2019.nc")),
+            dir.join(format!("{v}_2020.nc")),
+        )
+        .unwrap();
+    }
+    let samples = vec![
+        sample(0, 0, 0, utc(2018, 6, 1, 12)),
+        sample(1, 3, 4, utc(2018, 6, 1, 12)), // the masked cell: kept, all missing
+        sample(2, 1, 2, utc(2019, 1, 10, 12)), // across the year boundary
+        sample(3, 0, 0, utc(2018, 1, 20, 12)), // needs 2017
+        sample(4, 2, 3, utc(2019, 12, 25, 12)), // needs 2020's days: not in the files
+        SampleIn {
+            lat: 45.0,
+            ..sample(5, 0, 0, utc(2018, 6, 1, 12))
+        }, // off the grid
+        sample(6, 2, 1, utc(2019, 7, 4, 20)),
+    ];
+    let (whole, report) = extract(&samples, dir, &config(), true, &|_, _| {}).unwrap();
+    assert_eq!(report.samples_out, 4);
+    for reason in [
+        "window_outside_gridmet_years",
+        "outside_gridmet_grid",
+        "days_missing_in_gridmet_file",
+    ] {
+        assert_eq!(report.dropped.get(reason), Some(&1), "{reason}: {report:?}");
+    }
+    assert_eq!(report.files_read, 6);
+
+    let plan = ExtractPlan::new(&samples, dir, &config()).unwrap();
+    let parts = vec![
+        plan.gather(0..1, true, &|_, _| {}).unwrap(),
+        plan.gather(1..2, true, &|_, _| {}).unwrap(),
+    ];
+    assert!(parts.iter().all(|p| p.files_read == 3));
+    let (joined, joined_report, slots) = assemble(plan.head().clone(), parts.clone()).unwrap();
+    assert_eq!(joined_report, report);
+    assert_eq!(joined.samples, whole.samples);
+    assert_eq!(joined.features, whole.features);
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&joined.values), bits(&whole.values));
+    // Slots are positions among the samples with windows: sample 4 (slot 3) was dropped.
+    assert_eq!(slots, vec![0, 1, 2, 4]);
+
+    // Parts out of order, or not covering every variable, are refused.
+    let swapped = vec![parts[1].clone(), parts[0].clone()];
+    assert!(matches!(
+        assemble(plan.head().clone(), swapped),
+        Err(DatasetError::Shard(_))
+    ));
+    let err = assemble(plan.head().clone(), vec![parts[0].clone()]).unwrap_err();
+    assert_eq!(err.to_string(), "the gathered variables cover 1 of 2");
+}

@@ -65,3 +65,138 @@ fn application_ids_follow_rerun_rules() {
         "{err}"
     );
 }
+
+/// Scalar rows per entity of an `.rrd`, read with the venv's Rerun SDK.
+fn scalar_rows(path: &std::path::Path) -> std::collections::BTreeMap<String, Vec<(i64, f64)>> {
+    const READ: &str = r#"
+import json, sys
+from rerun.experimental import RrdReader
+series = {}
+for chunk in RrdReader(sys.argv[1]).stream():
+    batch = chunk.to_record_batch()
+    if chunk.is_static or "step" not in batch.schema.names:
+        continue
+    rows = series.setdefault(chunk.entity_path.lstrip("/"), [])
+    for step, values in zip(batch.column("step").to_pylist(), batch.column("Scalars:scalars").to_pylist()):
+        rows.extend([step, v] for v in values)
+for rows in series.values():
+    rows.sort()
+json.dump(series, sys.stdout)
+"#;
+    let python = rerun_cli().with_file_name("python");
+    let out = Command::new(&python)
+        .arg("-c")
+        .arg(READ)
+        .arg(path)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}: {}",
+        python.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn metrics_mirror_records_every_run_from_many_threads() {
+    use std::sync::Arc;
+
+    use firecast_pipeline::executor::{ObservedEvent, RecordingObserver};
+    use firecast_pipeline::observer::StageRunInfo;
+    use firecast_pipeline::{RunObserver, RunStatus};
+
+    let dir = tempfile::tempdir().unwrap();
+    let store = Arc::new(firecast_store::ArtifactStore::open("artifacts", dir.path()).unwrap());
+    let registry = Arc::new(RecordingObserver::default());
+    let staging = dir.path().join("staging");
+    let mirror = firecast_recorder::MetricsMirror::new(
+        registry.clone(),
+        store.clone(),
+        staging.clone(),
+        None,
+        |warning| panic!("unexpected warning: {warning}"),
+    );
+    let info = |run: &str| StageRunInfo {
+        run_id: run.into(),
+        pipeline_run_id: "p".into(),
+        parent_run_id: None,
+        pipeline: "demo".into(),
+        stage: format!("stage-{run}"),
+        kind: "cmd".into(),
+        kind_version: 1,
+        params: serde_json::json!({}),
+        cache_key: "k".into(),
+        git_commit: None,
+        started_at: chrono::Utc::now(),
+    };
+    // Three runs at once, each fed by two threads (as parallel stages and their workers do);
+    // run `c` fails halfway and keeps its curves; run `quiet` reports no metric.
+    let runs = ["a", "b", "c"];
+    for run in runs.iter().chain(&["quiet"]) {
+        mirror.stage_started(&info(run)).unwrap();
+    }
+    std::thread::scope(|scope| {
+        for run in runs {
+            for thread in 0..2_i64 {
+                let mirror = &mirror;
+                scope.spawn(move || {
+                    for step in 0..50 {
+                        let key = format!("seed-{thread}/train/loss");
+                        mirror
+                            .metric(run, &key, step, (step * 10 + thread) as f64)
+                            .unwrap();
+                    }
+                });
+            }
+        }
+    });
+    let now = chrono::Utc::now();
+    mirror
+        .stage_finished("a", RunStatus::Succeeded, now, None)
+        .unwrap();
+    mirror
+        .stage_finished("b", RunStatus::Succeeded, now, None)
+        .unwrap();
+    mirror
+        .stage_finished("c", RunStatus::Failed, now, Some("stopped"))
+        .unwrap();
+    mirror
+        .stage_finished("quiet", RunStatus::Succeeded, now, None)
+        .unwrap();
+    drop(mirror);
+
+    let events = Arc::try_unwrap(registry).unwrap().into_events();
+    let metrics = events
+        .iter()
+        .filter(|e| matches!(e, ObservedEvent::Metric { .. }))
+        .count();
+    assert_eq!(metrics, 3 * 2 * 50, "every metric reaches the registry too");
+    let artifacts: Vec<(&str, u64)> = events
+        .iter()
+        .filter_map(|e| match e {
+            ObservedEvent::Artifact { name, uri, size, .. } => {
+                assert_eq!(name, firecast_recorder::METRICS_ARTIFACT);
+                Some((uri.as_str(), *size))
+            }
+            _ => None,
+        })
+        .collect();
+    assert_eq!(artifacts.len(), 3, "{artifacts:?}");
+    for (run, (uri, size)) in runs.iter().zip(&artifacts) {
+        assert!(uri.ends_with(&format!("runs/{run}/metrics/metrics.rrd")), "{uri}");
+        let local = dir.path().join(format!("{run}.rrd"));
+        assert_eq!(store.get_to_file(uri, &local).unwrap(), *size);
+        let rows = scalar_rows(&local);
+        for thread in 0..2_i64 {
+            let expected: Vec<(i64, f64)> = (0..50).map(|s| (s, (s * 10 + thread) as f64)).collect();
+            assert_eq!(rows[&format!("seed-{thread}/train/loss")], expected, "run {run}");
+        }
+    }
+    assert_eq!(
+        std::fs::read_dir(&staging).unwrap().count(),
+        0,
+        "no staging file is left"
+    );
+}
