@@ -2,7 +2,7 @@
 //! pipeline (`rl.train`, `rl.evaluate`) so they are cached, registered and uploaded like
 //! every other stage.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context as _;
@@ -263,56 +263,87 @@ fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode
     Ok(ExitCode::SUCCESS)
 }
 
+/// A part of `bench ppo`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BenchPart {
+    /// CartPole-v1, MLP policy, RL-Zoo's settings, one torch thread each.
+    A,
+    /// The helitack environment with the compact policy; SB3 drives it through the Python
+    /// package (`firecast.HelitackVecEnv`).
+    B,
+    /// SB3 on the FireCastRL Python environment (needs --reference-env) against FireCast on
+    /// the same map, compact policy.
+    C,
+}
+
 #[derive(Debug, Args)]
 pub struct BenchPpoArgs {
-    /// Environment steps per phase.
+    /// Parts to run (comma-separated): a (CartPole), b (helitack through the Python package),
+    /// c (SB3 on the FireCastRL environment; skipped without --reference-env).
+    #[arg(long, value_delimiter = ',', default_value = "a,b,c")]
+    pub parts: Vec<BenchPart>,
+    /// Environment steps per phase in (a).
     #[arg(long, default_value_t = 50_000)]
     pub steps: u64,
+    /// Environment steps per phase in (b).
+    #[arg(long, default_value_t = 4096)]
+    pub helitack_steps: u64,
+    /// Environment steps per phase in (c) (the FireCastRL environment steps about 60 times a
+    /// second per core).
+    #[arg(long, default_value_t = 1024)]
+    pub reference_steps: u64,
+    /// Torch threads of each side in (b) and (c) [default: every core]. (a) uses one.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Override a PPO setting of (b) and (c) (the `paper` preset): `-S n_steps=16` (value read
+    /// as YAML; `ppo.` prefix optional).
+    #[arg(short = 'S', long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Python with stable-baselines3 [default: $FIRECAST_VENV, ./.venv, python3].
+    /// Python with stable-baselines3 (and, for (b), the firecast package)
+    /// [default: $FIRECAST_VENV, ./.venv, python3].
     #[arg(long, value_name = "PATH")]
     pub python: Option<PathBuf>,
+    /// (c): a checkout of aisystems-lab/wildfire-env (the folder holding `firecastrl_env`), as
+    /// for `firecast bench sim --reference-env`.
+    #[arg(long, value_name = "DIR")]
+    pub reference_env: Option<PathBuf>,
+    /// (c): Python with stable-baselines3 and the FireCastRL environment's dependencies
+    /// (gymnasium, numpy, pillow, websockets, requests) [default: --python].
+    #[arg(long, value_name = "PATH", requires = "reference_env")]
+    pub reference_python: Option<PathBuf>,
+}
+
+/// One part's result: both sides, the ratios and the goal on training.
+#[derive(Debug, serde::Serialize)]
+struct BenchPartReport {
+    part: BenchPart,
+    task: String,
+    steps: u64,
+    threads: usize,
+    firecast: firecast_rl::bench::BenchRun,
+    sb3: serde_json::Value,
+    ratios: serde_json::Value,
+    /// Goal on training steps per second, FireCast / SB3.
+    goal: f64,
 }
 
 #[derive(Debug, serde::Serialize)]
 struct BenchPpoReport {
-    task: &'static str,
-    steps: u64,
-    threads: usize,
-    firecast: firecast_rl::bench::PhaseSpeeds,
-    sb3: serde_json::Value,
-    ratios: serde_json::Value,
+    parts: Vec<BenchPartReport>,
+    skipped: Vec<String>,
 }
 
-/// `firecast bench ppo`: (a) CartPole-v1 with the MLP policy and RL-Zoo's settings,
-/// FireCast beside SB3 in the same command, one torch thread each.
-pub fn bench_ppo(settings: &Settings, args: &BenchPpoArgs) -> anyhow::Result<ExitCode> {
-    let ppo = firecast_rl::ppo::PpoConfig::cartpole_zoo();
-    firecast_learn::set_threads(1);
-    eprintln!(
-        "FireCast PPO on CartPole-v1 ({} steps per phase, 1 thread) ...",
-        args.steps
-    );
-    let firecast = firecast_rl::bench::cartpole(&ppo, args.steps, args.seed)?;
-    let python = firecast_dataset::bench::find_python(args.python.as_deref(), &settings.root);
-    eprintln!(
-        "SB3 PPO on CartPole-v1 with the same settings ({}) ...",
-        python.display()
-    );
-    let lr = ppo.learning_rate.at(1.0);
-    let clip = ppo.clip_range.at(1.0);
-    let cfg = serde_json::json!({
-        "n_envs": ppo.n_envs, "steps": args.steps, "seed": args.seed, "n_steps": ppo.n_steps,
-        "batch_size": ppo.batch_size, "n_epochs": ppo.n_epochs, "gamma": ppo.gamma,
-        "gae_lambda": ppo.gae_lambda, "ent_coef": ppo.ent_coef, "learning_rate": lr, "clip_range": clip,
-    });
-    let out = std::process::Command::new(&python)
+/// Runs an SB3 reference script with `cfg` and returns the JSON object it prints last.
+fn run_sb3(python: &Path, script: &str, cfg: &serde_json::Value, threads: usize) -> anyhow::Result<serde_json::Value> {
+    let out = std::process::Command::new(python)
         .arg("-c")
-        .arg(firecast_rl::bench::SB3_SCRIPT)
+        .arg(script)
         .arg(cfg.to_string())
-        .env("OMP_NUM_THREADS", "1")
-        .env("MKL_NUM_THREADS", "1")
+        .env("OMP_NUM_THREADS", threads.to_string())
+        .env("MKL_NUM_THREADS", threads.to_string())
         .output()
         .with_context(|| format!("running {}", python.display()))?;
     if !out.status.success() {
@@ -322,48 +353,311 @@ pub fn bench_ppo(settings: &Settings, args: &BenchPpoArgs) -> anyhow::Result<Exi
             String::from_utf8_lossy(&out.stderr)
         );
     }
-    let sb3: serde_json::Value = serde_json::from_slice(
+    serde_json::from_slice(
         out.stdout
             .split(|&b| b == b'\n')
             .rfind(|l| !l.is_empty())
             .unwrap_or_default(),
     )
-    .context("the SB3 reference printed no JSON")?;
+    .with_context(|| {
+        format!(
+            "the SB3 reference printed no JSON: {}",
+            String::from_utf8_lossy(&out.stderr)
+        )
+    })
+}
+
+fn ratios(firecast: &firecast_rl::bench::PhaseSpeeds, sb3: &serde_json::Value) -> serde_json::Value {
     let get = |k: &str| sb3.get(k).and_then(serde_json::Value::as_f64).unwrap_or(f64::NAN);
-    let ratios = serde_json::json!({
+    serde_json::json!({
         "env": firecast.env_sps / get("env_sps"),
         "rollout": firecast.rollout_sps / get("rollout_sps"),
         "train": firecast.train_sps / get("train_sps"),
-    });
-    let report = BenchPpoReport {
-        task: "CartPole-v1, MLP policy, RL-Zoo settings (8 envs x 32 steps, batch 256, 20 epochs)",
-        steps: args.steps,
-        threads: 1,
-        firecast,
-        sb3: sb3.clone(),
-        ratios: ratios.clone(),
+    })
+}
+
+/// The `paper` preset with `-S` overrides.
+fn bench_ppo_config(set: &[String]) -> anyhow::Result<firecast_rl::ppo::PpoConfig> {
+    let mut overrides = serde_json::Map::new();
+    for kv in set {
+        let (k, v) = kv
+            .split_once('=')
+            .with_context(|| format!("-S {kv}: expected KEY=VALUE"))?;
+        let value: serde_json::Value =
+            serde_yaml_ng::from_str(v).with_context(|| format!("-S {kv}: the value is not YAML"))?;
+        overrides.insert(k.trim().trim_start_matches("ppo.").to_string(), value);
+    }
+    Ok(firecast_rl::ppo::PpoConfig::resolve("paper", &overrides)?)
+}
+
+/// The SB3 side's settings for (b) and (c): every PPO value, the policy, the environment.
+fn helitack_sb3_config(
+    ppo: &firecast_rl::ppo::PpoConfig,
+    policy: &firecast_rl::policy::PolicyConfig,
+    env: serde_json::Value,
+    steps: u64,
+    seed: u64,
+    threads: usize,
+) -> anyhow::Result<serde_json::Value> {
+    Ok(serde_json::json!({
+        "ppo": serde_json::to_value(ppo)?,
+        "policy": serde_json::to_value(policy)?,
+        "env": env,
+        "steps": steps,
+        "seed": seed,
+        "threads": threads,
+    }))
+}
+
+/// FireCast's compact parameter count must equal SB3's, or the comparison is void.
+fn check_parameters(part: &str, firecast: i64, sb3: &serde_json::Value) -> anyhow::Result<()> {
+    let theirs = sb3["parameters"].as_i64().unwrap_or(-1);
+    if theirs != firecast {
+        anyhow::bail!(
+            "{part}: the SB3 policy has {theirs} parameters, FireCast's {firecast}: the networks \
+             differ (the SB3 scripts in crates/firecast-rl/reference/ re-state policy.rs)"
+        );
+    }
+    Ok(())
+}
+
+/// `firecast bench ppo`: FireCast's PPO beside SB3's in the same command, same network,
+/// hyper-parameters and torch threads, in three phases: (a) CartPole with the MLP policy,
+/// (b) the helitack environment with the compact policy (SB3 through the Python package),
+/// (c) SB3 on the FireCastRL Python environment (with --reference-env).
+pub fn bench_ppo(settings: &Settings, args: &BenchPpoArgs) -> anyhow::Result<ExitCode> {
+    let python = firecast_dataset::bench::find_python(args.python.as_deref(), &settings.root);
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get))
+        .max(1);
+    let mut report = BenchPpoReport {
+        parts: Vec::new(),
+        skipped: Vec::new(),
     };
+    if args.parts.contains(&BenchPart::A) {
+        report.parts.push(bench_cartpole(args, &python)?);
+    }
+    let wants_b = args.parts.contains(&BenchPart::B);
+    let wants_c = args.parts.contains(&BenchPart::C);
+    if wants_b || wants_c {
+        let ppo = bench_ppo_config(&args.set)?;
+        let policy = firecast_rl::policy::PolicyConfig {
+            kind: firecast_rl::policy::PolicyKind::Compact,
+            ..Default::default()
+        };
+        firecast_learn::set_threads(threads);
+        if wants_b {
+            report
+                .parts
+                .push(bench_helitack(args, &python, &ppo, &policy, threads)?);
+        }
+        if wants_c {
+            match &args.reference_env {
+                Some(dir) => report
+                    .parts
+                    .push(bench_firecastrl(settings, args, dir, &python, &ppo, &policy, threads)?),
+                None => report
+                    .skipped
+                    .push("(c) skipped: pass --reference-env DIR (a checkout of aisystems-lab/wildfire-env)".into()),
+            }
+        }
+    }
     if settings.json {
         output::print_json(&report)?;
         return Ok(ExitCode::SUCCESS);
     }
-    let mut table = output::table(&["phase (steps/s)", "FireCast", "SB3", "FireCast / SB3"]);
-    for (name, f, k) in [
-        ("environment only", firecast.env_sps, "env"),
-        ("rollout (env + inference)", firecast.rollout_sps, "rollout"),
-        ("training (rollouts + updates)", firecast.train_sps, "train"),
+    for (k, p) in report.parts.iter().enumerate() {
+        if k > 0 {
+            println!();
+        }
+        print_part(p);
+    }
+    for s in &report.skipped {
+        println!("\n{s}");
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_part(p: &BenchPartReport) {
+    let sb3_name = if p.part == BenchPart::C {
+        "SB3 + FireCastRL"
+    } else {
+        "SB3"
+    };
+    let get = |k: &str| p.sb3.get(k).and_then(serde_json::Value::as_f64).unwrap_or(f64::NAN);
+    let mut table = output::table(&["phase (steps/s)", "FireCast", sb3_name, &format!("FireCast / {sb3_name}")]);
+    let f = &p.firecast.speeds;
+    for (name, ours, k) in [
+        ("environment only", f.env_sps, "env"),
+        ("rollout (env + inference)", f.rollout_sps, "rollout"),
+        ("training (rollouts + updates)", f.train_sps, "train"),
     ] {
+        let theirs = get(&format!("{k}_sps"));
         table.add_row(vec![
             name.to_string(),
-            format!("{f:.0}"),
-            format!("{:.0}", get(&format!("{k}_sps"))),
-            format!("{:.1}x", ratios[k].as_f64().unwrap_or(f64::NAN)),
+            format!("{ours:.0}"),
+            if theirs < 100.0 {
+                format!("{theirs:.1}")
+            } else {
+                format!("{theirs:.0}")
+            },
+            format!("{:.1}x", p.ratios[k].as_f64().unwrap_or(f64::NAN)),
         ]);
     }
-    println!("{}\n{table}", report.task);
+    println!("{}\n{table}", p.task);
+    let train = p.ratios["train"].as_f64().unwrap_or(f64::NAN);
+    let plain = |v: &serde_json::Value| v.as_str().map_or_else(|| v.to_string(), str::to_string);
     println!(
-        "SB3 {} / torch {} / gymnasium {}, one torch thread each; {} steps per phase",
-        sb3["sb3"], sb3["torch"], sb3["gymnasium"], args.steps
+        "SB3 {} / torch {} / gymnasium {}; {} torch thread{} each; {} steps per phase; parameters: FireCast {}, SB3 {}",
+        plain(&p.sb3["sb3"]),
+        plain(&p.sb3["torch"]),
+        plain(&p.sb3["gymnasium"]),
+        p.threads,
+        if p.threads == 1 { "" } else { "s" },
+        p.steps,
+        p.firecast.parameters,
+        plain(&p.sb3["parameters"]),
     );
-    Ok(ExitCode::SUCCESS)
+    println!(
+        "goal: training >= {}x {sb3_name}: {} ({train:.1}x)",
+        p.goal,
+        if train >= p.goal { "met" } else { "not met" }
+    );
+}
+
+fn bench_cartpole(args: &BenchPpoArgs, python: &Path) -> anyhow::Result<BenchPartReport> {
+    let ppo = firecast_rl::ppo::PpoConfig::cartpole_zoo();
+    firecast_learn::set_threads(1);
+    eprintln!(
+        "(a) FireCast PPO on CartPole-v1 ({} steps per phase, 1 thread) ...",
+        args.steps
+    );
+    let firecast = firecast_rl::bench::cartpole(&ppo, args.steps, args.seed)?;
+    eprintln!(
+        "(a) SB3 PPO on CartPole-v1 with the same settings ({}) ...",
+        python.display()
+    );
+    let cfg = serde_json::json!({
+        "n_envs": ppo.n_envs, "steps": args.steps, "seed": args.seed, "n_steps": ppo.n_steps,
+        "batch_size": ppo.batch_size, "n_epochs": ppo.n_epochs, "gamma": ppo.gamma,
+        "gae_lambda": ppo.gae_lambda, "ent_coef": ppo.ent_coef,
+        "learning_rate": ppo.learning_rate.at(1.0), "clip_range": ppo.clip_range.at(1.0),
+    });
+    let sb3 = run_sb3(python, firecast_rl::bench::SB3_SCRIPT, &cfg, 1)?;
+    check_parameters("(a)", firecast.parameters, &sb3)?;
+    Ok(BenchPartReport {
+        part: BenchPart::A,
+        task: "(a) CartPole-v1, MLP policy, RL-Zoo settings (8 envs x 32 steps, batch 256, 20 epochs)".into(),
+        steps: args.steps,
+        threads: 1,
+        ratios: ratios(&firecast.speeds, &sb3),
+        firecast,
+        sb3,
+        goal: 5.0,
+    })
+}
+
+fn bench_helitack(
+    args: &BenchPpoArgs,
+    python: &Path,
+    ppo: &firecast_rl::ppo::PpoConfig,
+    policy: &firecast_rl::policy::PolicyConfig,
+    threads: usize,
+) -> anyhow::Result<BenchPartReport> {
+    let pool = firecast_rl::bench::HelitackPool::demo_scale()?;
+    let fires = pool.fires()?;
+    eprintln!(
+        "(b) FireCast PPO on the helitack environment ({} x {}, {} fires, compact policy, {} steps per phase, {threads} threads) ...",
+        pool.width,
+        pool.height,
+        fires.len(),
+        args.helitack_steps
+    );
+    let firecast = firecast_rl::bench::helitack(&fires, ppo, policy, args.helitack_steps, args.seed)?;
+    eprintln!(
+        "(b) SB3 PPO on firecast.HelitackVecEnv with the same network and settings ({}) ...",
+        python.display()
+    );
+    let env = serde_json::json!({"kind": "firecast", "kwargs": pool.python_kwargs()});
+    let cfg = helitack_sb3_config(ppo, policy, env, args.helitack_steps, args.seed, threads)?;
+    let sb3 = run_sb3(python, firecast_rl::bench::SB3_HELITACK_SCRIPT, &cfg, threads)?;
+    check_parameters("(b)", firecast.parameters, &sb3)?;
+    Ok(BenchPartReport {
+        part: BenchPart::B,
+        task: format!(
+            "(b) helitack, compact policy, {} x {} procedural landscapes {:?} x ignitions {:?}, paper preset ({} envs x {} steps, batch {}, {} epochs); SB3 through firecast.HelitackVecEnv",
+            pool.width,
+            pool.height,
+            pool.landscape_seeds,
+            pool.ignitions,
+            ppo.n_envs,
+            ppo.n_steps,
+            ppo.batch_size,
+            ppo.n_epochs
+        ),
+        steps: args.helitack_steps,
+        threads,
+        ratios: ratios(&firecast.speeds, &sb3),
+        firecast,
+        sb3,
+        goal: 3.0,
+    })
+}
+
+fn bench_firecastrl(
+    settings: &Settings,
+    args: &BenchPpoArgs,
+    env_dir: &Path,
+    python: &Path,
+    ppo: &firecast_rl::ppo::PpoConfig,
+    policy: &firecast_rl::policy::PolicyConfig,
+    threads: usize,
+) -> anyhow::Result<BenchPartReport> {
+    let maps = env_dir.join("firecastrl_env/envs/training_environments");
+    let landscape = firecast_episodes::LandscapeSpec::Firecastrl {
+        land_cover: maps.join("landcover_1.png"),
+        heightmap: maps.join("heightmap_1.png"),
+    }
+    .load(&settings.root)
+    .with_context(|| format!("loading the FireCastRL training map from {}", maps.display()))?;
+    // The P2 engine's settings, under which `bench sim` finds FireCast's fires identical to
+    // the FireCastRL environment's.
+    let cfg = firecast_sim::reference::p2_parity_config();
+    let fires = firecast_rl::bench::firecastrl_map(&landscape, &cfg)?;
+    eprintln!(
+        "(c) FireCast PPO on the FireCastRL training map ({} x {}, compact policy, {} steps per phase, {threads} threads) ...",
+        landscape.width, landscape.height, args.reference_steps
+    );
+    let firecast = firecast_rl::bench::helitack(&fires, ppo, policy, args.reference_steps, args.seed)?;
+    let python = args.reference_python.as_deref().unwrap_or(python);
+    eprintln!(
+        "(c) SB3 PPO on the FireCastRL environment ({}) with the same network and settings ({}) ...",
+        env_dir.display(),
+        python.display()
+    );
+    let dir = std::fs::canonicalize(env_dir).with_context(|| format!("{}", env_dir.display()))?;
+    let env = serde_json::json!({"kind": "firecastrl", "dir": dir});
+    let cfg = helitack_sb3_config(ppo, policy, env, args.reference_steps, args.seed, threads)?;
+    let sb3 = run_sb3(python, firecast_rl::bench::SB3_HELITACK_SCRIPT, &cfg, threads)?;
+    check_parameters("(c)", firecast.parameters, &sb3)?;
+    Ok(BenchPartReport {
+        part: BenchPart::C,
+        task: format!(
+            "(c) FireCastRL training map ({} x {}), P2 engine, compact policy, paper preset ({} envs x {} steps, batch {}, {} epochs); SB3 on the FireCastRL Python environment ({}), FireCast on its own engine",
+            landscape.width,
+            landscape.height,
+            ppo.n_envs,
+            ppo.n_steps,
+            ppo.batch_size,
+            ppo.n_epochs,
+            sb3["vec_env"].as_str().unwrap_or("?"),
+        ),
+        steps: args.reference_steps,
+        threads,
+        ratios: ratios(&firecast.speeds, &sb3),
+        firecast,
+        sb3,
+        goal: 50.0,
+    })
 }

@@ -544,6 +544,17 @@ pub fn run(
         let path = opts.work.join(name);
         std::fs::write(&path, text).map_err(ForecastError::io("writing", &path))?;
     }
+    // Fail before the long fits when the Python side cannot run.
+    run_child(
+        opts,
+        &opts.python,
+        &[
+            "-c".into(),
+            "import numpy, sklearn, xgboost, torch; print('{}')".into(),
+        ],
+        "the Python references",
+        "run `cargo xtask setup` to install scikit-learn, xgboost and torch (or pass --python)",
+    )?;
     firecast_learn::set_threads(threads);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

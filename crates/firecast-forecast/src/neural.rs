@@ -687,6 +687,7 @@ impl std::fmt::Debug for NeuralModel {
 /// What is saved next to the weights.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct NeuralHeader {
+    #[serde(deserialize_with = "config_with_kind")]
     pub config: NeuralConfig,
     pub features: Vec<String>,
     pub scaler: Option<SeqScaler>,
@@ -694,6 +695,22 @@ pub struct NeuralHeader {
     pub width: i64,
     pub epochs_run: usize,
     pub best_epoch: usize,
+}
+
+/// A saved config read back with its `kind` (the experiment file's params may not name
+/// it, so [`NeuralConfig`] skips it when deserialising; the header must not).
+fn config_with_kind<'de, D: serde::Deserializer<'de>>(d: D) -> Result<NeuralConfig, D::Error> {
+    use serde::de::Error as _;
+    let mut v = serde_json::Value::deserialize(d)?;
+    let kind = v
+        .as_object_mut()
+        .and_then(|m| m.remove("kind"))
+        .ok_or_else(|| D::Error::custom("the network's config has no `kind`"))?;
+    let kind = kind
+        .as_str()
+        .and_then(NeuralKind::parse)
+        .ok_or_else(|| D::Error::custom(format!("unknown network kind {kind}")))?;
+    NeuralConfig::parse(kind, &v).map_err(D::Error::custom)
 }
 
 fn loss_of(cfg: &NeuralConfig, logits: &Tensor, y: &Tensor) -> Tensor {
@@ -1152,5 +1169,30 @@ mod tests {
         }
         let e = NeuralConfig::parse(NeuralKind::Mlp, &serde_json::json!({"kind": "lstm2"})).unwrap_err();
         assert!(e.to_string().contains("kind"), "{e}");
+    }
+
+    #[test]
+    fn a_saved_header_reads_back_with_its_kind() {
+        for kind in [NeuralKind::CnnBilstm, NeuralKind::CnnBilstmAttn, NeuralKind::Lstm2] {
+            let mut config = NeuralConfig::defaults(kind);
+            config.hidden = 7;
+            let header = NeuralHeader {
+                config: config.clone(),
+                features: vec!["erc".into()],
+                scaler: None,
+                days: 75,
+                width: 1,
+                epochs_run: 3,
+                best_epoch: 2,
+            };
+            let text = serde_json::to_string(&header).unwrap();
+            let back: NeuralHeader = serde_json::from_str(&text).unwrap();
+            assert_eq!(back.config, config, "{text}");
+        }
+        let e = serde_json::from_str::<NeuralHeader>(
+            r#"{"config": {"kind": "svm"}, "features": [], "scaler": null, "days": 1, "width": 1, "epochs_run": 1, "best_epoch": 1}"#,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("unknown network kind"), "{e}");
     }
 }

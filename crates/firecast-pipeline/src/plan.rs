@@ -563,6 +563,18 @@ pub fn flatten_params(value: &serde_json::Value) -> std::collections::BTreeMap<S
                     walk(&key, v, out);
                 }
             }
+            // Lists of mappings (an experiment's models) by index, as `-S models.2.x=…`
+            // spells them; lists of plain values stay whole (`seeds: [0, 1, 2]`).
+            serde_json::Value::Array(items) if items.iter().any(serde_json::Value::is_object) => {
+                for (i, v) in items.iter().enumerate() {
+                    let key = if prefix.is_empty() {
+                        i.to_string()
+                    } else {
+                        format!("{prefix}.{i}")
+                    };
+                    walk(&key, v, out);
+                }
+            }
             other => {
                 out.insert(prefix.to_string(), other.clone());
             }
@@ -571,4 +583,32 @@ pub fn flatten_params(value: &serde_json::Value) -> std::collections::BTreeMap<S
     let mut out = std::collections::BTreeMap::new();
     walk("", value, &mut out);
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use serde_json::json;
+
+    #[test]
+    fn flattened_params_index_lists_of_mappings_and_keep_plain_lists_whole() {
+        let flat = super::flatten_params(&json!({
+            "seeds": [0, 1, 2],
+            "models": [{"kind": "majority"}, {"kind": "xgboost", "params": {"n_estimators": 20}}],
+            "evaluation": {"bootstrap": 1000, "extra": {}},
+        }));
+        let keys: Vec<&str> = flat.keys().map(String::as_str).collect();
+        assert_eq!(
+            keys,
+            [
+                "evaluation.bootstrap",
+                "evaluation.extra",
+                "models.0.kind",
+                "models.1.kind",
+                "models.1.params.n_estimators",
+                "seeds"
+            ]
+        );
+        assert_eq!(flat["models.1.params.n_estimators"], json!(20));
+        assert_eq!(flat["seeds"], json!([0, 1, 2]));
+    }
 }

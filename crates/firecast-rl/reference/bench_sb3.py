@@ -42,6 +42,7 @@ def main():
     out["env_sps"] = rounds * n_envs / (time.perf_counter() - t)
     # Rollout: SB3's collect_rollouts (inference + environment + buffer), no update.
     m = model()
+    out["parameters"] = sum(p.numel() for p in m.policy.parameters() if p.requires_grad)
     _, callback = m._setup_learn(steps, callback=None)
     callback.on_training_start(locals(), globals())
     n_rollouts = max(1, steps // (n_envs * cfg["n_steps"]))
