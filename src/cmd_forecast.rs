@@ -62,9 +62,11 @@ pub enum ForecastCommand {
 
 #[derive(Debug, Args)]
 pub struct PredictArgs {
-    /// A model folder written by an experiment (…/models/<protocol>/<model>/seed-<n>).
-    #[arg(long, value_name = "DIR")]
-    pub model: PathBuf,
+    /// A model folder written by an experiment (…/models/<protocol>/<model>/seed-<n>), or
+    /// `RUN:<protocol>/<model>[/seed-<n>]`: a model an experiment run (id or unique prefix,
+    /// as `runs list` shows) saved to the artifact store, fetched from there.
+    #[arg(long, value_name = "DIR|RUN:PROTOCOL/MODEL[/seed-N]")]
+    pub model: String,
     /// GRIDMET folder with `<var>_<year>.nc` files covering the input window.
     #[arg(long, value_name = "DIR")]
     pub gridmet: PathBuf,
@@ -360,7 +362,8 @@ fn predict(settings: &Settings, args: &PredictArgs) -> anyhow::Result<ExitCode> 
         _ => anyhow::bail!("give --lat, --lon and --date, or --points FILE.csv"),
     };
     let device = firecast_forecast::parse_device(&args.device)?;
-    let bundle = firecast_forecast::bundle::load(&settings.root.join(&args.model), device)?;
+    let model_dir = resolve_model(settings, &args.model)?;
+    let bundle = firecast_forecast::bundle::load(&model_dir, device)?;
     let answers =
         firecast_forecast::predict::predict(&bundle, &settings.root.join(&args.gridmet), &queries, device)?;
     if settings.json {
@@ -751,4 +754,87 @@ fn print_bench(r: &firecast_forecast::bench::ForecastBench) -> anyhow::Result<()
     }
     println!("bench took {}", duration(r.seconds));
     Ok(())
+}
+
+/// A model folder, or a model an experiment run saved to the artifact store (fetched into
+/// `.firecast/cache/models/<run>/…`, checked against the registry's hashes).
+fn resolve_model(settings: &Settings, spec: &str) -> anyhow::Result<PathBuf> {
+    let as_dir = settings.root.join(spec);
+    if as_dir.is_dir() {
+        return Ok(as_dir);
+    }
+    let Some((run, path)) = spec.split_once(':') else {
+        anyhow::bail!(
+            "--model `{spec}`: no such folder, and not RUN:PROTOCOL/MODEL[/seed-N] (a model saved by an experiment run)"
+        );
+    };
+    let registry = firecast_registry::Registry::open(&settings.registry)?;
+    let mut details = registry.run_details(run)?;
+    // `experiment run` prints its pipeline run; the models belong to its one stage run.
+    if details.artifacts.is_empty() && details.children.len() == 1 {
+        details = registry.run_details(&details.children[0].run_id)?;
+    }
+    let path = path.trim_matches('/');
+    let wanted = if path.split('/').count() == 2 {
+        // No seed given: the lowest one saved.
+        let prefix = format!("model/{path}/seed-");
+        let mut seeds: Vec<(u64, &str)> = details
+            .artifacts
+            .iter()
+            .filter_map(|a| {
+                a.name
+                    .strip_prefix(&prefix)
+                    .and_then(|n| n.parse().ok())
+                    .map(|n| (n, a.name.as_str()))
+            })
+            .collect();
+        seeds.sort();
+        seeds.first().map(|(_, n)| n.to_string())
+    } else {
+        Some(format!("model/{path}"))
+    };
+    let files: Vec<_> = match &wanted {
+        Some(name) => details.artifacts.iter().filter(|a| &a.name == name).collect(),
+        None => Vec::new(),
+    };
+    if files.is_empty() {
+        let mut saved: Vec<&str> = details
+            .artifacts
+            .iter()
+            .filter_map(|a| a.name.strip_prefix("model/"))
+            .collect();
+        saved.dedup();
+        anyhow::bail!(
+            "--model `{spec}`: run {} saved no model `{path}`{}",
+            details.run.run_id,
+            if saved.is_empty() {
+                " (it saved no models: is it an experiment run?)".to_string()
+            } else {
+                format!("; it saved: {}", saved.join(", "))
+            }
+        );
+    }
+    let store = firecast_store::ArtifactStore::open(&settings.store, &settings.root)?;
+    let name = wanted.unwrap_or_default();
+    let dir = settings
+        .root
+        .join(".firecast/cache/models")
+        .join(&details.run.run_id)
+        .join(name.trim_start_matches("model/"));
+    for a in files {
+        let file = a.uri.rsplit('/').next().unwrap_or_default();
+        let dest = dir.join(file);
+        store
+            .get_to_file(&a.uri, &dest)
+            .with_context(|| format!("fetching {} of run {}", a.uri, details.run.run_id))?;
+        let hash = blake3::hash(&std::fs::read(&dest)?).to_hex().to_string();
+        if !a.hash.is_empty() && a.hash != hash {
+            anyhow::bail!(
+                "{}: fetched bytes hash to {hash}, the registry recorded {} for this artifact",
+                dest.display(),
+                a.hash
+            );
+        }
+    }
+    Ok(dir)
 }

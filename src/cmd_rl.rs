@@ -337,7 +337,12 @@ struct BenchPpoReport {
 }
 
 /// Runs an SB3 reference script with `cfg` and returns the JSON object it prints last.
-fn run_sb3(python: &Path, script: &str, cfg: &serde_json::Value, threads: usize) -> anyhow::Result<serde_json::Value> {
+fn run_sb3(
+    python: &Path,
+    script: &str,
+    cfg: &serde_json::Value,
+    threads: usize,
+) -> anyhow::Result<serde_json::Value> {
     let out = std::process::Command::new(python)
         .arg("-c")
         .arg(script)
@@ -365,6 +370,14 @@ fn run_sb3(python: &Path, script: &str, cfg: &serde_json::Value, threads: usize)
             String::from_utf8_lossy(&out.stderr)
         )
     })
+}
+
+fn progress_line(run: &firecast_rl::bench::BenchRun) {
+    let s = &run.speeds;
+    eprintln!(
+        "    FireCast: environment {:.0}, rollout {:.0}, training {:.0} steps/s ({} parameters)",
+        s.env_sps, s.rollout_sps, s.train_sps, run.parameters
+    );
 }
 
 fn ratios(firecast: &firecast_rl::bench::PhaseSpeeds, sb3: &serde_json::Value) -> serde_json::Value {
@@ -454,12 +467,12 @@ pub fn bench_ppo(settings: &Settings, args: &BenchPpoArgs) -> anyhow::Result<Exi
         }
         if wants_c {
             match &args.reference_env {
-                Some(dir) => report
-                    .parts
-                    .push(bench_firecastrl(settings, args, dir, &python, &ppo, &policy, threads)?),
-                None => report
-                    .skipped
-                    .push("(c) skipped: pass --reference-env DIR (a checkout of aisystems-lab/wildfire-env)".into()),
+                Some(dir) => report.parts.push(bench_firecastrl(
+                    settings, args, dir, &python, &ppo, &policy, threads,
+                )?),
+                None => report.skipped.push(
+                    "(c) skipped: pass --reference-env DIR (a checkout of aisystems-lab/wildfire-env)".into(),
+                ),
             }
         }
     }
@@ -485,8 +498,18 @@ fn print_part(p: &BenchPartReport) {
     } else {
         "SB3"
     };
-    let get = |k: &str| p.sb3.get(k).and_then(serde_json::Value::as_f64).unwrap_or(f64::NAN);
-    let mut table = output::table(&["phase (steps/s)", "FireCast", sb3_name, &format!("FireCast / {sb3_name}")]);
+    let get = |k: &str| {
+        p.sb3
+            .get(k)
+            .and_then(serde_json::Value::as_f64)
+            .unwrap_or(f64::NAN)
+    };
+    let mut table = output::table(&[
+        "phase (steps/s)",
+        "FireCast",
+        sb3_name,
+        &format!("FireCast / {sb3_name}"),
+    ]);
     let f = &p.firecast.speeds;
     for (name, ours, k) in [
         ("environment only", f.env_sps, "env"),
@@ -534,6 +557,7 @@ fn bench_cartpole(args: &BenchPpoArgs, python: &Path) -> anyhow::Result<BenchPar
         args.steps
     );
     let firecast = firecast_rl::bench::cartpole(&ppo, args.steps, args.seed)?;
+    progress_line(&firecast);
     eprintln!(
         "(a) SB3 PPO on CartPole-v1 with the same settings ({}) ...",
         python.display()
@@ -575,6 +599,7 @@ fn bench_helitack(
         args.helitack_steps
     );
     let firecast = firecast_rl::bench::helitack(&fires, ppo, policy, args.helitack_steps, args.seed)?;
+    progress_line(&firecast);
     eprintln!(
         "(b) SB3 PPO on firecast.HelitackVecEnv with the same network and settings ({}) ...",
         python.display()
@@ -630,6 +655,7 @@ fn bench_firecastrl(
         landscape.width, landscape.height, args.reference_steps
     );
     let firecast = firecast_rl::bench::helitack(&fires, ppo, policy, args.reference_steps, args.seed)?;
+    progress_line(&firecast);
     let python = args.reference_python.as_deref().unwrap_or(python);
     eprintln!(
         "(c) SB3 PPO on the FireCastRL environment ({}) with the same network and settings ({}) ...",

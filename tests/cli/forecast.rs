@@ -110,6 +110,75 @@ fn project_with_dataset() -> Project {
     p
 }
 
+/// A second dataset from another seed of the generator and a later year, same box.
+fn build_second_dataset(p: &Project) {
+    p.ok(&[
+        "dataset",
+        "synthesize",
+        "--out",
+        "src2",
+        "--seed",
+        "4",
+        "--years",
+        "2020-2020",
+        "--region",
+        "38.5,40.0,-108.5,-106.5",
+        "--config",
+        "synth.yaml",
+    ]);
+    let g = p.path("src2/gridmet");
+    let g = g.to_str().unwrap();
+    let inc = p.path("src2/incidents/wfigs_incidents.csv");
+    p.ok(&[
+        "dataset",
+        "ignitions",
+        "--incidents",
+        inc.to_str().unwrap(),
+        "--gridmet",
+        g,
+        "--out",
+        "w2/ign.parquet",
+    ]);
+    p.write(
+        "neg2.yaml",
+        "variant: paper\nperiod_start: \"2020-03-02\"\nperiod_end: \"2020-12-17\"\nfar_min_km: 4\nnear_max_km: 30\n",
+    );
+    p.ok(&[
+        "dataset",
+        "negatives",
+        "--ignitions",
+        "w2/ign.parquet",
+        "--gridmet",
+        g,
+        "--out",
+        "w2/s.parquet",
+        "--config",
+        "neg2.yaml",
+    ]);
+    p.ok(&[
+        "dataset",
+        "windows",
+        "--samples",
+        "w2/s.parquet",
+        "--gridmet",
+        g,
+        "--out",
+        "w2/windows",
+    ]);
+    p.ok(&[
+        "dataset",
+        "build",
+        "--windows",
+        "w2/windows",
+        "--out",
+        "data/b",
+        "--name",
+        "cli-fc-2020",
+        "--framing",
+        "paper",
+    ]);
+}
+
 fn metrics(p: &Project) -> serde_json::Value {
     serde_json::from_str(&p.read("experiments/runs/cli-exp/metrics.json")).unwrap()
 }
@@ -215,7 +284,7 @@ fn experiment_runs_every_model_under_both_protocols_and_answers_predictions() {
         ),
     ]);
     let mut csv = String::from("lat,lon,date\n");
-    let mut want = Vec::new();
+    let mut picked = Vec::new();
     for r in rows.as_array().unwrap() {
         csv.push_str(&format!(
             "{},{},{}\n",
@@ -223,33 +292,133 @@ fn experiment_runs_every_model_under_both_protocols_and_answers_predictions() {
             r["longitude"],
             r["d"].as_str().unwrap()
         ));
-        want.push(scores[&(r["sample_id"].as_u64().unwrap() as u32)]);
+        picked.push(r["sample_id"].as_u64().unwrap() as u32);
     }
     p.write("points.csv", &csv);
-    let answers = p.json(&[
-        "forecast",
-        "predict",
-        "--model",
-        "experiments/runs/cli-exp/models/paper/logistic_regression/seed-0",
-        "--gridmet",
-        "src/gridmet",
-        "--points",
-        "points.csv",
-        "--device",
-        "cpu",
-    ]);
-    let got: Vec<f64> = answers
-        .as_array()
+    let want = |model: &str| -> Vec<f64> {
+        let recorded: BTreeMap<u32, f64> = p
+            .read("experiments/runs/cli-exp/predictions.csv")
+            .lines()
+            .filter(|l| l.starts_with(&format!("paper,{model},0,")))
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                (f[3].parse().unwrap(), f[5].parse().unwrap())
+            })
+            .collect();
+        picked.iter().map(|id| recorded[id]).collect()
+    };
+    // A model folder, and a network fetched from the artifact store by the run that saved it.
+    let stage_run = p.json(&["runs", "list", "--stage", "cli-exp"])[0]["run_id"]
+        .as_str()
         .unwrap()
-        .iter()
-        .map(|a| a["probability"].as_f64().unwrap())
-        .collect();
-    assert_eq!(got.len(), want.len());
-    for (g, w) in got.iter().zip(&want) {
-        assert!((g - w).abs() < 1e-9, "predict {g} vs experiment {w}");
+        .to_string();
+    for (model, name) in [
+        (
+            "experiments/runs/cli-exp/models/paper/logistic_regression/seed-0".to_string(),
+            "logistic_regression",
+        ),
+        (format!("{stage_run}:paper/cnn_bilstm_R"), "cnn_bilstm_R"),
+    ] {
+        let answers = p.json(&[
+            "forecast",
+            "predict",
+            "--model",
+            &model,
+            "--gridmet",
+            "src/gridmet",
+            "--points",
+            "points.csv",
+            "--device",
+            "cpu",
+        ]);
+        let got: Vec<f64> = answers
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|a| a["probability"].as_f64().unwrap())
+            .collect();
+        let want = want(name);
+        assert_eq!(got.len(), want.len());
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g - w).abs() < 1e-6, "{name}: predict {g} vs experiment {w}");
+        }
+        assert_eq!(answers[0]["model"], name);
+        assert_eq!(answers[0]["input_days"], serde_json::json!([-60, 14]));
     }
-    assert_eq!(answers[0]["model"], "logistic_regression");
-    assert_eq!(answers[0]["input_days"], serde_json::json!([-60, 14]));
+    let out = p
+        .firecast()
+        .args([
+            "forecast",
+            "predict",
+            "--model",
+            &format!("{stage_run}:paper/svm"),
+            "--gridmet",
+            "src/gridmet",
+        ])
+        .args(["--lat", "39", "--lon", "-107", "--date", "2019-07-01"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("saved no model `paper/svm`; it saved: ")
+            && stderr.contains("paper/cnn_bilstm_R/seed-0"),
+        "{}",
+        describe(&out)
+    );
+
+    // The two runs (first, forced) side by side: same params, same seed-averaged metrics.
+    let runs = p.json(&["runs", "list", "--stage", "cli-exp"]);
+    let compare = p.json(&[
+        "runs",
+        "compare",
+        runs[1]["run_id"].as_str().unwrap(),
+        runs[0]["run_id"].as_str().unwrap(),
+        "--metric",
+        "leak_free/cnn_bilstm_R/test/auroc",
+    ]);
+    assert_eq!(compare["params"], serde_json::json!({}), "{compare}");
+    let auroc = &compare["metrics"]["leak_free/cnn_bilstm_R/test/auroc"];
+    assert_eq!(auroc["runs"][0]["count"], 2, "one value per seed: {auroc}");
+    assert_eq!(auroc["delta_mean"], 0.0, "{auroc}");
+
+    // The saved models scored on two other years (forecast.evaluate), and refused on their own data.
+    build_second_dataset(&p);
+    p.write(
+        "pipelines/later.yaml",
+        "stages:\n  later:\n    uses: forecast.evaluate\n    params: {models: [logistic_regression, cnn_bilstm_R], evaluation: {bootstrap: 50}, device: cpu}\n    inputs: {models: experiments/runs/cli-exp, dataset: data/b}\n    outputs: {report: reports/later}\n",
+    );
+    p.run_pipeline("pipelines/later.yaml", &[]);
+    let later: serde_json::Value = serde_json::from_str(&p.read("reports/later/results.json")).unwrap();
+    let rows = later["results"].as_array().unwrap();
+    assert_eq!(rows.len(), 4, "2 protocols x 2 models: {later}");
+    for r in rows {
+        assert!(r["test"]["auroc"].as_f64().unwrap().is_finite(), "{r}");
+    }
+    let cnn = rows.iter().find(|r| r["model"] == "cnn_bilstm_R").unwrap();
+    assert_eq!(cnn["seeds"], serde_json::json!([0, 1]));
+    assert!(
+        p.read("reports/later/table3.md")
+            .contains("saved models (trained on cli-fc")
+    );
+    p.write(
+        "pipelines/same.yaml",
+        "stages:\n  same:\n    uses: forecast.evaluate\n    params: {device: cpu}\n    inputs: {models: experiments/runs/cli-exp, dataset: data/a}\n    outputs: {report: reports/same}\n",
+    );
+    let out = p
+        .firecast()
+        .args(["pipeline", "run", "pipelines/same.yaml"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("evaluate on another dataset"),
+        "{}",
+        describe(&out)
+    );
+    assert!(
+        !p.path("reports/same").exists(),
+        "a failed evaluation publishes nothing"
+    );
 
     // compare reads reports back and writes the combined table.
     p.ok(&[

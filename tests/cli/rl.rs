@@ -83,7 +83,11 @@ fn cartpole_trains_and_reports_sb3_metrics() {
     let summary = p.read("experiments/runs/cp/summary.json");
     // Re-invoking a finished run is up to date; `--fresh` trains again from scratch.
     let again = p.ok(&["rl", "train", "--config", "cp.yaml"]);
-    assert!(String::from_utf8_lossy(&again.stdout).contains("up to date"), "{}", describe(&again));
+    assert!(
+        String::from_utf8_lossy(&again.stdout).contains("up to date"),
+        "{}",
+        describe(&again)
+    );
     p.ok(&["rl", "train", "--config", "cp.yaml", "--fresh"]);
     assert_eq!(p.read("experiments/runs/cp/seed-0/metrics.jsonl"), metrics);
     assert_eq!(p.read("experiments/runs/cp/summary.json"), summary);

@@ -1173,7 +1173,11 @@ mod tests {
 
     #[test]
     fn a_saved_header_reads_back_with_its_kind() {
-        for kind in [NeuralKind::CnnBilstm, NeuralKind::CnnBilstmAttn, NeuralKind::Lstm2] {
+        for kind in [
+            NeuralKind::CnnBilstm,
+            NeuralKind::CnnBilstmAttn,
+            NeuralKind::Lstm2,
+        ] {
             let mut config = NeuralConfig::defaults(kind);
             config.hidden = 7;
             let header = NeuralHeader {

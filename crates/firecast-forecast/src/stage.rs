@@ -231,7 +231,11 @@ impl StageKind for EvaluateStage {
         outputs: &BTreeMap<String, PathBuf>,
     ) -> MetricsAndPlots {
         MetricsAndPlots {
-            metrics: outputs.get("report").map(|o| o.join("metrics.json")).into_iter().collect(),
+            metrics: outputs
+                .get("report")
+                .map(|o| o.join("metrics.json"))
+                .into_iter()
+                .collect(),
             plots: Vec::new(),
         }
     }

@@ -105,7 +105,8 @@ pub fn cartpole(ppo: &PpoConfig, steps: u64, seed: u64) -> Result<BenchRun, RlEr
         ..PolicyConfig::default()
     };
     let n = ppo.n_envs;
-    let make = move || -> Result<Box<dyn VecEnvironment>, RlError> { Ok(Box::new(CartPoleVec::new(n, seed))) };
+    let make =
+        move || -> Result<Box<dyn VecEnvironment>, RlError> { Ok(Box::new(CartPoleVec::new(n, seed))) };
     phases(&make, ppo, &policy, steps, seed)
 }
 
@@ -154,8 +155,19 @@ impl HelitackPool {
             .map(|l| EnvCore::new(l, &cfg))
             .collect::<Result<_, _>>()?;
         let candidates = [
-            [48, 32], [40, 28], [56, 36], [36, 40], [60, 24], [30, 30], [66, 34], [44, 20], [52, 44],
-            [34, 26], [62, 42], [28, 36], [70, 28],
+            [48, 32],
+            [40, 28],
+            [56, 36],
+            [36, 40],
+            [60, 24],
+            [30, 30],
+            [66, 34],
+            [44, 20],
+            [52, 44],
+            [34, 26],
+            [62, 42],
+            [28, 36],
+            [70, 28],
         ];
         pool.ignitions = candidates
             .into_iter()
