@@ -1,7 +1,7 @@
 //! `firecast rl train|evaluate` on tiny budgets: CartPole, the helitack fires on a small
 //! grid, interruption and exact resumption, Table IV, and bad input.
 
-use crate::{Project, describe};
+use crate::{Project, describe, venv_bin};
 
 const FIRES: &str = r#"
 profile: p2
@@ -215,4 +215,47 @@ fn bad_training_specs_name_the_key() {
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("c.yaml:3") && err.contains("learning_rate"), "{err}");
+}
+
+/// `bench ppo` part (b) on a tiny budget: FireCast's compact policy and SB3's re-statement
+/// (driving `firecast.HelitackVecEnv`) have equal parameter counts and both sides ran. Needs
+/// the project venv (`cargo xtask setup`): without it the test fails.
+#[test]
+fn bench_ppo_helitack_runs_both_sides_with_equal_networks() {
+    let p = Project::new();
+    let python = venv_bin("python");
+    let python = python.to_str().unwrap();
+    let r = p.json(&[
+        "bench",
+        "ppo",
+        "--parts",
+        "b,c",
+        "--helitack-steps",
+        "32",
+        "-S",
+        "n_steps=4",
+        "-S",
+        "batch_size=16",
+        "-S",
+        "n_epochs=1",
+        "--threads",
+        "1",
+        "--python",
+        python,
+    ]);
+    let parts = r["parts"].as_array().unwrap();
+    assert_eq!(parts.len(), 1, "{r}");
+    let b = &parts[0];
+    assert_eq!(b["part"], "b");
+    let ours = b["firecast"]["parameters"].as_i64().unwrap();
+    assert!(ours > 0, "{b}");
+    assert_eq!(b["sb3"]["parameters"].as_i64(), Some(ours), "{b}");
+    for k in ["env", "rollout", "train"] {
+        let ratio = b["ratios"][k].as_f64().unwrap();
+        assert!(ratio.is_finite() && ratio > 0.0, "{k}: {b}");
+        assert!(b["firecast"][format!("{k}_sps")].as_f64().unwrap() > 0.0, "{b}");
+    }
+    // (c) needs a FireCastRL checkout: it says how to run it.
+    let skipped = r["skipped"].as_array().unwrap();
+    assert!(skipped[0].as_str().unwrap().contains("--reference-env"), "{r}");
 }

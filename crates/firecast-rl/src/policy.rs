@@ -84,14 +84,19 @@ pub struct ObsTensors {
 impl ObsTensors {
     pub fn from_batch(b: &ObsBatch, device: Device) -> Self {
         let n = b.n as i64;
-        let image = b.space.image.map(|[c, h, w]| {
-            Tensor::from_slice(&b.image)
-                .view([n, c as i64, h as i64, w as i64])
-                .to_device(device)
-        });
-        let vector = Tensor::from_slice(&b.vector)
-            .view([n, b.space.vector as i64])
-            .to_device(device);
+        // Per step and minibatch: no `to_device` call at all on the CPU.
+        let on = |t: Tensor| {
+            if device == Device::Cpu {
+                t
+            } else {
+                t.to_device(device)
+            }
+        };
+        let image = b
+            .space
+            .image
+            .map(|[c, h, w]| on(Tensor::from_slice(&b.image).view([n, c as i64, h as i64, w as i64])));
+        let vector = on(Tensor::from_slice(&b.vector).view([n, b.space.vector as i64]));
         Self { image, vector }
     }
 }

@@ -280,27 +280,41 @@ impl PpoConfig {
     }
 }
 
-/// A minibatch as tensors.
+/// A minibatch: observations as tensors (they go through the network), the per-sample
+/// numbers on the host (see [`loss_gradients`]).
 #[derive(Debug)]
-pub struct MinibatchTensors {
+pub struct PpoMinibatch {
     pub obs: ObsTensors,
-    /// i64 action indices `[n]`.
-    pub actions: Tensor,
-    pub old_values: Tensor,
-    pub old_log_probs: Tensor,
-    pub advantages: Tensor,
-    pub returns: Tensor,
+    pub actions: Vec<u8>,
+    pub old_values: Vec<f32>,
+    pub old_log_probs: Vec<f32>,
+    pub advantages: Vec<f32>,
+    pub returns: Vec<f32>,
 }
 
-/// The losses of one minibatch (the `loss` tensor carries the graph).
+/// The loss settings of one update (SB3's names).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LossSettings {
+    pub clip_range: f64,
+    pub clip_range_vf: Option<f64>,
+    pub ent_coef: f64,
+    pub vf_coef: f64,
+    pub normalize_advantage: bool,
+}
+
+/// The losses of one minibatch.
 #[derive(Debug)]
 pub struct Losses {
-    pub loss: Tensor,
+    /// A scalar whose gradient with respect to the parameters is the PPO loss's gradient:
+    /// Σ logits·∂L/∂logits + Σ values·∂L/∂values (its value is not the loss: see
+    /// `loss_value`).
+    pub surrogate: Tensor,
     pub policy_loss: f64,
     pub value_loss: f64,
     pub entropy_loss: f64,
     pub approx_kl: f64,
     pub clip_fraction: f64,
+    pub loss_value: f64,
 }
 
 /// Log-probabilities of `actions` and the entropies of the categorical distributions.
@@ -314,103 +328,301 @@ pub fn log_prob_entropy(logits: &Tensor, actions: &Tensor) -> (Tensor, Tensor) {
 /// SB3's PPO loss on one minibatch (`train()`, per minibatch): advantage normalisation with
 /// the unbiased std + 1e-8, clipped surrogate, optional value clipping, MSE value loss
 /// without ½, entropy loss −mean(H), approx KL (k3).
-pub fn ppo_losses(
-    policy: &Policy,
-    mb: &MinibatchTensors,
-    clip_range: f64,
-    clip_range_vf: Option<f64>,
-    ent_coef: f64,
-    vf_coef: f64,
-    normalize_advantage: bool,
-) -> Losses {
+///
+/// The loss's gradient with respect to the network's outputs is computed without autograd
+/// ([`loss_gradients`]) and the parameters' gradient is that of [`Losses::surrogate`]: the
+/// same numbers, to the bit, as autograd through SB3's expression, without the ~130 small
+/// tensor operations of that graph.
+pub fn ppo_losses(policy: &Policy, mb: &PpoMinibatch, settings: &LossSettings) -> Losses {
     let (logits, values) = policy.forward(&mb.obs, true);
-    let (log_prob, entropy) = log_prob_entropy(&logits, &mb.actions);
-    let mut adv = mb.advantages.shallow_clone();
-    if normalize_advantage && adv.size()[0] > 1 {
-        adv = (&adv - adv.mean(Kind::Float)) / (adv.std(true) + 1e-8);
-    }
-    let log_ratio = &log_prob - &mb.old_log_probs;
-    let ratio = log_ratio.exp();
-    let pl1 = &adv * &ratio;
-    let pl2 = &adv * ratio.clamp(1.0 - clip_range, 1.0 + clip_range);
-    let policy_loss = -pl1.minimum(&pl2).mean(Kind::Float);
-    let clip_fraction = f64::try_from(
-        (&ratio - 1.0)
-            .abs()
-            .gt(clip_range)
-            .to_kind(Kind::Float)
-            .mean(Kind::Float),
-    )
-    .unwrap_or(f64::NAN);
-    let values_pred = match clip_range_vf {
-        None => values,
-        Some(c) => &mb.old_values + (&values - &mb.old_values).clamp(-c, c),
-    };
-    let value_loss = values_pred.mse_loss(&mb.returns, tch::Reduction::Mean);
-    let entropy_loss = -entropy.mean(Kind::Float);
-    let loss = &policy_loss + ent_coef * &entropy_loss + vf_coef * &value_loss;
-    let approx_kl = tch::no_grad(|| {
-        let lr = log_ratio.detach();
-        f64::try_from(((lr.exp() - 1.0) - &lr).mean(Kind::Float)).unwrap_or(f64::NAN)
-    });
-    let scalar = |t: &Tensor| f64::try_from(t.detach()).unwrap_or(f64::NAN);
+    let (out, g_logits, g_values) = loss_gradients(&logits, &values, mb, settings);
+    let surrogate = (&logits * g_logits).sum(Kind::Float) + (&values * g_values).sum(Kind::Float);
     Losses {
-        policy_loss: scalar(&policy_loss),
-        value_loss: scalar(&value_loss),
-        entropy_loss: scalar(&entropy_loss),
-        approx_kl,
-        clip_fraction,
-        loss,
+        surrogate,
+        policy_loss: out.policy_loss,
+        value_loss: out.value_loss,
+        entropy_loss: out.entropy_loss,
+        approx_kl: out.approx_kl,
+        clip_fraction: out.clip_fraction,
+        loss_value: out.loss,
     }
 }
 
-/// PyTorch's `clip_grad_norm_` (L2, global): total = ‖(‖g₁‖, …, ‖gₙ‖)‖, every gradient
-/// multiplied by min(1, max/(total + 1e-6)). Returns the total norm before clipping.
-pub fn clip_grad_norm(params: &[Tensor], max_norm: f64) -> f64 {
-    tch::no_grad(|| {
-        let norms: Vec<Tensor> = params
-            .iter()
-            .filter_map(|p| {
-                let g = p.grad();
-                g.defined().then(|| g.norm())
-            })
-            .collect();
-        if norms.is_empty() {
-            return 0.0;
+/// The PPO loss of network outputs and its gradient with respect to the log-probabilities
+/// and the values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputGradients {
+    pub policy_loss: f64,
+    pub value_loss: f64,
+    pub entropy_loss: f64,
+    pub approx_kl: f64,
+    pub clip_fraction: f64,
+    pub loss: f64,
+    /// ∂loss/∂log-softmax(logits), n × actions row-major.
+    pub grad_log_probs: Vec<f32>,
+    /// ∂loss/∂values.
+    pub grad_values: Vec<f32>,
+}
+
+/// The loss of `logits` (n × actions) and `values` (n) and its gradients with respect to
+/// them (as tensors on their device), autograd's numbers without autograd. What autograd's
+/// graph computes with transcendental functions or reductions (log-softmax, exp, the
+/// advantages' mean and std, log-softmax's backward) is computed by the same torch kernels,
+/// without a graph; the rest is IEEE elementwise arithmetic, on the host, in autograd's
+/// order ([`output_gradients`]). The logged numbers (losses, KL, clip fraction) are means
+/// accumulated in f64, so they may differ from torch's float32 means in the last bits (the
+/// approx KL also decides SB3's early stop: only a KL within ~1e-7 of 1.5 × target_kl could
+/// be decided the other way).
+pub fn loss_gradients(
+    logits: &Tensor,
+    values: &Tensor,
+    mb: &PpoMinibatch,
+    s: &LossSettings,
+) -> (OutputGradients, Tensor, Tensor) {
+    let n = mb.actions.len();
+    let a = logits.size().last().map_or(0, |&a| a as usize);
+    let device = logits.device();
+    let norm_adv = s.normalize_advantage && n > 1;
+    let (lp, host) = tch::no_grad(|| {
+        // No graph is recorded here, so nothing needs detaching.
+        let lp = logits.log_softmax(-1, Kind::Float);
+        let actions: Vec<i64> = mb.actions.iter().map(|&a| i64::from(a)).collect();
+        let actions = on(Tensor::from_slice(&actions), device);
+        let chosen = lp.gather(1, &actions.unsqueeze(1), false).squeeze_dim(1);
+        let inputs = on(
+            Tensor::from_slice(&[&mb.old_log_probs[..], &mb.advantages[..]].concat()),
+            device,
+        );
+        let log_ratio = chosen - inputs.narrow(0, 0, n as i64);
+        let ratio = log_ratio.exp();
+        let adv = inputs.narrow(0, n as i64, n as i64);
+        let mut parts = vec![lp.reshape([-1]), log_ratio, ratio, values.shallow_clone()];
+        if norm_adv {
+            parts.push(Tensor::stack(&[adv.mean(Kind::Float), adv.std(true)], 0));
         }
-        let total = Tensor::stack(&norms, 0).norm();
-        let coef = (max_norm / (&total + 1e-6)).clamp_max(1.0);
-        for p in params {
-            let mut g = p.grad();
-            if g.defined() {
-                let _ = g.g_mul_(&coef);
+        if s.ent_coef != 0.0 {
+            parts.push(lp.exp().reshape([-1]));
+        }
+        let host = Vec::<f32>::try_from(on(Tensor::cat(&parts, 0), tch::Device::Cpu)).unwrap_or_default();
+        (lp, host)
+    });
+    let expected = n * a + 3 * n + if norm_adv { 2 } else { 0 } + if s.ent_coef != 0.0 { n * a } else { 0 };
+    let out = if host.len() == expected {
+        let (lp_h, rest) = host.split_at(n * a);
+        let (lr, rest) = rest.split_at(n);
+        let (ratio, rest) = rest.split_at(n);
+        let (vals, rest) = rest.split_at(n);
+        let (stats, probs) = rest.split_at(if norm_adv { 2 } else { 0 });
+        let outputs = TorchOutputs {
+            log_probs: lp_h,
+            log_ratio: lr,
+            ratio,
+            values: vals,
+            adv_mean_std: norm_adv.then(|| (stats[0], stats[1])),
+            probs: (s.ent_coef != 0.0).then_some(probs),
+        };
+        output_gradients(&outputs, a, mb, s)
+    } else {
+        // Not reachable with a working libtorch; a NaN loss stops training with an error.
+        OutputGradients {
+            policy_loss: f64::NAN,
+            value_loss: f64::NAN,
+            entropy_loss: f64::NAN,
+            approx_kl: f64::NAN,
+            clip_fraction: f64::NAN,
+            loss: f64::NAN,
+            grad_log_probs: vec![0.0; n * a],
+            grad_values: vec![0.0; n],
+        }
+    };
+    let (g_logits, g_values) = tch::no_grad(|| {
+        let g_lp = on(Tensor::from_slice(&out.grad_log_probs), device).view([n as i64, a as i64]);
+        (
+            Tensor::internal_log_softmax_backward_data(&g_lp, &lp, -1, Kind::Float),
+            on(Tensor::from_slice(&out.grad_values), device),
+        )
+    });
+    (out, g_logits, g_values)
+}
+
+/// `t` on `device` (no call at all when it is already there: these are per-minibatch).
+fn on(t: Tensor, device: tch::Device) -> Tensor {
+    if t.device() == device {
+        t
+    } else {
+        t.to_device(device)
+    }
+}
+
+/// Torch's numbers for one minibatch (see [`loss_gradients`]).
+#[derive(Debug, Clone, Copy)]
+pub struct TorchOutputs<'a> {
+    /// log-softmax(logits), n × actions.
+    pub log_probs: &'a [f32],
+    /// log π(a|s) − old log π.
+    pub log_ratio: &'a [f32],
+    /// exp(log_ratio).
+    pub ratio: &'a [f32],
+    pub values: &'a [f32],
+    /// The advantages' mean and unbiased std, when they are normalised.
+    pub adv_mean_std: Option<(f32, f32)>,
+    /// exp(log_probs), when the entropy bonus needs it.
+    pub probs: Option<&'a [f32]>,
+}
+
+/// SB3's minibatch loss and autograd's gradient with respect to the log-probabilities and
+/// values, in float32 and autograd's order: mean's backward −1/n, `minimum` splitting ties
+/// in half, `clamp` passing the gradient inside its bounds (inclusive), exp's backward
+/// grad·result, the entropy term's three contributions, MSE's (2/n)·(v − R)·grad.
+pub fn output_gradients(
+    t: &TorchOutputs<'_>,
+    a: usize,
+    mb: &PpoMinibatch,
+    s: &LossSettings,
+) -> OutputGradients {
+    let n = mb.actions.len();
+    let nf = n as f64;
+    let adv: Vec<f32> = match t.adv_mean_std {
+        Some((m, sd)) => mb.advantages.iter().map(|&x| (x - m) / (sd + 1e-8)).collect(),
+        None => mb.advantages.clone(),
+    };
+    // torch's clamp is max(lo) then min(hi), so lo > hi (a schedule past its end) gives hi.
+    let (lo, hi) = ((1.0 - s.clip_range) as f32, (1.0 + s.clip_range) as f32);
+    let g_m = -1.0f32 / n as f32;
+    // Entropy term: ent_coef·(−mean H), H = −Σ p·log p.
+    let g_s = -((-(s.ent_coef as f32)) / n as f32);
+    let mse = (2.0 / nf) as f32;
+    let vf = s.vf_coef as f32;
+    let mut grad_log_probs = vec![0f32; n * a];
+    let mut grad_values = vec![0f32; n];
+    let (mut pl, mut kl, mut clipped, mut vl, mut ent) = (0f64, 0f64, 0usize, 0f64, 0f64);
+    for i in 0..n {
+        let act = usize::from(mb.actions[i]);
+        let lp = &t.log_probs[i * a..(i + 1) * a];
+        let (lr, r) = (t.log_ratio[i], t.ratio[i]);
+        let (pl1, pl2) = (adv[i] * r, adv[i] * r.max(lo).min(hi));
+        pl += f64::from(pl1.min(pl2));
+        kl += f64::from((r - 1.0) - lr);
+        if (r - 1.0).abs() > s.clip_range as f32 {
+            clipped += 1;
+        }
+        ent -= lp.iter().map(|&l| f64::from(l.exp() * l)).sum::<f64>();
+        let (g1, g2) = if pl1 < pl2 {
+            (g_m, 0.0)
+        } else if pl1 == pl2 {
+            (g_m / 2.0, g_m / 2.0)
+        } else {
+            (0.0, g_m)
+        };
+        let g_r1 = g1 * adv[i];
+        let g_r2 = if (lo..=hi).contains(&r) { g2 * adv[i] } else { 0.0 };
+        let g_lp = (g_r1 + g_r2) * r;
+        let row = &mut grad_log_probs[i * a..(i + 1) * a];
+        row[act] = g_lp;
+        if let Some(p) = t.probs {
+            let p = &p[i * a..(i + 1) * a];
+            for k in 0..a {
+                // Autograd sums the product's two terms first, then the chosen action's.
+                row[k] += g_s * p[k] + (g_s * lp[k]) * p[k];
             }
         }
-        f64::try_from(total).unwrap_or(f64::NAN)
-    })
+        let (vp, pass) = match s.clip_range_vf {
+            None => (t.values[i], true),
+            Some(c) => {
+                let c = c as f32;
+                let d = t.values[i] - mb.old_values[i];
+                (mb.old_values[i] + d.max(-c).min(c), (-c..=c).contains(&d))
+            }
+        };
+        let diff = vp - mb.returns[i];
+        vl += f64::from(diff * diff);
+        grad_values[i] = if pass { mse * diff * vf } else { 0.0 };
+    }
+    let policy_loss = -pl / nf;
+    let value_loss = vl / nf;
+    let entropy_loss = -ent / nf;
+    OutputGradients {
+        policy_loss,
+        value_loss,
+        entropy_loss,
+        approx_kl: kl / nf,
+        clip_fraction: clipped as f64 / nf,
+        loss: policy_loss + s.ent_coef * entropy_loss + s.vf_coef * value_loss,
+        grad_log_probs,
+        grad_values,
+    }
 }
 
-/// PyTorch's Adam (single-tensor implementation, no weight decay, no AMSGrad), with its
-/// moments in the open so checkpoints hold them.
+/// PyTorch's Adam (single-tensor implementation, no weight decay, no AMSGrad) and
+/// `clip_grad_norm_`, with the moments in the open so checkpoints hold them.
+///
+/// The parameters are moved into one flat buffer (each variable becomes a view of it) and the
+/// moments and the gradient are flat too, so a step is ten elementwise operations over the
+/// buffer instead of ten per parameter tensor: elementwise, so every parameter gets exactly
+/// the arithmetic it got one tensor at a time.
 #[derive(Debug)]
 pub struct Adam {
+    /// The trainable variables (views of the flat buffer).
     pub params: Vec<Tensor>,
+    /// Per-parameter views of the moments (checkpoints).
     pub exp_avg: Vec<Tensor>,
     pub exp_avg_sq: Vec<Tensor>,
+    flat: Tensor,
+    m: Tensor,
+    v: Tensor,
+    /// The last gradient ([`Adam::gradients`]) and its per-parameter views.
+    grad: Tensor,
+    grad_views: Vec<Tensor>,
     pub step: u64,
     pub beta1: f64,
     pub beta2: f64,
     pub eps: f64,
 }
 
+/// Views of `flat` shaped as `params`, in order.
+fn views_like(flat: &Tensor, params: &[Tensor]) -> Vec<Tensor> {
+    let mut off = 0;
+    params
+        .iter()
+        .map(|p| {
+            let n = p.numel() as i64;
+            let v = flat.narrow(0, off, n).view(p.size().as_slice());
+            off += n;
+            v
+        })
+        .collect()
+}
+
 impl Adam {
-    pub fn new(params: Vec<Tensor>, eps: f64) -> Self {
-        let exp_avg = params.iter().map(Tensor::zeros_like).collect();
-        let exp_avg_sq = params.iter().map(Tensor::zeros_like).collect();
+    /// Takes the parameters over: their values are copied into one buffer and each variable
+    /// is rebound to its slice (it stays the same variable for autograd and the VarStore).
+    pub fn new(mut params: Vec<Tensor>, eps: f64) -> Self {
+        let total: i64 = params.iter().map(|p| p.numel() as i64).sum();
+        let opts = params
+            .first()
+            .map_or((Kind::Float, tch::Device::Cpu), |p| (p.kind(), p.device()));
+        let flat = Tensor::zeros([total], opts);
+        let views = views_like(&flat, &params);
+        tch::no_grad(|| {
+            for (p, v) in params.iter_mut().zip(&views) {
+                let mut v = v.shallow_clone();
+                v.copy_(p);
+                // One at a time, so at most one parameter is held twice.
+                p.set_data(&v);
+            }
+        });
+        let m = Tensor::zeros([total], opts);
+        let v = Tensor::zeros([total], opts);
+        let grad = Tensor::zeros([total], opts);
         Self {
+            exp_avg: views_like(&m, &params),
+            exp_avg_sq: views_like(&v, &params),
+            grad_views: views_like(&grad, &params),
             params,
-            exp_avg,
-            exp_avg_sq,
+            flat,
+            m,
+            v,
+            grad,
             step: 0,
             beta1: 0.9,
             beta2: 0.999,
@@ -418,16 +630,56 @@ impl Adam {
         }
     }
 
-    pub fn zero_grad(&mut self) {
-        for p in &mut self.params {
-            let mut g = p.grad();
-            if g.defined() {
-                let _ = g.detach_();
-                let _ = g.zero_();
-            }
-        }
+    /// d loss / d params into the flat gradient buffer ([`Adam::gradient`]), without
+    /// touching the parameters' `.grad`, so there is nothing to zero between steps. A
+    /// parameter the loss does not use gets 0.
+    pub fn gradients(&mut self, loss: &Tensor) -> Result<(), RlError> {
+        let grads = Tensor::f_run_backward(&[loss], &self.params, false, false)?;
+        let parts: Vec<Tensor> = grads
+            .iter()
+            .zip(&self.params)
+            .map(|(g, p)| {
+                if g.defined() {
+                    g.reshape([-1])
+                } else {
+                    p.zeros_like().reshape([-1])
+                }
+            })
+            .collect();
+        let _ = tch::no_grad(|| Tensor::f_cat_out(&self.grad, &parts, 0))?;
+        Ok(())
     }
 
+    /// The flat gradient buffer (clipped in place by [`Adam::clip_grad_norm`]).
+    pub fn gradient(&self) -> &Tensor {
+        &self.grad
+    }
+
+    /// Per-parameter views of a flat tensor (tests, diagnostics).
+    pub fn unflatten(&self, flat: &Tensor) -> Vec<Tensor> {
+        views_like(flat, &self.params)
+    }
+
+    /// PyTorch's `clip_grad_norm_` (L2, global) on the gradient buffer: total =
+    /// ‖(‖g₁‖, …, ‖gₙ‖)‖ over the parameters, every gradient multiplied by
+    /// min(1, max/(total + 1e-6)). Returns the total norm before clipping. The per-parameter
+    /// norms are kept (not one norm of the flat buffer) so the coefficient is torch's to the bit.
+    pub fn clip_grad_norm(&mut self, max_norm: f64) -> f64 {
+        tch::no_grad(|| {
+            if self.grad_views.is_empty() {
+                return 0.0;
+            }
+            let norms: Vec<Tensor> = self.grad_views.iter().map(Tensor::norm).collect();
+            let total = f32::try_from(Tensor::stack(&norms, 0).norm()).unwrap_or(f32::NAN);
+            // In float32 as tch's `max_norm / (total + 1e-6)` computes it:
+            // ((total + 1e-6) / max_norm)^−1, then clamped at 1.
+            let coef = (1.0 / ((total + 1e-6) / max_norm as f32)).min(1.0);
+            let _ = self.grad.g_mul_scalar_(f64::from(coef));
+            f64::from(total)
+        })
+    }
+
+    /// One step with the gradient buffer.
     pub fn step(&mut self, lr: f64) {
         self.step += 1;
         let t = self.step as i32;
@@ -435,23 +687,203 @@ impl Adam {
         let bc2_sqrt = (1.0 - self.beta2.powi(t)).sqrt();
         let step_size = lr / bc1;
         tch::no_grad(|| {
-            for ((p, m), v) in self
-                .params
-                .iter_mut()
-                .zip(&mut self.exp_avg)
-                .zip(&mut self.exp_avg_sq)
-            {
-                let g = p.grad();
-                if !g.defined() {
-                    continue;
-                }
-                let _ = m.lerp_(&g, 1.0 - self.beta1);
-                let _ = v.g_mul_scalar_(self.beta2);
-                let _ = v.addcmul_(&(&g * (1.0 - self.beta2)), &g);
-                let denom = v.sqrt() / bc2_sqrt + self.eps;
-                // torch: param + (value·exp_avg)/denom with value = −step_size.
-                let _ = p.g_add_(&((&*m * -step_size) / denom));
-            }
+            let g = &self.grad;
+            let _ = self.m.lerp_(g, 1.0 - self.beta1);
+            let _ = self.v.g_mul_scalar_(self.beta2);
+            let _ = self.v.addcmul_(&(g * (1.0 - self.beta2)), g);
+            let mut denom = self.v.sqrt();
+            let _ = denom.g_div_scalar_(bc2_sqrt).g_add_scalar_(self.eps);
+            // torch: param.addcdiv_(exp_avg, denom, value=−step_size).
+            let mut update = &self.m * -step_size;
+            let _ = update.g_div_(&denom);
+            let _ = self.flat.g_add_(&update);
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn batch(n: usize) -> PpoMinibatch {
+        let f = |k: usize, s: f32| {
+            (0..n)
+                .map(|i| ((i * k) % 7) as f32 * s - 0.3)
+                .collect::<Vec<f32>>()
+        };
+        PpoMinibatch {
+            obs: ObsTensors {
+                image: None,
+                vector: Tensor::zeros([n as i64, 1], (Kind::Float, tch::Device::Cpu)),
+            },
+            actions: (0..n).map(|i| (i % 3) as u8).collect(),
+            old_values: f(3, 0.2),
+            old_log_probs: (0..n).map(|i| -1.0 - 0.05 * i as f32).collect(),
+            advantages: f(5, 0.4),
+            returns: f(2, 0.3),
+        }
+    }
+
+    fn loss_of(
+        logits: &[f32],
+        a: usize,
+        values: &[f32],
+        mb: &PpoMinibatch,
+        s: &LossSettings,
+    ) -> (OutputGradients, Vec<f32>, Vec<f32>) {
+        let n = values.len() as i64;
+        let l = Tensor::from_slice(logits).view([n, a as i64]);
+        let v = Tensor::from_slice(values);
+        let (out, gl, gv) = loss_gradients(&l, &v, mb, s);
+        let gl = Vec::<f32>::try_from(gl.reshape([-1])).expect("logit gradients");
+        let gv = Vec::<f32>::try_from(gv).expect("value gradients");
+        (out, gl, gv)
+    }
+
+    /// SB3's loss expression in torch, differentiated by autograd (what this crate did before
+    /// `loss_gradients`): the gradients with respect to the logits and values.
+    fn autograd(
+        logits: &Tensor,
+        values: &Tensor,
+        mb: &PpoMinibatch,
+        s: &LossSettings,
+    ) -> (Vec<f32>, Vec<f32>) {
+        let (logits, values) = (
+            logits.detach().set_requires_grad(true),
+            values.detach().set_requires_grad(true),
+        );
+        let t = |v: &[f32]| Tensor::from_slice(v);
+        let actions = Tensor::from_slice(&mb.actions).to_kind(Kind::Int64);
+        let (logp, entropy) = log_prob_entropy(&logits, &actions);
+        let adv = t(&mb.advantages);
+        let adv = (&adv - adv.mean(Kind::Float)) / (adv.std(true) + 1e-8);
+        let ratio = (&logp - t(&mb.old_log_probs)).exp();
+        let pl1 = &adv * &ratio;
+        let pl2 = &adv * ratio.clamp(1.0 - s.clip_range, 1.0 + s.clip_range);
+        let policy_loss = -pl1.minimum(&pl2).mean(Kind::Float);
+        let old = t(&mb.old_values);
+        let vp = match s.clip_range_vf {
+            None => values.shallow_clone(),
+            Some(c) => &old + (&values - &old).clamp(-c, c),
+        };
+        let value_loss = vp.mse_loss(&t(&mb.returns), tch::Reduction::Mean);
+        let entropy_loss = -entropy.mean(Kind::Float);
+        let loss = &policy_loss + s.ent_coef * &entropy_loss + s.vf_coef * &value_loss;
+        let g = Tensor::run_backward(&[&loss], &[&logits, &values], false, false);
+        (
+            Vec::<f32>::try_from(g[0].reshape([-1])).expect("autograd logits"),
+            Vec::<f32>::try_from(&g[1]).expect("autograd values"),
+        )
+    }
+
+    /// `loss_gradients` gives autograd's numbers, bit for bit, with and without the entropy
+    /// bonus and value clipping (so training is unchanged by not building the graph).
+    #[test]
+    fn output_gradients_equal_autograd_bit_for_bit() {
+        tch::set_num_threads(1);
+        for (n, a, ent_coef, clip_range_vf) in [
+            (256, 2, 0.0, None),
+            (16, 5, 0.2, None),
+            (64, 5, 0.2, Some(0.1)),
+            (100, 3, 0.05, None),
+        ] {
+            tch::manual_seed(n);
+            let opts = (Kind::Float, tch::Device::Cpu);
+            let logits = Tensor::randn([n, a], opts) * 0.5;
+            let values = Tensor::randn([n], opts);
+            let v = |t: Tensor| Vec::<f32>::try_from(t).expect("tensor");
+            let mb = PpoMinibatch {
+                obs: ObsTensors {
+                    image: None,
+                    vector: Tensor::zeros([n, 1], opts),
+                },
+                actions: (0..n).map(|i| (i * 7 % a) as u8).collect(),
+                old_values: v(Tensor::randn([n], opts)),
+                old_log_probs: v(Tensor::randn([n], opts) * 0.05 - 0.7),
+                advantages: v(Tensor::randn([n], opts)),
+                returns: v(Tensor::randn([n], opts)),
+            };
+            let s = LossSettings {
+                clip_range: 0.2,
+                clip_range_vf,
+                ent_coef,
+                vf_coef: 0.5,
+                normalize_advantage: true,
+            };
+            let (gl, gv) = autograd(&logits, &values, &mb, &s);
+            let (_, hl, hv) = loss_gradients(&logits, &values, &mb, &s);
+            let bits = |x: &[f32], y: &[f32]| {
+                x.iter()
+                    .zip(y)
+                    .filter(|(a, b)| a.to_bits() != b.to_bits())
+                    .count()
+            };
+            assert_eq!(
+                bits(&gl, &v(hl.reshape([-1]))),
+                0,
+                "logits, case n={n} a={a} ent={ent_coef}"
+            );
+            assert_eq!(bits(&gv, &v(hv)), 0, "values, case n={n} a={a} ent={ent_coef}");
+        }
+    }
+
+    /// The gradient is the loss's derivative: central differences agree.
+    #[test]
+    fn output_gradients_match_finite_differences() {
+        let (n, a) = (6, 3);
+        let mb = batch(n);
+        let s = LossSettings {
+            clip_range: 0.2,
+            clip_range_vf: Some(0.15),
+            ent_coef: 0.1,
+            vf_coef: 0.5,
+            normalize_advantage: true,
+        };
+        let logits: Vec<f32> = (0..n * a).map(|k| ((k * 5) % 11) as f32 * 0.07 - 0.35).collect();
+        let values: Vec<f32> = (0..n).map(|i| 0.1 * i as f32 - 0.2).collect();
+        let (_, gl, gv) = loss_of(&logits, a, &values, &mb, &s);
+        let h = 1e-3f32;
+        let fd = |l: &[f32], v: &[f32], l2: &[f32], v2: &[f32]| {
+            (loss_of(l, a, v, &mb, &s).0.loss - loss_of(l2, a, v2, &mb, &s).0.loss) / (2.0 * f64::from(h))
+        };
+        for k in 0..n * a {
+            let (mut up, mut down) = (logits.clone(), logits.clone());
+            up[k] += h;
+            down[k] -= h;
+            let d = fd(&up, &values, &down, &values);
+            assert!((d - f64::from(gl[k])).abs() < 2e-3, "logit {k}: {d} vs {}", gl[k]);
+        }
+        for i in 0..n {
+            let (mut up, mut down) = (values.clone(), values.clone());
+            up[i] += h;
+            down[i] -= h;
+            let d = fd(&logits, &up, &logits, &down);
+            assert!((d - f64::from(gv[i])).abs() < 2e-3, "value {i}: {d} vs {}", gv[i]);
+        }
+    }
+
+    /// A linear clip schedule run past its end has clip < 0: torch's clamp then gives the
+    /// upper bound everywhere and passes no gradient (no panic, as f32::clamp would).
+    #[test]
+    fn a_negative_clip_range_clamps_like_torch() {
+        let (n, a) = (4, 3);
+        let mut mb = batch(n);
+        mb.advantages = vec![1.0, 2.0, 3.0, 4.0];
+        mb.old_log_probs = vec![(1.0f32 / 3.0).ln(); n];
+        let s = LossSettings {
+            clip_range: -0.01,
+            clip_range_vf: None,
+            ent_coef: 0.0,
+            vf_coef: 0.5,
+            normalize_advantage: false,
+        };
+        let (g, gl, _) = loss_of(&vec![0.0; n * a], a, &vec![0.0; n], &mb, &s);
+        // ratio 1 > hi = 0.99: every minimum is the clamped term, whose gradient is masked.
+        assert!(gl.iter().all(|&x| x == 0.0), "{gl:?}");
+        assert!((g.policy_loss + 0.99 * 2.5).abs() < 1e-6, "{}", g.policy_loss);
+        assert_eq!(
+            g.clip_fraction, 1.0,
+            "|r − 1| > a negative clip everywhere, as in torch"
+        );
     }
 }

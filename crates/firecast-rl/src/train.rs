@@ -16,7 +16,7 @@ use crate::buffer::{Minibatch, RolloutBuffer};
 use crate::env::{ObsBatch, ObsSpace, VecEnvironment};
 use crate::normalize::VecNormalize;
 use crate::policy::{ObsTensors, Policy, PolicyConfig};
-use crate::ppo::{Adam, MinibatchTensors, PpoConfig, clip_grad_norm, log_prob_entropy, ppo_losses};
+use crate::ppo::{Adam, LossSettings, PpoConfig, PpoMinibatch, log_prob_entropy, ppo_losses};
 use crate::rng::RngState;
 
 /// Finished episodes remembered for `rollout/ep_*_mean` (SB3's `stats_window_size`).
@@ -227,10 +227,17 @@ impl Trainer {
         let device = self.policy.device();
         let (logits, values) =
             tch::no_grad(|| self.policy.forward(&ObsTensors::from_batch(obs, device), false));
-        let logp_all = logits.log_softmax(-1, Kind::Float).to_device(Device::Cpu);
+        let to_cpu = |t: Tensor| {
+            if device == Device::Cpu {
+                t
+            } else {
+                t.to_device(Device::Cpu)
+            }
+        };
+        let logp_all = to_cpu(logits.log_softmax(-1, Kind::Float));
         let a = self.policy.num_actions;
         let logp: Vec<f32> = Vec::<f32>::try_from(logp_all.flatten(0, -1)).unwrap_or_default();
-        let values: Vec<f32> = Vec::<f32>::try_from(values.to_device(Device::Cpu)).unwrap_or_default();
+        let values: Vec<f32> = Vec::<f32>::try_from(to_cpu(values)).unwrap_or_default();
         let mut actions = Vec::with_capacity(obs.n);
         let mut chosen = Vec::with_capacity(obs.n);
         for row in logp.chunks(a) {
@@ -259,9 +266,13 @@ impl Trainer {
         let mut new_obs = ObsBatch::new(self.env.space(), n);
         let mut dones = vec![false; n];
         while !self.buffer.is_full() {
-            let obs = self.last_obs.clone();
+            // Moved out (not cloned) while `act` borrows the trainer; the buffers rotate.
+            let obs = std::mem::replace(&mut self.last_obs, ObsBatch::new(self.env.space(), 0));
             let (actions, values, log_probs) = self.act(&obs, false);
-            self.env.step(&actions)?;
+            if let Err(e) = self.env.step(&actions) {
+                self.last_obs = obs;
+                return Err(e);
+            }
             self.num_timesteps += n as u64;
             let raw = self.env.rewards().to_vec();
             for (i, d) in dones.iter_mut().enumerate() {
@@ -320,7 +331,7 @@ impl Trainer {
                 &values,
                 &log_probs,
             );
-            std::mem::swap(&mut self.last_obs, &mut new_obs);
+            self.last_obs = std::mem::replace(&mut new_obs, obs);
             self.last_episode_starts.copy_from_slice(&dones);
         }
         let device = self.policy.device();
@@ -335,18 +346,14 @@ impl Trainer {
         Ok(())
     }
 
-    fn minibatch_tensors(&self, mb: &Minibatch) -> MinibatchTensors {
-        let device = self.policy.device();
-        let t = |v: &[f32]| Tensor::from_slice(v).to_device(device);
-        MinibatchTensors {
-            obs: ObsTensors::from_batch(&mb.obs, device),
-            actions: Tensor::from_slice(&mb.actions)
-                .to_kind(Kind::Int64)
-                .to_device(device),
-            old_values: t(&mb.values),
-            old_log_probs: t(&mb.log_probs),
-            advantages: t(&mb.advantages),
-            returns: t(&mb.returns),
+    fn minibatch(&self, mb: Minibatch) -> PpoMinibatch {
+        PpoMinibatch {
+            obs: ObsTensors::from_batch(&mb.obs, self.policy.device()),
+            actions: mb.actions,
+            old_values: mb.values,
+            old_log_probs: mb.log_probs,
+            advantages: mb.advantages,
+            returns: mb.returns,
         }
     }
 
@@ -354,6 +361,13 @@ impl Trainer {
     fn train(&mut self, progress_remaining: f64) -> Result<Vec<(String, f64)>, RlError> {
         let lr = self.ppo.learning_rate.at(progress_remaining);
         let clip = self.ppo.clip_range.at(progress_remaining);
+        let settings = LossSettings {
+            clip_range: clip,
+            clip_range_vf: self.ppo.clip_range_vf,
+            ent_coef: self.ppo.ent_coef,
+            vf_coef: self.ppo.vf_coef,
+            normalize_advantage: self.ppo.normalize_advantage,
+        };
         let (mut pg, mut vl, mut ent, mut cf) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut approx_kls = Vec::new();
         let mut last_loss = f64::NAN;
@@ -362,18 +376,9 @@ impl Trainer {
             approx_kls.clear();
             let perm = self.buffer.permutation(&mut self.rng);
             for chunk in perm.chunks(self.ppo.batch_size) {
-                let mb = self.buffer.gather(chunk);
-                let mbt = self.minibatch_tensors(&mb);
-                let losses = ppo_losses(
-                    &self.policy,
-                    &mbt,
-                    clip,
-                    self.ppo.clip_range_vf,
-                    self.ppo.ent_coef,
-                    self.ppo.vf_coef,
-                    self.ppo.normalize_advantage,
-                );
-                let loss_value = f64::try_from(losses.loss.detach()).unwrap_or(f64::NAN);
+                let mb = self.minibatch(self.buffer.gather(chunk));
+                let losses = ppo_losses(&self.policy, &mb, &settings);
+                let loss_value = losses.loss_value;
                 if !loss_value.is_finite() {
                     return Err(RlError::NonFinite {
                         update: self.iterations,
@@ -393,9 +398,8 @@ impl Trainer {
                     continue_training = false;
                     break;
                 }
-                self.adam.zero_grad();
-                losses.loss.backward();
-                let norm = clip_grad_norm(&self.adam.params, self.ppo.max_grad_norm);
+                self.adam.gradients(&losses.surrogate)?;
+                let norm = self.adam.clip_grad_norm(self.ppo.max_grad_norm);
                 if !norm.is_finite() {
                     return Err(RlError::NonFinite {
                         update: self.iterations,

@@ -19,7 +19,7 @@ use firecast_rl::RlError;
 use firecast_rl::buffer::RolloutBuffer;
 use firecast_rl::env::{ObsBatch, ObsSpace, VecEnvironment};
 use firecast_rl::policy::{ObsTensors, Policy, PolicyConfig, PolicyKind};
-use firecast_rl::ppo::{Adam, MinibatchTensors, PpoConfig, clip_grad_norm, log_prob_entropy, ppo_losses};
+use firecast_rl::ppo::{Adam, LossSettings, PpoConfig, PpoMinibatch, log_prob_entropy, ppo_losses};
 use firecast_rl::train::Trainer;
 use serde_json::Value;
 use tch::{Device, Kind, Tensor};
@@ -233,18 +233,29 @@ fn ppo_losses_gradients_and_adam_match_sb3_train() {
             .iter()
             .map(|a| a.as_i64().expect("action"))
             .collect();
-        let mb = MinibatchTensors {
+        let mb = PpoMinibatch {
             obs: obs_tensors(&floats(&c["obs"]), obs_dim),
-            actions: Tensor::from_slice(&actions),
-            old_values: Tensor::from_slice(&floats(&c["old_values"])),
-            old_log_probs: Tensor::from_slice(&floats(&c["old_log_probs"])),
-            advantages: Tensor::from_slice(&floats(&c["advantages"])),
-            returns: Tensor::from_slice(&floats(&c["returns"])),
+            actions: actions
+                .iter()
+                .map(|&a| u8::try_from(a).expect("action"))
+                .collect(),
+            old_values: floats(&c["old_values"]),
+            old_log_probs: floats(&c["old_log_probs"]),
+            advantages: floats(&c["advantages"]),
+            returns: floats(&c["returns"]),
         };
+        let settings = LossSettings {
+            clip_range: clip,
+            clip_range_vf: clip_vf,
+            ent_coef: ent,
+            vf_coef: vf,
+            normalize_advantage: true,
+        };
+        let actions_t = Tensor::from_slice(&actions);
 
         // The distribution and values before any step (torch's Categorical).
         let (logits, values) = tch::no_grad(|| policy.forward(&mb.obs, true));
-        let (logp, entropy) = log_prob_entropy(&logits, &mb.actions);
+        let (logp, entropy) = log_prob_entropy(&logits, &actions_t);
         worst.note(
             "values",
             compare(
@@ -295,18 +306,18 @@ fn ppo_losses_gradients_and_adam_match_sb3_train() {
         let (mut pg, mut vl, mut el, mut cf) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let (mut last_kl, mut last_loss) = (f64::NAN, f64::NAN);
         for (epoch, step) in steps.iter().enumerate() {
-            let losses = ppo_losses(&policy, &mb, clip, clip_vf, ent, vf, true);
+            let losses = ppo_losses(&policy, &mb, &settings);
             pg.push(losses.policy_loss);
             vl.push(losses.value_loss);
             el.push(losses.entropy_loss);
             cf.push(losses.clip_fraction);
             last_kl = losses.approx_kl;
-            last_loss = f64::try_from(losses.loss.detach()).expect("loss");
-            adam.zero_grad();
-            losses.loss.backward();
+            last_loss = losses.loss_value;
+            adam.gradients(&losses.surrogate).expect("gradients");
+            let grad = adam.gradient().shallow_clone();
             for (label, key) in [("raw grad", "raw_grads"), ("clipped grad", "clipped_grads")] {
                 if key == "clipped_grads" {
-                    let norm = clip_grad_norm(&adam.params, mgn);
+                    let norm = adam.clip_grad_norm(mgn);
                     worst.note(
                         "grad norm",
                         compare_scalar(
@@ -319,10 +330,10 @@ fn ppo_losses_gradients_and_adam_match_sb3_train() {
                 }
                 let sb3 = step[key].as_object().expect("grads");
                 assert_eq!(sb3.len(), names.len(), "{name}: every parameter has a gradient");
-                for (n, p) in names.iter().zip(&adam.params) {
+                for (n, g) in names.iter().zip(adam.unflatten(&grad)) {
                     let d = compare(
                         &format!("{name} epoch {epoch}: {label} of {n}"),
-                        &to_vec(&p.grad()),
+                        &to_vec(&g),
                         &floats(&sb3[n]),
                         LOSS_TOL,
                         true,
