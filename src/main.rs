@@ -81,8 +81,10 @@ enum BenchCommand {
     /// the same command on the same files and windows), with the ratio and a projection to
     /// the paper's scale.
     Gridmet(cmd_dataset::BenchGridmetArgs),
-    /// PPO speed beside Stable-Baselines3 in the same command (CartPole-v1, MLP policy, same
-    /// settings, one torch thread each): environment only, rollout, training.
+    /// PPO speed beside Stable-Baselines3 in the same command, same network, settings and
+    /// threads: (a) CartPole-v1 with the MLP policy, (b) the helitack environment with the
+    /// compact policy (SB3 through the Python package), (c) SB3 on the FireCastRL Python
+    /// environment (`--reference-env DIR`); environment only, rollout, training.
     Ppo(cmd_rl::BenchPpoArgs),
     /// Forecasting models beside their references in the same command: the flattened
     /// baselines against scikit-learn / xgboost on the same exported split (accuracy within
