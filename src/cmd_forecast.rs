@@ -769,11 +769,7 @@ fn resolve_model(settings: &Settings, spec: &str) -> anyhow::Result<PathBuf> {
         );
     };
     let registry = firecast_registry::Registry::open(&settings.registry)?;
-    let mut details = registry.run_details(run)?;
-    // `experiment run` prints its pipeline run; the models belong to its one stage run.
-    if details.artifacts.is_empty() && details.children.len() == 1 {
-        details = registry.run_details(&details.children[0].run_id)?;
-    }
+    let details = crate::cmd_runs::stage_run_details(&registry, run)?;
     let path = path.trim_matches('/');
     let wanted = if path.split('/').count() == 2 {
         // No seed given: the lowest one saved.

@@ -33,74 +33,7 @@ fn project_with_dataset() -> Project {
     let p = Project::new();
     // Denser ignitions than the dataset tests use, so both sides of every split hold both classes.
     p.write("synth.yaml", "ignition_rate_scale: 1.0\n");
-    p.ok(&[
-        "dataset",
-        "synthesize",
-        "--out",
-        "src",
-        "--seed",
-        "3",
-        "--years",
-        "2018-2019",
-        "--region",
-        "38.5,40.0,-108.5,-106.5",
-        "--config",
-        "synth.yaml",
-    ]);
-    let g = p.path("src/gridmet");
-    let g = g.to_str().unwrap();
-    let inc = p.path("src/incidents/wfigs_incidents.csv");
-    p.ok(&[
-        "dataset",
-        "ignitions",
-        "--incidents",
-        inc.to_str().unwrap(),
-        "--gridmet",
-        g,
-        "--out",
-        "w/ign.parquet",
-    ]);
-    p.write(
-        "neg.yaml",
-        "variant: paper\nperiod_start: \"2018-03-02\"\nperiod_end: \"2019-12-17\"\nfar_min_km: 4\nnear_max_km: 30\n",
-    );
-    p.ok(&[
-        "dataset",
-        "negatives",
-        "--ignitions",
-        "w/ign.parquet",
-        "--gridmet",
-        g,
-        "--out",
-        "w/s.parquet",
-        "--config",
-        "neg.yaml",
-    ]);
-    let truth = p.path("src/truth");
-    p.ok(&[
-        "dataset",
-        "windows",
-        "--samples",
-        "w/s.parquet",
-        "--gridmet",
-        g,
-        "--truth",
-        truth.to_str().unwrap(),
-        "--out",
-        "w/windows",
-    ]);
-    let built = p.json(&[
-        "dataset",
-        "build",
-        "--windows",
-        "w/windows",
-        "--out",
-        "data/a",
-        "--name",
-        "cli-fc",
-        "--framing",
-        "paper",
-    ]);
+    let built = build_dataset(&p, "3", "2018", "2019", "a", "cli-fc", true);
     let (n, pos) = (
         built["samples"].as_u64().unwrap(),
         built["positives"].as_u64().unwrap(),
@@ -110,25 +43,38 @@ fn project_with_dataset() -> Project {
     p
 }
 
-/// A second dataset from another seed of the generator and a later year, same box.
-fn build_second_dataset(p: &Project) {
+/// Synthetic sources (generator seed, first..last year, the test box) → ignitions →
+/// negatives over those years → windows (with the generator's truth if asked) → a
+/// paper-framed dataset `data/<tag>` named `name`; returns `dataset build`'s report.
+fn build_dataset(
+    p: &Project,
+    seed: &str,
+    first: &str,
+    last: &str,
+    tag: &str,
+    name: &str,
+    truth: bool,
+) -> serde_json::Value {
+    let (src, work) = (format!("src-{tag}"), format!("w-{tag}"));
+    let years = format!("{first}-{last}");
     p.ok(&[
         "dataset",
         "synthesize",
         "--out",
-        "src2",
+        &src,
         "--seed",
-        "4",
+        seed,
         "--years",
-        "2020-2020",
+        &years,
         "--region",
         "38.5,40.0,-108.5,-106.5",
         "--config",
         "synth.yaml",
     ]);
-    let g = p.path("src2/gridmet");
+    let g = p.path(&format!("{src}/gridmet"));
     let g = g.to_str().unwrap();
-    let inc = p.path("src2/incidents/wfigs_incidents.csv");
+    let inc = p.path(&format!("{src}/incidents/wfigs_incidents.csv"));
+    let ign = format!("{work}/ign.parquet");
     p.ok(&[
         "dataset",
         "ignitions",
@@ -137,46 +83,57 @@ fn build_second_dataset(p: &Project) {
         "--gridmet",
         g,
         "--out",
-        "w2/ign.parquet",
+        &ign,
     ]);
+    let neg = format!("neg-{tag}.yaml");
     p.write(
-        "neg2.yaml",
-        "variant: paper\nperiod_start: \"2020-03-02\"\nperiod_end: \"2020-12-17\"\nfar_min_km: 4\nnear_max_km: 30\n",
+        &neg,
+        &format!(
+            "variant: paper\nperiod_start: \"{first}-03-02\"\nperiod_end: \"{last}-12-17\"\nfar_min_km: 4\nnear_max_km: 30\n"
+        ),
     );
+    let samples = format!("{work}/s.parquet");
     p.ok(&[
         "dataset",
         "negatives",
         "--ignitions",
-        "w2/ign.parquet",
+        &ign,
         "--gridmet",
         g,
         "--out",
-        "w2/s.parquet",
+        &samples,
         "--config",
-        "neg2.yaml",
+        &neg,
     ]);
-    p.ok(&[
+    let windows = format!("{work}/windows");
+    let truth_dir = p.path(&format!("{src}/truth"));
+    let mut args = vec![
         "dataset",
         "windows",
         "--samples",
-        "w2/s.parquet",
+        &samples,
         "--gridmet",
         g,
         "--out",
-        "w2/windows",
-    ]);
-    p.ok(&[
+        &windows,
+    ];
+    if truth {
+        args.extend(["--truth", truth_dir.to_str().unwrap()]);
+    }
+    p.ok(&args);
+    let out = format!("data/{tag}");
+    p.json(&[
         "dataset",
         "build",
         "--windows",
-        "w2/windows",
+        &windows,
         "--out",
-        "data/b",
+        &out,
         "--name",
-        "cli-fc-2020",
+        name,
         "--framing",
         "paper",
-    ]);
+    ])
 }
 
 fn metrics(p: &Project) -> serde_json::Value {
@@ -325,7 +282,7 @@ fn experiment_runs_every_model_under_both_protocols_and_answers_predictions() {
             "--model",
             &model,
             "--gridmet",
-            "src/gridmet",
+            "src-a/gridmet",
             "--points",
             "points.csv",
             "--device",
@@ -353,7 +310,7 @@ fn experiment_runs_every_model_under_both_protocols_and_answers_predictions() {
             "--model",
             &format!("{stage_run}:paper/svm"),
             "--gridmet",
-            "src/gridmet",
+            "src-a/gridmet",
         ])
         .args(["--lat", "39", "--lon", "-107", "--date", "2019-07-01"])
         .output()
@@ -382,7 +339,7 @@ fn experiment_runs_every_model_under_both_protocols_and_answers_predictions() {
     assert_eq!(auroc["delta_mean"], 0.0, "{auroc}");
 
     // The saved models scored on two other years (forecast.evaluate), and refused on their own data.
-    build_second_dataset(&p);
+    build_dataset(&p, "4", "2020", "2020", "b", "cli-fc-2020", false);
     p.write(
         "pipelines/later.yaml",
         "stages:\n  later:\n    uses: forecast.evaluate\n    params: {models: [logistic_regression, cnn_bilstm_R], evaluation: {bootstrap: 50}, device: cpu}\n    inputs: {models: experiments/runs/cli-exp, dataset: data/b}\n    outputs: {report: reports/later}\n",

@@ -172,22 +172,7 @@ pub fn evaluate(
     }
     let clusters = crate::experiment::clusters(windows, &rows, params.evaluation.cluster);
     let prevalence = positives as f64 / labels.len() as f64;
-    let truth: Option<Vec<f64>> = rows
-        .iter()
-        .map(|&s| windows.meta[s].true_probability.map(f64::from))
-        .collect();
-    let oracle = truth.as_ref().map(|t| {
-        BTreeMap::from([
-            (
-                "auroc".to_string(),
-                firecast_eval::metrics::roc_auc(&labels, t).unwrap_or(f64::NAN),
-            ),
-            (
-                "auprc".to_string(),
-                firecast_eval::metrics::average_precision(&labels, t).unwrap_or(f64::NAN),
-            ),
-        ])
-    });
+    let oracle = crate::experiment::oracle(windows, &rows, &labels);
     let meta: Vec<_> = rows.iter().map(|&s| &windows.meta[s]).collect();
 
     let mut protocols: Vec<ProtocolInfo> = Vec::new();

@@ -218,6 +218,25 @@ fn metric_of(name: &str, y: &[bool], p: &[f64], threshold: f64, bins: usize) -> 
     })
 }
 
+/// The ceiling on synthetic data: AUROC and AUPRC of scoring each sample of `rows` by the
+/// generator's true probability; `None` when a sample has none (real data).
+pub(crate) fn oracle(windows: &Windows, rows: &[usize], labels: &[bool]) -> Option<BTreeMap<String, f64>> {
+    let truth: Vec<f64> = rows
+        .iter()
+        .map(|&s| windows.meta[s].true_probability.map(f64::from))
+        .collect::<Option<_>>()?;
+    Some(BTreeMap::from([
+        (
+            "auroc".to_string(),
+            firecast_eval::metrics::roc_auc(labels, &truth).unwrap_or(f64::NAN),
+        ),
+        (
+            "auprc".to_string(),
+            firecast_eval::metrics::average_precision(labels, &truth).unwrap_or(f64::NAN),
+        ),
+    ]))
+}
+
 /// Cluster ids of the test samples (GRIDMET cells, or each sample alone).
 pub(crate) fn clusters(w: &Windows, idx: &[usize], by: ClusterBy) -> Vec<u64> {
     idx.iter()
@@ -265,24 +284,7 @@ pub fn run(
         let test_clusters = clusters(windows, &split.test, spec.evaluation.cluster);
         let positives = yte.iter().filter(|&&l| l).count();
         let prevalence = positives as f64 / yte.len() as f64;
-        // The ceiling on synthetic data: scoring each test sample by its true probability.
-        let truth: Option<Vec<f64>> = split
-            .test
-            .iter()
-            .map(|&s| windows.meta[s].true_probability.map(f64::from))
-            .collect();
-        let oracle = truth.as_ref().map(|t| {
-            BTreeMap::from([
-                (
-                    "auroc".to_string(),
-                    firecast_eval::metrics::roc_auc(&yte, t).unwrap_or(f64::NAN),
-                ),
-                (
-                    "auprc".to_string(),
-                    firecast_eval::metrics::average_precision(&yte, t).unwrap_or(f64::NAN),
-                ),
-            ])
-        });
+        let oracle = oracle(windows, &split.test, &yte);
         protocols.push(ProtocolInfo {
             name: pname.clone(),
             days: protocol.days,
