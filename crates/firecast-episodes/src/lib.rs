@@ -620,12 +620,12 @@ impl<'a> FrameSink<'a> {
         let recording = match &outputs.recording {
             Some(path) => {
                 let staging = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-                let rec = firecast_recorder::Recording::create(
+                let mut rec = firecast_recorder::Recording::create(
                     "firecast_helitack",
                     &format!("{label}, seed {seed}"),
                     &staging,
                 )?;
-                log_terrain(&rec, landscape)?;
+                log_terrain(&mut rec, landscape)?;
                 Some(rec)
             }
             None => None,
@@ -662,7 +662,7 @@ impl<'a> FrameSink<'a> {
                 gif.add_frame(&image)?;
             }
         }
-        if let Some(rec) = &self.recording {
+        if let Some(rec) = &mut self.recording {
             log_step(
                 rec,
                 self.step,
@@ -706,9 +706,8 @@ fn flip_rows(cells: &[u8], width: usize, height: usize) -> Vec<u8> {
     out
 }
 
-fn log_terrain(rec: &firecast_recorder::Recording, landscape: &Landscape) -> Result<(), EpisodeError> {
+fn log_terrain(rec: &mut firecast_recorder::Recording, landscape: &Landscape) -> Result<(), EpisodeError> {
     use firecast_recorder::rerun;
-    let stream = rec.stream();
     // One pixel per cell, no legend: image coordinates are cell coordinates.
     let options = firecast_render::RenderOptions {
         scale: 1,
@@ -716,16 +715,13 @@ fn log_terrain(rec: &firecast_recorder::Recording, landscape: &Landscape) -> Res
         ..firecast_render::RenderOptions::default()
     };
     let terrain = firecast_render::Basemap::new(landscape, &options).image;
-    let err = firecast_recorder::RecorderError::from;
-    stream
-        .log_static(
-            "env/terrain",
-            &rerun::Image::from_rgb24(
-                terrain.data.clone(),
-                [terrain.width as u32, terrain.height as u32],
-            ),
-        )
-        .map_err(err)?;
+    rec.log_static(
+        "env/terrain",
+        &rerun::Image::from_rgb24(
+            terrain.data.clone(),
+            [terrain.width as u32, terrain.height as u32],
+        ),
+    )?;
     let context = rerun::AnnotationContext::new([
         (0u16, "unburnt", rerun::Rgba32::from_unmultiplied_rgba(0, 0, 0, 0)),
         (
@@ -739,25 +735,19 @@ fn log_terrain(rec: &firecast_recorder::Recording, landscape: &Landscape) -> Res
             rerun::Rgba32::from_unmultiplied_rgba(40, 30, 30, 200),
         ),
     ]);
-    stream
-        .log_static("env/fire", &context)
-        .map_err(firecast_recorder::RecorderError::from)?;
-    stream
-        .log_static(
-            "stats/cells_burning",
-            &rerun::SeriesLines::new()
-                .with_names(["cells burning"])
-                .with_colors([[255, 80, 0]]),
-        )
-        .map_err(firecast_recorder::RecorderError::from)?;
-    stream
-        .log_static(
-            "stats/cells_burnt",
-            &rerun::SeriesLines::new()
-                .with_names(["cells burnt"])
-                .with_colors([[60, 60, 60]]),
-        )
-        .map_err(firecast_recorder::RecorderError::from)?;
+    rec.log_static("env/fire", &context)?;
+    rec.log_static(
+        "stats/cells_burning",
+        &rerun::SeriesLines::new()
+            .with_names(["cells burning"])
+            .with_colors([[255, 80, 0]]),
+    )?;
+    rec.log_static(
+        "stats/cells_burnt",
+        &rerun::SeriesLines::new()
+            .with_names(["cells burnt"])
+            .with_colors([[60, 60, 60]]),
+    )?;
     Ok(())
 }
 
@@ -770,37 +760,31 @@ fn cell_centre(cell: [i32; 2], height: usize) -> Point {
 /// so scrubbing the timeline shows what was flown and dropped until then; `env/drops` only
 /// holds the latest drop).
 fn log_path(
-    rec: &firecast_recorder::Recording,
+    rec: &mut firecast_recorder::Recording,
     path: &[Point],
     drops: Option<&[Point]>,
 ) -> Result<(), EpisodeError> {
     use firecast_recorder::rerun;
-    let err = firecast_recorder::RecorderError::from;
-    let stream = rec.stream();
-    stream
-        .log(
-            "env/path",
-            &rerun::LineStrips2D::new([path.to_vec()])
-                .with_radii([0.3])
-                .with_colors([[255, 255, 255, 160]]),
-        )
-        .map_err(err)?;
+    rec.log(
+        "env/path",
+        &rerun::LineStrips2D::new([path.to_vec()])
+            .with_radii([0.3])
+            .with_colors([[255, 255, 255, 160]]),
+    )?;
     if let Some(drops) = drops {
-        stream
-            .log(
-                "env/drops_so_far",
-                &rerun::Points2D::new(drops.iter().copied())
-                    .with_radii([5.28])
-                    .with_colors([[40, 120, 255, 90]]),
-            )
-            .map_err(err)?;
+        rec.log(
+            "env/drops_so_far",
+            &rerun::Points2D::new(drops.iter().copied())
+                .with_radii([5.28])
+                .with_colors([[40, 120, 255, 90]]),
+        )?;
     }
     Ok(())
 }
 
 #[allow(clippy::too_many_arguments)]
 fn log_step(
-    rec: &firecast_recorder::Recording,
+    rec: &mut firecast_recorder::Recording,
     step: usize,
     info: &StepInfo,
     fire_state: &[u8],
@@ -810,47 +794,37 @@ fn log_step(
     dropped: bool,
 ) -> Result<(), EpisodeError> {
     use firecast_recorder::rerun;
-    let stream = rec.stream();
-    stream.set_time_sequence("step", step as i64);
-    stream.set_duration_secs("sim_time", info.sim_time_min * 60.0);
+    rec.set_time_sequence("step", step as i64)?;
+    rec.set_duration_secs("sim_time", info.sim_time_min * 60.0)?;
     let tensor = rerun::datatypes::TensorData::new(
         vec![height as u64, width as u64],
         rerun::datatypes::TensorBuffer::U8(flip_rows(fire_state, width, height).into()),
     );
     let image = rerun::SegmentationImage::try_from(tensor)
         .map_err(|e| firecast_recorder::RecorderError::Log(e.to_string()))?;
-    let err = firecast_recorder::RecorderError::from;
-    stream.log("env/fire", &image).map_err(err)?;
+    rec.log("env/fire", &image)?;
     let position = cell_centre(helicopter, height);
-    stream
-        .log(
-            "env/helicopter",
-            &rerun::Points2D::new([position])
-                .with_radii([1.5])
-                .with_colors([[255, 255, 255]]),
-        )
-        .map_err(err)?;
+    rec.log(
+        "env/helicopter",
+        &rerun::Points2D::new([position])
+            .with_radii([1.5])
+            .with_colors([[255, 255, 255]]),
+    )?;
     if dropped {
-        stream
-            .log(
-                "env/drops",
-                &rerun::Points2D::new([position])
-                    .with_radii([5.28])
-                    .with_colors([[40, 120, 255]]),
-            )
-            .map_err(err)?;
+        rec.log(
+            "env/drops",
+            &rerun::Points2D::new([position])
+                .with_radii([5.28])
+                .with_colors([[40, 120, 255]]),
+        )?;
     }
-    stream
-        .log(
-            "stats/cells_burning",
-            &rerun::Scalars::single(f64::from(info.cells_burning)),
-        )
-        .map_err(err)?;
-    stream
-        .log(
-            "stats/cells_burnt",
-            &rerun::Scalars::single(f64::from(info.cells_burnt)),
-        )
-        .map_err(err)?;
+    rec.log(
+        "stats/cells_burning",
+        &rerun::Scalars::single(f64::from(info.cells_burning)),
+    )?;
+    rec.log(
+        "stats/cells_burnt",
+        &rerun::Scalars::single(f64::from(info.cells_burnt)),
+    )?;
     Ok(())
 }

@@ -3,6 +3,11 @@
 //! [`MetricsMirror`] turns every stage run's metrics into a `metrics.rrd` of scalar time
 //! series, and can stream them to a running viewer as well ([`Viewer`]).
 //!
+//! Files are byte for byte reproducible: the same rows logged in the same order give the
+//! same `.rrd` (recording id from the application and recording name, row and chunk ids
+//! counted, no `log_time`/`log_tick`, no start time, chunks cut by size and never by a
+//! timer), so the content hashes of stage outputs (the lockfile) do not change between runs.
+//!
 //! `.rrd` is a viewing format, not an archive: Rerun only promises that a viewer reads
 //! files of its own and the previous minor version. Canonical numbers live in the
 //! registry and in Parquet; recordings can be regenerated. Open them with the viewer of
@@ -14,6 +19,7 @@ use std::time::Duration;
 use firecast_store::{ArtifactStore, StoredArtifact};
 
 mod metrics;
+mod rrd;
 
 pub use metrics::{METRICS_ARTIFACT, MetricsMirror, entity_path};
 pub use rerun;
@@ -31,6 +37,8 @@ pub enum RecorderError {
     Log(String),
     #[error("cannot flush the Rerun recording: {0}")]
     Flush(String),
+    #[error("cannot write the Rerun recording {path}: {message}")]
+    Write { path: PathBuf, message: String },
     #[error("invalid Rerun application id `{0}`: use letters, digits, `_`, `-`, space or `:`")]
     ApplicationId(String),
     #[error("{context}: {path}: {source}")]
@@ -102,11 +110,18 @@ impl Viewer {
 }
 
 /// A recording being written to a local staging file (and, optionally, to a viewer).
+///
+/// The file is deterministic: the same rows logged in the same order give the same bytes
+/// (ids, batching and properties come from what is logged, never from the clock), so a
+/// stage's `.rrd` outputs hash the same on every run. Time is the recording's own (set with
+/// [`Recording::set_time_sequence`] and friends), not per thread as in a Rerun
+/// `RecordingStream`.
 pub struct Recording {
-    stream: rerun::RecordingStream,
+    file: rrd::RrdWriter,
+    /// The time the next [`Recording::log`] is logged at.
+    now: rerun::TimePoint,
     /// A second stream with the same recording id to a live viewer. Separate from the file
-    /// stream (not one stream with two sinks) so a viewer that goes away never makes the
-    /// file's flush fail: Rerun's multi-sink flush reports the worst error of its sinks.
+    /// so a viewer that goes away never fails the file.
     live: Option<rerun::RecordingStream>,
     staging: PathBuf,
 }
@@ -121,7 +136,8 @@ impl std::fmt::Debug for Recording {
 
 impl Recording {
     /// Start a recording. `application_id` groups recordings in the viewer (Rerun 0.36
-    /// forbids `/` and `.` in it); `recording_name` names this one (e.g. the run id).
+    /// forbids `/` and `.` in it); `recording_name` names this one, and with the
+    /// application id fixes its recording id, so name what makes it unique (agent, seed).
     pub fn create(
         application_id: &str,
         recording_name: &str,
@@ -130,9 +146,9 @@ impl Recording {
         Self::create_with_viewer(application_id, recording_name, None, staging_dir, None)
     }
 
-    /// Like [`Recording::create`], with a fixed recording id (so the file and a live view
-    /// are the same recording in the viewer) and scalars also streamed to `viewer`. Check the
-    /// viewer with [`Viewer::probe`] first: an absent one would block logging.
+    /// Like [`Recording::create`], with a given recording id (so the file and a live view
+    /// are the same recording in the viewer) and everything also streamed to `viewer`. Check
+    /// the viewer with [`Viewer::probe`] first: an absent one would block logging.
     pub fn create_with_viewer(
         application_id: &str,
         recording_name: &str,
@@ -164,51 +180,105 @@ impl Recording {
             })
             .collect();
         let staging = staging_dir.join(format!(".{safe_name}.rrd.partial"));
-        let builder = || {
-            let b = rerun::RecordingStreamBuilder::new(app_id.clone())
-                .recording_name(recording_name)
-                .enabled(true);
-            match recording_id {
-                Some(id) => b.recording_id(id),
-                None => b,
-            }
+        let recording_id = match recording_id {
+            Some(id) => id.to_string(),
+            None => rrd::derived_recording_id(application_id, recording_name),
         };
-        let stream = builder().save(&staging)?;
+        let store_id = rerun::StoreId::recording(app_id.clone(), recording_id.as_str());
         let live = match viewer {
-            Some(v) => Some(builder().connect_grpc_opts(v.url())?),
+            Some(v) => Some(
+                rerun::RecordingStreamBuilder::new(app_id)
+                    .recording_name(recording_name)
+                    .recording_id(recording_id.as_str())
+                    .enabled(true)
+                    .connect_grpc_opts(v.url())?,
+            ),
             None => None,
         };
+        let file = rrd::RrdWriter::create(&staging, store_id, recording_name)?;
         Ok(Self {
-            stream,
+            file,
+            now: rerun::TimePoint::default(),
             live,
             staging,
         })
     }
 
-    /// The Rerun stream, for logging any archetype.
-    pub fn stream(&self) -> &rerun::RecordingStream {
-        &self.stream
+    fn timeline(name: &str) -> Result<rerun::TimelineName, RecorderError> {
+        rerun::TimelineName::try_new(name)
+            .map_err(|e| RecorderError::Timeline(name.to_string(), e.to_string()))
+    }
+
+    /// Set a sequence timeline (e.g. `step`) for what is logged next.
+    pub fn set_time_sequence(&mut self, timeline: &str, value: i64) -> Result<(), RecorderError> {
+        let name = Self::timeline(timeline)?;
+        self.now.insert_cell(name, rerun::TimeCell::from_sequence(value));
+        Ok(())
+    }
+
+    /// Set a duration timeline (e.g. simulated time) for what is logged next.
+    pub fn set_duration_secs(&mut self, timeline: &str, secs: f64) -> Result<(), RecorderError> {
+        let name = Self::timeline(timeline)?;
+        let duration = Duration::try_from_secs_f64(secs)
+            .map_err(|e| RecorderError::Timeline(timeline.to_string(), format!("{secs} s: {e}")))?;
+        self.now.insert_cell(name, rerun::TimeCell::from(duration));
+        Ok(())
+    }
+
+    /// Log an archetype at the current time (the timelines set so far).
+    pub fn log<AS: ?Sized + rerun::AsComponents>(
+        &mut self,
+        entity_path: &str,
+        archetype: &AS,
+    ) -> Result<(), RecorderError> {
+        self.log_batches(entity_path, false, archetype.as_serialized_batches())
+    }
+
+    /// Log an archetype on no timeline: it holds at every time.
+    pub fn log_static<AS: ?Sized + rerun::AsComponents>(
+        &mut self,
+        entity_path: &str,
+        archetype: &AS,
+    ) -> Result<(), RecorderError> {
+        self.log_batches(entity_path, true, archetype.as_serialized_batches())
+    }
+
+    fn log_batches(
+        &mut self,
+        entity_path: &str,
+        is_static: bool,
+        batches: Vec<rerun::SerializedComponentBatch>,
+    ) -> Result<(), RecorderError> {
+        let timepoint = if is_static {
+            rerun::TimePoint::default()
+        } else {
+            self.now.clone()
+        };
+        let live_batches = self.live.as_ref().map(|_| batches.clone());
+        self.file
+            .push(rerun::EntityPath::from(entity_path), timepoint.clone(), batches)?;
+        if let (Some(live), Some(batches)) = (&self.live, live_batches) {
+            // A stream's time is per thread: set it and log on this thread, every time.
+            live.reset_time();
+            live.set_timepoint(timepoint);
+            live.log_serialized_batches(entity_path, is_static, batches)?;
+        }
+        Ok(())
     }
 
     /// Log one scalar at a step of a sequence timeline.
     pub fn scalar(
-        &self,
+        &mut self,
         entity_path: &str,
         timeline: &str,
         step: i64,
         value: f64,
     ) -> Result<(), RecorderError> {
-        let timeline = rerun::TimelineName::try_new(timeline)
-            .map_err(|e| RecorderError::Timeline(timeline.to_string(), e.to_string()))?;
-        // Time is per thread and per stream: set and log on the same thread, every time.
-        for stream in std::iter::once(&self.stream).chain(&self.live) {
-            stream.set_time_sequence(timeline, step);
-            stream.log(entity_path, &rerun::Scalars::single(value))?;
-        }
-        Ok(())
+        self.set_time_sequence(timeline, step)?;
+        self.log(entity_path, &rerun::Scalars::single(value))
     }
 
-    /// Whether scalars are also streamed to a viewer.
+    /// Whether what is logged is also streamed to a viewer.
     pub fn is_live(&self) -> bool {
         self.live.is_some()
     }
@@ -228,24 +298,18 @@ impl Recording {
         // A viewer's trouble is not the file's: its error is dropped here (callers that care
         // call `disconnect_viewer` first).
         let _ignored = self.disconnect_viewer(Duration::from_secs(10));
-        self.stream
-            .flush_blocking()
-            .map_err(|e| RecorderError::Flush(e.to_string()))?;
-        let Self { stream, staging, .. } = self;
-        // Dropping the last handle closes the file sink.
-        drop(stream);
+        let Self { file, staging, .. } = self;
+        file.finish()?;
         Ok(staging)
     }
 
     /// Stop without finishing: the staging file is removed, nothing is published.
     pub fn abandon(self) {
         let Self {
-            stream,
-            live,
-            staging,
+            file, live, staging, ..
         } = self;
         drop(live);
-        drop(stream);
+        file.abandon();
         let _ignored = std::fs::remove_file(&staging);
     }
 

@@ -188,7 +188,7 @@ impl MetricsMirror {
         }
         // Logged under the lock: stages report from several threads, and Rerun's time is
         // per thread, so each scalar sets its step and logs it in one go.
-        if let Some(recording) = &run.recording
+        if let Some(recording) = &mut run.recording
             && let Err(e) = recording.scalar(&entity_path(key), TIMELINE, step, value)
         {
             run.failed = true;

@@ -188,12 +188,74 @@ pub struct QueryResult {
 /// The registry, one connection per process (DuckDB allows one writing process per file).
 pub struct Registry {
     path: PathBuf,
-    conn: Mutex<Connection>,
+    conn: Mutex<Held>,
+}
+
+/// The connection and the metric rows not yet written. Metrics come in bursts (thousands
+/// per evaluation) and DuckDB commits each lone INSERT on its own (about 1 ms), so they are
+/// appended in batches: before any other statement, every `METRIC_BATCH` rows or
+/// `METRIC_FLUSH_AFTER`, and when the registry is dropped. No other process can read the
+/// file meanwhile (DuckDB locks it), so nobody sees the delay.
+struct Held {
+    conn: Connection,
+    pending: Vec<MetricRow>,
+    last_flush: std::time::Instant,
+}
+
+struct MetricRow {
+    run_id: String,
+    key: String,
+    step: i64,
+    value: f64,
+    time: String,
+}
+
+const METRIC_BATCH: usize = 4096;
+const METRIC_FLUSH_AFTER: std::time::Duration = std::time::Duration::from_secs(2);
+
+impl Held {
+    fn flush(&mut self) -> Result<(), RegistryError> {
+        self.last_flush = std::time::Instant::now();
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        let rows = std::mem::take(&mut self.pending);
+        let mut appender = self.conn.appender("metrics")?;
+        for r in &rows {
+            // The appender casts the text to the column's TIMESTAMP as `?::TIMESTAMP` did.
+            appender.append_row(params![r.run_id, r.key, r.step, r.value, r.time])?;
+        }
+        appender.flush()?;
+        Ok(())
+    }
+}
+
+impl Drop for Registry {
+    fn drop(&mut self) {
+        let held = self.conn.get_mut().unwrap_or_else(|e| e.into_inner());
+        let rows = held.pending.len();
+        if let Err(e) = held.flush() {
+            eprintln!(
+                "warning: {}: {rows} metric rows could not be written: {e}",
+                self.path.display()
+            );
+        }
+    }
 }
 
 impl std::fmt::Debug for Registry {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Registry").field("path", &self.path).finish()
+    }
+}
+
+/// The connection inside a held lock.
+struct ConnGuard<'a>(std::sync::MutexGuard<'a, Held>);
+
+impl std::ops::Deref for ConnGuard<'_> {
+    type Target = Connection;
+    fn deref(&self) -> &Connection {
+        &self.0.conn
     }
 }
 
@@ -239,7 +301,11 @@ impl Registry {
         }
         Ok(Self {
             path: path.to_path_buf(),
-            conn: Mutex::new(conn),
+            conn: Mutex::new(Held {
+                conn,
+                pending: Vec::new(),
+                last_flush: std::time::Instant::now(),
+            }),
         })
     }
 
@@ -247,8 +313,16 @@ impl Registry {
         &self.path
     }
 
-    fn conn(&self) -> std::sync::MutexGuard<'_, Connection> {
-        self.conn.lock().unwrap_or_else(|e| e.into_inner())
+    /// The connection, with every pending metric written first (so reads see them).
+    fn conn(&self) -> Result<ConnGuard<'_>, RegistryError> {
+        let mut held = self.conn.lock().unwrap_or_else(|e| e.into_inner());
+        held.flush()?;
+        Ok(ConnGuard(held))
+    }
+
+    /// Write the pending metric rows now.
+    pub fn flush(&self) -> Result<(), RegistryError> {
+        self.conn().map(drop)
     }
 
     /// Insert a run. Params are stored here once and never updated.
@@ -267,7 +341,7 @@ impl Registry {
         cache_key: Option<&str>,
         started_at: chrono::DateTime<chrono::Utc>,
     ) -> Result<(), RegistryError> {
-        self.conn().execute(
+        self.conn()?.execute(
             "INSERT INTO runs (run_id, pipeline_run_id, parent_run_id, pipeline, stage, kind, kind_version,
                                params, status, started_at, git_commit, cache_key)
              VALUES (?, ?, ?, ?, ?, ?, ?, ?, 'running', ?::TIMESTAMP, ?, ?)",
@@ -296,7 +370,7 @@ impl Registry {
         ended_at: chrono::DateTime<chrono::Utc>,
         error: Option<&str>,
     ) -> Result<(), RegistryError> {
-        self.conn().execute(
+        self.conn()?.execute(
             "UPDATE runs SET status = ?, ended_at = ?::TIMESTAMP, error = ? WHERE run_id = ?",
             params![status.as_str(), ts(ended_at), error, run_id],
         )?;
@@ -304,10 +378,17 @@ impl Registry {
     }
 
     pub fn log_metric(&self, run_id: &str, key: &str, step: i64, value: f64) -> Result<(), RegistryError> {
-        self.conn().execute(
-            "INSERT INTO metrics VALUES (?, ?, ?, ?, ?::TIMESTAMP)",
-            params![run_id, key, step, value, ts(chrono::Utc::now())],
-        )?;
+        let mut held = self.conn.lock().unwrap_or_else(|e| e.into_inner());
+        held.pending.push(MetricRow {
+            run_id: run_id.to_string(),
+            key: key.to_string(),
+            step,
+            value,
+            time: ts(chrono::Utc::now()),
+        });
+        if held.pending.len() >= METRIC_BATCH || held.last_flush.elapsed() >= METRIC_FLUSH_AFTER {
+            held.flush()?;
+        }
         Ok(())
     }
 
@@ -319,7 +400,7 @@ impl Registry {
         hash: &str,
         size: u64,
     ) -> Result<(), RegistryError> {
-        self.conn().execute(
+        self.conn()?.execute(
             "INSERT INTO artifacts VALUES (?, ?, ?, ?, ?, ?::TIMESTAMP)",
             params![run_id, name, uri, hash, size as i64, ts(chrono::Utc::now())],
         )?;
@@ -329,7 +410,7 @@ impl Registry {
     /// Register a dataset version; registering the same (name, version) again is a no-op.
     pub fn register_dataset(&self, run_id: Option<&str>, d: &DatasetRecord) -> Result<(), RegistryError> {
         let metadata = serde_json::to_string(&d.metadata).unwrap_or_default();
-        self.conn().execute(
+        self.conn()?.execute(
             "INSERT INTO datasets VALUES (?, ?, ?, ?, ?, ?, ?, ?::TIMESTAMP) ON CONFLICT DO NOTHING",
             params![
                 d.name,
@@ -346,7 +427,7 @@ impl Registry {
     }
 
     pub fn log_lineage(&self, run_id: &str, r: &LineageRecord) -> Result<(), RegistryError> {
-        self.conn().execute(
+        self.conn()?.execute(
             "INSERT INTO lineage VALUES (?, ?, ?, ?, ?, ?)",
             params![run_id, r.direction, r.name, r.uri, r.hash, r.size as i64],
         )?;
@@ -379,7 +460,7 @@ impl Registry {
         if let Some(limit) = filter.limit {
             sql.push_str(&format!(" LIMIT {limit}"));
         }
-        let conn = self.conn();
+        let conn = self.conn()?;
         let mut stmt = conn.prepare(&sql)?;
         let rows = stmt.query_map(duckdb::params_from_iter(args.iter()), run_row)?;
         Ok(rows.collect::<Result<_, _>>()?)
@@ -387,7 +468,7 @@ impl Registry {
 
     /// Resolve a run id or a unique prefix of one.
     pub fn resolve_run_id(&self, prefix: &str) -> Result<String, RegistryError> {
-        let conn = self.conn();
+        let conn = self.conn()?;
         let mut stmt =
             conn.prepare("SELECT run_id FROM runs WHERE starts_with(run_id, ?) ORDER BY run_id LIMIT 6")?;
         let ids: Vec<String> = stmt
@@ -411,7 +492,7 @@ impl Registry {
     /// Everything about one run.
     pub fn run_details(&self, id_or_prefix: &str) -> Result<RunDetails, RegistryError> {
         let run_id = self.resolve_run_id(id_or_prefix)?;
-        let conn = self.conn();
+        let conn = self.conn()?;
         let run = conn.query_row(
             &format!("{RUN_SELECT} WHERE run_id = ?"),
             params![run_id],
@@ -474,7 +555,7 @@ impl Registry {
 
     /// Artifacts, newest first, optionally of one run.
     pub fn list_artifacts(&self, run: Option<&str>) -> Result<Vec<ArtifactRow>, RegistryError> {
-        let conn = self.conn();
+        let conn = self.conn()?;
         let (sql, args): (&str, Vec<String>) = match run {
             Some(r) => (
                 "SELECT run_id, name, uri, hash, size FROM artifacts WHERE run_id = ? ORDER BY created_at DESC, uri",
@@ -493,7 +574,7 @@ impl Registry {
     /// Run SQL over the registry tables, with each registered dataset (latest version)
     /// available as a view named after it.
     pub fn query(&self, sql: &str) -> Result<QueryResult, RegistryError> {
-        let conn = self.conn();
+        let conn = self.conn()?;
         let mut stmt = conn.prepare(
             "SELECT name, location FROM datasets QUALIFY row_number() OVER (PARTITION BY name ORDER BY created_at DESC) = 1",
         )?;
@@ -724,4 +805,64 @@ pub fn params_side_by_side(runs: &[RunRow]) -> BTreeMap<String, Vec<Option<Strin
 pub fn duckdb_version() -> Result<String, RegistryError> {
     let conn = Connection::open_in_memory()?;
     Ok(conn.query_row("SELECT version()", [], |r| r.get(0))?)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    fn run(registry: &Registry, id: &str) {
+        registry
+            .insert_run(
+                id,
+                None,
+                None,
+                "p",
+                Some("s"),
+                "cmd",
+                Some(1),
+                &serde_json::json!({}),
+                None,
+                None,
+                chrono::Utc::now(),
+            )
+            .unwrap();
+    }
+
+    #[test]
+    fn batched_metrics_are_all_written_and_seen_by_reads() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("registry.duckdb");
+        let n = METRIC_BATCH * 2 + 17;
+        {
+            let registry = Registry::open(&path).unwrap();
+            run(&registry, "r1");
+            for step in 0..n as i64 {
+                registry
+                    .log_metric("r1", "loss", step, step as f64 * 0.5)
+                    .unwrap();
+            }
+            // A read sees every row, including those not yet appended.
+            let details = registry.run_details("r1").unwrap();
+            let loss = details.metrics.iter().find(|m| m.key == "loss").unwrap();
+            assert_eq!(loss.count as usize, n);
+            registry.log_metric("r1", "last", 0, 1.0).unwrap();
+            // Dropped with one pending row: written on drop.
+        }
+        let registry = Registry::open(&path).unwrap();
+        let q = registry
+            .query("SELECT count(*), sum(value), min(step), max(step), count(DISTINCT typeof(time)) FROM metrics")
+            .unwrap();
+        assert_eq!(
+            q.rows[0],
+            vec![
+                serde_json::json!(n as i64 + 1),
+                serde_json::json!((0..n).map(|s| s as f64 * 0.5).sum::<f64>() + 1.0),
+                serde_json::json!(0),
+                serde_json::json!(n as i64 - 1),
+                serde_json::json!(1),
+            ]
+        );
+    }
 }

@@ -21,10 +21,6 @@ import time
 import numpy as np
 import torch
 
-CFG = json.loads(sys.argv[1])
-THREADS = int(CFG["threads"])
-torch.set_num_threads(THREADS)
-
 import gymnasium as gym  # noqa: E402
 import torch.nn.functional as F  # noqa: E402
 from gymnasium import spaces  # noqa: E402
@@ -151,13 +147,16 @@ def schedule(value):
 
 
 def main():
-    steps, seed = int(CFG["steps"]), int(CFG["seed"])
-    n_envs = int(CFG["ppo"]["n_envs"])
-    norm = CFG["ppo"]["normalize"]
+    cfg = json.loads(sys.argv[1])
+    threads = int(cfg["threads"])
+    torch.set_num_threads(threads)
+    steps, seed = int(cfg["steps"]), int(cfg["seed"])
+    n_envs = int(cfg["ppo"]["n_envs"])
+    norm = cfg["ppo"]["normalize"]
     if norm["obs"]:
         sys.exit("bench_sb3_helitack.py: observation normalisation is not part of this benchmark")
-    env = CFG["env"]
-    policy = CFG["policy"]
+    env = cfg["env"]
+    policy = cfg["policy"]
     if policy["kind"] != "compact" or policy["batch_norm"]:
         sys.exit(f"bench_sb3_helitack.py: only the compact policy without batch norm is re-stated here, not {policy}")
     activation = {"tanh": nn.Tanh, "relu": nn.ReLU}[policy["activation"]]
@@ -168,12 +167,12 @@ def main():
 
             return HelitackVecEnv(n_envs, seed=seed, **env["kwargs"])
         fns = [firecastrl_env(env["dir"])] * n_envs
-        if THREADS > 1:
+        if threads > 1:
             return SubprocVecEnv(fns)
         return DummyVecEnv(fns)
 
     def model():
-        ppo = dict(CFG["ppo"])
+        ppo = dict(cfg["ppo"])
         for k in ("n_envs", "total_timesteps", "normalize"):
             ppo.pop(k)
         v = VecNormalize(

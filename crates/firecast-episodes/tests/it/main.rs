@@ -202,6 +202,18 @@ fn any_policy_is_recorded_with_its_path_and_the_same_numbers() {
         firecast_episodes::record_episode(&mut env, &mut agent, &land, "circle agent", 9, &outputs).unwrap();
     assert_eq!(recorded, plain, "recording does not change the episode");
     assert!(std::fs::metadata(&path).unwrap().len() > 0);
+    // The same episode recorded again is the same file, byte for byte (a stage's outputs
+    // hash the same on every run).
+    let again = dir.path().join("recordings/rule-again.rrd");
+    let outputs = Outputs {
+        recording: Some(again.clone()),
+        ..Outputs::default()
+    };
+    firecast_episodes::record_episode(&mut env, &mut agent, &land, "circle agent", 9, &outputs).unwrap();
+    assert!(
+        std::fs::read(&path).unwrap() == std::fs::read(&again).unwrap(),
+        "two recordings of one episode differ"
+    );
     let rerun = std::path::PathBuf::from(
         std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
     )

@@ -192,6 +192,22 @@ fn evaluation_records_the_best_median_and_worst_ppo_episodes() {
         }
     }
 
+    // Evaluated again: the same recordings, byte for byte (the stage's outputs hash the same).
+    let again = tmp.path().join("greedy-again");
+    let report_again = evaluate(&run, &fires, &again, &cfg);
+    assert_eq!(report_again.recordings, report.recordings);
+    for r in &report.recordings {
+        let (first, second) = (
+            std::fs::read(out.join(&r.path)).expect("the recording"),
+            std::fs::read(again.join(&r.path)).expect("the recording again"),
+        );
+        assert!(
+            first == second,
+            "{} differs between two evaluations",
+            r.path.display()
+        );
+    }
+
     // Sampled actions: one action stream per fire, so single-fire replays draw the same.
     let sampled = EvalConfig {
         deterministic: false,
