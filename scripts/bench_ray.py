@@ -3,7 +3,7 @@
 projection of a 10,000-fire evaluation onto N nodes.
 
     scripts/bench_ray.py --ray-address http://127.0.0.1:8265 [--ray-cpus 2] [--stages 8]
-        [--episodes 2000] [--shards 1 2] [--repeat 2] [--json out.json]
+        [--episodes 400] [--shards 1 2] [--repeat 2] [--json out.json]
 
 Without `--ray-address` only the local numbers are measured. A cluster on this machine:
     .venv/bin/ray start --head --node-ip-address=127.0.0.1 --dashboard-host=127.0.0.1 \\
@@ -18,8 +18,8 @@ What it measures, each run forced (`--force`) and repeated (`--repeat`, medians)
   cost per stage; on Ray each stage is a job, so (wall time) / (stages / CPUs) is Ray's cost per
   wave of tasks: submitting, scheduling, starting `firecast` on a worker, the store round trip
   and polling.
-- evaluation: one `sim.episodes` stage (rule-based agent, 3 mi/h wind, procedural 240 x 160
-  landscape) with `--episodes` fires, whole and in `--shards`; every run must write the same
+- evaluation: one `sim.episodes` stage (rule-based agent, the fires of
+  experiments/scenarios/helitack-moderate.yaml on its 240 x 160 landscape) with `--episodes` fires, whole and in `--shards`; every run must write the same
   `summary.json` bytes. The worker's time per task comes from the task's `result.json`.
 
 The projection of a 10,000-fire evaluation (see `project`): the per-fire CPU time of the local
@@ -57,7 +57,14 @@ EPISODES = """stages:
       agent: rule
       episodes: {episodes}
       seed: 0
-      env: {{sim: {{wind: {{speed_mph: 3, from_direction_deg: 0}}}}}}
+      # experiments/scenarios/helitack-moderate.yaml: fires of a few thousand cells.
+      env:
+        max_steps: 2000
+        sim:
+          kernel:
+            rothermel:
+              moisture: {{dead_1h_frac: 0.10, dead_10h_frac: 0.06, dead_100h_frac: 0.08, live_herb_frac: 0.6, live_woody_frac: 0.9}}
+          wind: {{speed_mph: 3, from_direction_deg: 225}}
     outputs:
       summary: out/fires.json
 """
@@ -125,7 +132,7 @@ def main():
     ap.add_argument("--ray-address")
     ap.add_argument("--ray-cpus", type=int, default=2, help="CPUs of the Ray cluster (for waves)")
     ap.add_argument("--stages", type=int, default=8, help="no-op stages for the overhead")
-    ap.add_argument("--episodes", type=int, default=2000)
+    ap.add_argument("--episodes", type=int, default=400)
     ap.add_argument("--shards", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--cores", type=int, default=16, help="cores per node in the projection")
