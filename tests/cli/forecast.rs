@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use crate::{Project, describe};
+use crate::{Project, describe, files_under, outcomes, recorded};
 
 const EXPERIMENT: &str = r#"
 name: cli-exp
@@ -29,7 +29,7 @@ models:
   - {kind: firecast, params: {max_epochs: 2}}
 "#;
 
-fn project_with_dataset() -> Project {
+pub(crate) fn project_with_dataset() -> Project {
     let p = Project::new();
     // Denser ignitions than the dataset tests use, so both sides of every split hold both classes.
     p.write("synth.yaml", "ignition_rate_scale: 1.0\n");
@@ -134,6 +134,43 @@ fn build_dataset(
         "--framing",
         "paper",
     ])
+}
+
+/// A `forecast.experiment` stage on `data/a` with `shards` (none: unsharded): 16 training
+/// units (2 protocols x (majority, logistic regression, 2 seeds of MiniRocket, of the R
+/// network and of the MLP)), the networks drawing from libtorch's generator.
+pub(crate) fn experiment_stage(shards: Option<u32>) -> String {
+    let shards = shards.map(|n| format!("    shards: {n}\n")).unwrap_or_default();
+    format!(
+        r#"
+stages:
+  table3:
+    uses: forecast.experiment
+{shards}    params:
+      name: shard-exp
+      protocols:
+        paper:
+          days: [-60, 14]
+          split: {{method: stratified_random, test: 0.3, val: 0.25, seed: 42}}
+        leak_free:
+          days: [-30, -1]
+          split: {{method: stratified_random, test: 0.3, val: 0.25, seed: 42, grouped: true}}
+      headline: leak_free
+      seeds: [0, 1]
+      evaluation: {{bootstrap: 60}}
+      device: cpu
+      models:
+        - {{kind: majority}}
+        - {{kind: logistic_regression}}
+        - {{kind: minirocket, params: {{num_features: 168}}}}
+        - {{name: cnn_bilstm_R, kind: cnn_bilstm, params: {{max_epochs: 1, hidden: 16, layers: 1}}}}
+        - {{kind: mlp, params: {{max_epochs: 3}}}}
+    inputs:
+      dataset: data/a
+    outputs:
+      report: build/table3
+"#
+    )
 }
 
 fn metrics(p: &Project) -> serde_json::Value {
@@ -668,5 +705,95 @@ fn bench_forecast_compares_every_baseline_and_network_with_its_python_reference(
         out.status.code() == Some(0),
         !text.contains("OUT OF BOUNDS"),
         "{text}"
+    );
+}
+
+/// The lockfile without run ids (they differ between any two runs).
+fn lock_without_run_ids(p: &Project, file: &str) -> String {
+    p.read(file)
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("run_id:"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn sharded_experiment_equals_unsharded_locally() {
+    let p = project_with_dataset();
+    p.write("pipelines/exp.yaml", &experiment_stage(None));
+    let report = p.json(&["pipeline", "run", "pipelines/exp.yaml"]);
+    assert_eq!(outcomes(&report)["table3"], "ran", "{report}");
+    let run_id = |report: &serde_json::Value| report["stages"][0]["run_id"].as_str().unwrap().to_string();
+    let whole = files_under(&p.path("build/table3"));
+    let whole_lock = lock_without_run_ids(&p, "pipelines/exp.lock");
+    let (whole_metrics, whole_artifacts) = recorded(&p, &run_id(&report));
+    // Per unit (test metrics per seed, curves, fit times), per row, the experiment's time.
+    for key in [
+        "paper/cnn_bilstm_R/test/auroc",
+        "paper/mlp/seed1/val_auprc",
+        "leak_free/minirocket/fit_seconds",
+        "leak_free/mlp/auroc",
+        "experiment_seconds",
+    ] {
+        assert!(whole_metrics.contains_key(key), "{key}: {whole_metrics:?}");
+    }
+    assert_eq!(
+        whole_metrics["paper/cnn_bilstm_R/test/auroc"][0], 2.0,
+        "one value per seed"
+    );
+    assert!(
+        whole_artifacts.contains_key("model/paper/mlp/seed-1"),
+        "{whole_artifacts:?}"
+    );
+
+    for n in [2, 3] {
+        p.write("pipelines/exp.yaml", &experiment_stage(Some(n)));
+        let report = p.json(&["pipeline", "run", "pipelines/exp.yaml", "--force"]);
+        assert_eq!(outcomes(&report)["table3"], "ran", "{report}");
+        let sharded = files_under(&p.path("build/table3"));
+        assert_eq!(
+            sharded.keys().collect::<Vec<_>>(),
+            whole.keys().collect::<Vec<_>>(),
+            "{n} shards"
+        );
+        for (file, bytes) in &whole {
+            assert!(
+                sharded[file] == *bytes,
+                "{file} differs between the unsharded run and {n} shards"
+            );
+        }
+        assert_eq!(lock_without_run_ids(&p, "pipelines/exp.lock"), whole_lock);
+        // The same metrics (times aside) and model artifacts as the unsharded run.
+        let (metrics, artifacts) = recorded(&p, &run_id(&report));
+        assert_eq!(metrics, whole_metrics, "{n} shards");
+        assert_eq!(artifacts, whole_artifacts, "{n} shards");
+        let log = p.read(&format!(".firecast/logs/{}.log", run_id(&report)));
+        assert!(
+            log.contains(&format!("shard {}/{n}: ", n - 1))
+                && log.contains(&format!("# merged {n} shards"))
+                && log.contains(&format!("merged {n} shards: 16 training units")),
+            "{log}"
+        );
+    }
+    assert!(
+        std::fs::read_dir(p.path(".firecast/shards")).map_or(0, Iterator::count) == 0,
+        "no parts are left behind"
+    );
+
+    p.write("pipelines/exp.yaml", &experiment_stage(Some(17)));
+    let out = p
+        .firecast()
+        .args(["pipeline", "status", "pipelines/exp.yaml"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("pipelines/exp.yaml:5:")
+            && stderr.contains(
+                "stages.table3.shards: 17 shards for 16 training units: use between 1 and 16 \
+                 (one training unit per shard at least)"
+            ),
+        "{}",
+        describe(&out)
     );
 }

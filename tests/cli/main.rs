@@ -14,6 +14,7 @@ mod rl;
 mod sim;
 mod store;
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -125,4 +126,62 @@ pub fn repo_root() -> PathBuf {
 /// The project's Python (from `cargo xtask setup`).
 pub fn venv_bin(name: &str) -> PathBuf {
     repo_root().join(".venv/bin").join(name)
+}
+
+/// What a stage run recorded, from `runs show`: metric key → (count, last, min, max), and
+/// artifact name → hash (the `metrics` recording aside: it differs between any two runs).
+/// Keys ending in `_seconds` (wall-clock times) keep only their count.
+pub fn recorded(p: &Project, run_id: &str) -> (BTreeMap<String, [f64; 4]>, BTreeMap<String, String>) {
+    let shown = p.json(&["runs", "show", run_id]);
+    let metrics = shown["metrics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| {
+            let key = m["key"].as_str().unwrap().to_string();
+            let count = m["count"].as_f64().unwrap();
+            let values = if key.ends_with("_seconds") {
+                [count, 0.0, 0.0, 0.0]
+            } else {
+                [
+                    count,
+                    m["last"].as_f64().unwrap(),
+                    m["min"].as_f64().unwrap(),
+                    m["max"].as_f64().unwrap(),
+                ]
+            };
+            (key, values)
+        })
+        .collect();
+    let artifacts = shown["artifacts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["name"] != "metrics")
+        .map(|a| {
+            (
+                a["name"].as_str().unwrap().to_string(),
+                a["hash"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    (metrics, artifacts)
+}
+
+/// Every file under `dir` (relative path → bytes).
+pub fn files_under(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut found = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let rel = path.strip_prefix(dir).unwrap().to_string_lossy().to_string();
+                found.insert(rel, std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    found
 }

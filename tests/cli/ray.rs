@@ -1,7 +1,8 @@
 //! `--executor ray` against a real Ray cluster on loopback: a head and a second worker
 //! node (`ray start` from `.venv`, each in its own session so teardown kills exactly its
 //! processes), an S3 store (moto) as the shared disk. Checks the lockfile and outputs equal
-//! the local run's (with sharded `sim.episodes` and `data.windows` stages on the cluster),
+//! the local run's (with sharded `sim.episodes`, `data.windows` and `forecast.experiment`
+//! stages on the cluster),
 //! that nothing is shipped twice, and the faults: a killed worker is retried, a pending job times out, a
 //! failing stage names its worker and log, a killed driver resumes from what finished.
 
@@ -12,7 +13,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::store::Moto;
-use crate::{Project, describe, outcomes, venv_bin};
+use crate::{Project, describe, files_under, outcomes, recorded, venv_bin};
 
 fn free_port() -> u16 {
     TcpListener::bind("127.0.0.1:0")
@@ -425,10 +426,18 @@ fn ray_runs_match_local_and_survive_faults() {
     );
     let first_run = started.elapsed();
 
-    // data.windows in 2 shards on the cluster (one per node) equals the local unsharded run.
+    // data.windows in 2 shards on the cluster (one per node) equals the local unsharded run,
+    // and the merge on the driver records its metrics.
     let windows = windows_project();
     let whole = read_all(&windows, WINDOW_FILES);
     let whole_lock = lock_without_run_ids(&windows, "pipelines/windows.lock");
+    let whole_metrics = recorded(
+        &windows,
+        windows.json(&["runs", "list", "--stage", "windows"])[0]["run_id"]
+            .as_str()
+            .unwrap(),
+    )
+    .0;
     windows.write(
         "pipelines/windows.yaml",
         &WINDOWS.replace(
@@ -450,6 +459,10 @@ fn ray_runs_match_local_and_survive_faults() {
         lock_without_run_ids(&windows, "pipelines/windows.lock"),
         whole_lock
     );
+    assert_eq!(
+        recorded(&windows, report["stages"][0]["run_id"].as_str().unwrap()).0,
+        whole_metrics
+    );
     let log = windows.read(&format!(
         ".firecast/logs/{}.log",
         report["stages"][0]["run_id"].as_str().unwrap()
@@ -469,6 +482,46 @@ fn ray_runs_match_local_and_survive_faults() {
         assert!(log.contains(line), "{line}:\n{log}");
     }
     let windows_run = started.elapsed() - first_run;
+
+    // forecast.experiment in 2 shards on the cluster (8 training units per node) equals the
+    // local unsharded run: the report, the lockfile, the metrics (the shards' come back as
+    // events, the merge's are the driver's own) and the saved models as artifacts.
+    let exp = crate::forecast::project_with_dataset();
+    exp.write("pipelines/exp.yaml", &crate::forecast::experiment_stage(None));
+    let report = exp.json(&["pipeline", "run", "pipelines/exp.yaml"]);
+    assert_eq!(outcomes(&report)["table3"], "ran", "{report}");
+    let whole = files_under(&exp.path("build/table3"));
+    let whole_lock = lock_without_run_ids(&exp, "pipelines/exp.lock");
+    let whole_recorded = recorded(&exp, report["stages"][0]["run_id"].as_str().unwrap());
+    let local_experiment = started.elapsed() - first_run - windows_run;
+    exp.write("pipelines/exp.yaml", &crate::forecast::experiment_stage(Some(2)));
+    let out = ray_run(
+        &exp,
+        &moto,
+        "pipelines/exp.yaml",
+        &["--ray-address", &address, "--force"],
+    );
+    assert!(out.status.success(), "{}", describe(&out));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(outcomes(&report)["table3"], "ran", "{report}");
+    assert!(
+        files_under(&exp.path("build/table3")) == whole,
+        "the report differs between the local run and 2 shards on Ray"
+    );
+    assert_eq!(lock_without_run_ids(&exp, "pipelines/exp.lock"), whole_lock);
+    assert_eq!(
+        recorded(&exp, report["stages"][0]["run_id"].as_str().unwrap()),
+        whole_recorded
+    );
+    let log = exp.read(&format!(
+        ".firecast/logs/{}.log",
+        report["stages"][0]["run_id"].as_str().unwrap()
+    ));
+    assert!(
+        log.contains("shard 1/2: 8 of 16 training units") && log.contains("# merged 2 shards on the driver"),
+        "{log}"
+    );
+    let experiment_run = started.elapsed() - first_run - windows_run;
 
     // Up to date: nothing is shipped.
     let jobs = cluster.jobs();
@@ -598,10 +651,13 @@ fn ray_runs_match_local_and_survive_faults() {
     assert_eq!(faults.read("two.txt"), "one\n");
 
     eprintln!(
-        "ray test: cluster up in {:.1}s, first pipeline run done at {:.1}s, windows (local, then 2 shards on Ray) in {:.1}s, all done in {:.1}s",
+        "ray test: cluster up in {:.1}s, first pipeline run done at {:.1}s, windows (local, then 2 shards on Ray) in {:.1}s, \
+         experiment (dataset and local run {:.1}s, then 2 shards on Ray) in {:.1}s, all done in {:.1}s",
         up.as_secs_f64(),
         first_run.as_secs_f64(),
         windows_run.as_secs_f64(),
+        local_experiment.as_secs_f64(),
+        experiment_run.as_secs_f64(),
         started.elapsed().as_secs_f64()
     );
     let sessions = cluster.sessions.clone();
@@ -686,7 +742,7 @@ fn ray_executor_bad_input_is_named_before_any_work() {
     assert!(
         stderr.contains("pipelines/one.yaml:4:")
             && stderr
-                .contains("stage kind `cmd` cannot be sharded (kinds that can: data.windows, sim.episodes)"),
+                .contains("stage kind `cmd` cannot be sharded (kinds that can: data.windows, forecast.experiment, sim.episodes)"),
         "{stderr}"
     );
 }
@@ -700,10 +756,21 @@ fn sharded_episodes_equal_unsharded_locally() {
         "pipelines/fire.yaml",
         &PIPELINE.replace("    resources:", "    shards: 3\n    resources:"),
     );
+    let mut recorded_by = Vec::new();
     for p in [&whole, &sharded] {
-        let ran = p.run_pipeline("pipelines/fire.yaml", &["--only", "helitack"]);
-        assert_eq!(ran["helitack"], "ran", "{ran:?}");
+        let report = p.json(&["pipeline", "run", "pipelines/fire.yaml", "--only", "helitack"]);
+        assert_eq!(outcomes(&report)["helitack"], "ran", "{report}");
+        let helitack = report["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["stage"] == "helitack")
+            .unwrap();
+        recorded_by.push(recorded(p, helitack["run_id"].as_str().unwrap()).0);
     }
+    // The shards record the per-episode metrics the unsharded run records.
+    assert_eq!(recorded_by[0], recorded_by[1]);
+    assert_eq!(recorded_by[0]["cells_burned"][0], 4.0, "{:?}", recorded_by[0]);
     for file in ["build/helitack.json", "build/helitack.trace.json"] {
         assert_eq!(
             std::fs::read(whole.path(file)).unwrap(),
@@ -745,6 +812,14 @@ fn sharded_windows_equal_unsharded_locally() {
     let p = windows_project();
     let whole = read_all(&p, WINDOW_FILES);
     let whole_lock = lock_without_run_ids(&p, "pipelines/windows.lock");
+    let whole_run = p.json(&["runs", "list", "--stage", "windows"])[0]["run_id"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let (whole_metrics, _) = recorded(&p, &whole_run);
+    for key in ["windows", "gridmet_files_read", "samples_with_true_probability"] {
+        assert!(whole_metrics.contains_key(key), "{key}: {whole_metrics:?}");
+    }
     let sharded = |n: u32| {
         WINDOWS.replace(
             "    uses: data.windows\n",
@@ -764,6 +839,12 @@ fn sharded_windows_equal_unsharded_locally() {
         assert_eq!(outcomes(&report)["windows"], "ran", "{report}");
         check_windows_equal(&p, &whole, n);
         assert_eq!(lock_without_run_ids(&p, "pipelines/windows.lock"), whole_lock);
+        // The merge records the unsharded run's metrics.
+        assert_eq!(
+            recorded(&p, report["stages"][0]["run_id"].as_str().unwrap()).0,
+            whole_metrics,
+            "{n} shards"
+        );
         let log = p.read(&format!(
             ".firecast/logs/{}.log",
             report["stages"][0]["run_id"].as_str().unwrap()

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::card::MapGrid;
 use crate::land::LandMask;
-use crate::stage::{WindowsStage, finish_windows, windows_line, windows_source};
+use crate::stage::{WindowsManifest, WindowsStage, finish_windows, windows_line, windows_source};
 use crate::truth::{TruthFile, TruthLookup};
 use crate::windows::{ExtractConfig, ExtractHead, ExtractPlan, ExtractReport, Gathered, WindowSample};
 use crate::{DatasetError, Tier, table};
@@ -90,14 +90,10 @@ impl ShardedKind for WindowsStage {
         Ok(())
     }
 
-    fn merge(
-        &self,
-        params: &serde_json::Value,
-        parts: &[PathBuf],
-        outputs: &BTreeMap<String, PathBuf>,
-    ) -> Result<Vec<String>, StageError> {
+    /// Records the metrics of the unsharded run (the shards record none).
+    fn merge(&self, ctx: &mut StageContext<'_>, parts: &[PathBuf]) -> Result<(), StageError> {
         let started = Instant::now();
-        let cfg: ExtractConfig = serde_json::from_value(params.clone())?;
+        let cfg: ExtractConfig = ctx.params()?;
         let n_vars = cfg.variables.len();
         let mut head: Option<PartHead> = None;
         let mut expected: Option<(usize, usize, String)> = None;
@@ -157,18 +153,16 @@ impl ShardedKind for WindowsStage {
         if fingerprint(&head.kept) != kept_fingerprint {
             return Err(StageError::msg("shard 0's samples do not match its fingerprint"));
         }
-        let out = outputs
-            .get("windows")
-            .ok_or_else(|| StageError::msg("output `windows` is not declared"))?;
-        let m = finish_windows(&cfg, head, gathered, truth, grid, source, out)?;
-        Ok(vec![
-            windows_line(&m),
-            format!(
-                "merged {} shards in {:.3} s",
-                parts.len(),
-                started.elapsed().as_secs_f64()
-            ),
-        ])
+        let out = ctx.output("windows")?.to_path_buf();
+        let m = finish_windows(&cfg, head, gathered, truth, grid, source, &out)?;
+        windows_metrics(ctx, &m);
+        ctx.log(windows_line(&m));
+        ctx.log(format!(
+            "merged {} shards in {:.3} s",
+            parts.len(),
+            started.elapsed().as_secs_f64()
+        ));
+        Ok(())
     }
 
     /// Of `gridmet`: the shard's variables, the first variable's first file (the grid) and,
@@ -223,6 +217,16 @@ impl ShardedKind for WindowsStage {
             _ => None,
         }
     }
+}
+
+/// The metrics `WindowsStage::run` records (the CLI test compares a sharded run's with an
+/// unsharded run's).
+fn windows_metrics(ctx: &StageContext<'_>, m: &WindowsManifest) {
+    if let Some(t) = &m.truth {
+        ctx.metric("samples_with_true_probability", 0, t.samples_with_value as f64);
+    }
+    ctx.metric("windows", 0, m.report.samples_out as f64);
+    ctx.metric("gridmet_files_read", 0, m.report.files_read as f64);
 }
 
 /// BLAKE3 over the kept samples' ids, days and cells: every shard must plan the same windows.

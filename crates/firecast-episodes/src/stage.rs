@@ -235,13 +235,10 @@ impl ShardedKind for EpisodesStage {
         Ok(())
     }
 
-    fn merge(
-        &self,
-        params: &serde_json::Value,
-        parts: &[std::path::PathBuf],
-        outputs: &std::collections::BTreeMap<String, std::path::PathBuf>,
-    ) -> Result<Vec<String>, StageError> {
-        let params: EpisodesParams = serde_json::from_value(params.clone())?;
+    /// The shards recorded the per-episode metrics (the unsharded run's only ones); the merge
+    /// writes the outputs and the summary line.
+    fn merge(&self, ctx: &mut StageContext<'_>, parts: &[std::path::PathBuf]) -> Result<(), StageError> {
+        let params: EpisodesParams = ctx.params()?;
         let mut stats = Vec::with_capacity(params.episodes);
         let mut first: Option<ShardPart> = None;
         for (i, path) in parts.iter().enumerate() {
@@ -284,17 +281,15 @@ impl ShardedKind for EpisodesStage {
             report: crate::eval_report(stats),
             first_episode: None,
         };
-        let summary_path = outputs
-            .get("summary")
-            .ok_or_else(|| StageError::msg("output `summary` is not declared"))?;
-        std::fs::write(summary_path, serde_json::to_vec_pretty(&summary)?)?;
-        if let Some(path) = outputs.get("trace") {
+        std::fs::write(ctx.output("summary")?, serde_json::to_vec_pretty(&summary)?)?;
+        if let Ok(path) = ctx.output("trace") {
             let trace = head
                 .trace
                 .ok_or_else(|| StageError::msg("shard 0 carries no trace of episode 0"))?;
             std::fs::write(path, trace)?;
         }
-        Ok(vec![summary_line(&summary.report, params.episodes)])
+        ctx.log(summary_line(&summary.report, params.episodes));
+        Ok(())
     }
 }
 

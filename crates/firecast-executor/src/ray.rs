@@ -16,7 +16,9 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use firecast_pipeline::executor::{JobFailure, JobOutcome, StageExecutor, StageJob};
+use firecast_pipeline::executor::{
+    Invocation, JobFailure, JobOutcome, RecordingObserver, StageExecutor, StageJob, invoke_merge,
+};
 use firecast_pipeline::stage::SHARD_OUTPUT;
 use firecast_pipeline::{Shard, fsutil};
 use firecast_store::ArtifactStore;
@@ -345,10 +347,9 @@ impl RayExecutor {
                 })
                 .collect()
         });
-        let sharded = job
-            .kind
-            .sharded()
-            .ok_or_else(|| fail(format!("stage kind `{}` cannot be sharded", job.stage.kind)))?;
+        if job.kind.sharded().is_none() {
+            return Err(fail(format!("stage kind `{}` cannot be sharded", job.stage.kind)));
+        }
         let parts_dir = job.root.join(".firecast/shards").join(job.run_id);
         fsutil::remove_path(&parts_dir);
         let mut outcome = JobOutcome::default();
@@ -372,12 +373,42 @@ impl RayExecutor {
                 outcome.pending_artifacts.extend(result.pending_artifacts);
                 workers.push(worker);
             }
-            let lines = sharded
-                .merge(&job.stage.params, &parts, job.tmp_outputs)
-                .map_err(|e| fail(format!("merging {count} shards failed: {e}")))?;
+            // The merge runs here with the stage's context: what it reports joins the shards'.
+            let inputs: BTreeMap<String, Vec<PathBuf>> = job
+                .inputs
+                .iter()
+                .map(|(name, list)| (name.clone(), list.iter().map(|i| i.local.clone()).collect()))
+                .collect();
+            let observer = RecordingObserver::default();
+            let progress =
+                indicatif::MultiProgress::with_draw_target(indicatif::ProgressDrawTarget::hidden());
+            let (merged, report) = invoke_merge(
+                job.kind,
+                &Invocation {
+                    stage: &job.stage.name,
+                    run_id: job.run_id,
+                    root: job.root,
+                    params: &job.stage.params,
+                    inputs: &inputs,
+                    outputs: job.tmp_outputs,
+                    final_outputs: job.final_outputs,
+                    progress: &progress,
+                    observer: &observer,
+                    store: Some(self.store.as_ref()),
+                    jobs: job.jobs,
+                    shard: None,
+                },
+                &parts,
+            );
             outcome.log.push(format!("# merged {count} shards on the driver"));
-            outcome.log.extend(lines);
-            Ok(())
+            outcome.log.extend(report.log);
+            outcome.warnings.extend(report.warnings);
+            outcome.pending_artifacts.extend(report.pending_artifacts);
+            outcome.events.extend(observer.into_events());
+            merged.map_err(|e| JobFailure {
+                message: format!("stage `{}`: merging {count} shards failed: {e}", job.stage.name),
+                log: std::mem::take(&mut outcome.log),
+            })
         })();
         fsutil::remove_path(&parts_dir);
         merged?;

@@ -1,7 +1,11 @@
-//! Running an experiment: every protocol × model × seed is fitted on its training side,
-//! thresholded on its validation side, and scored once on its test side. Intervals come from
-//! a cluster bootstrap over the test set; the best model is tested against the best
-//! baseline on the same test samples.
+//! Running an experiment: every protocol × model × seed (a training [`Unit`]) is fitted on
+//! its training side, thresholded on its validation side, and scored once on its test side.
+//! Intervals come from a cluster bootstrap over the test set; the best model is tested
+//! against the best baseline on the same test samples.
+//!
+//! [`prepare`] splits the dataset, [`fit_units`] fits units and keeps their scores,
+//! [`assemble`] computes everything else from the scores alone, so the units can be fitted
+//! in one process ([`run`]) or in shards ([`crate::shard`]) with the same report.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -247,45 +251,91 @@ pub(crate) fn clusters(w: &Windows, idx: &[usize], by: ClusterBy) -> Vec<u64> {
         .collect()
 }
 
-/// Runs the experiment on `windows`; fitted models go under `out/models/`.
-pub fn run(
+/// One training unit: a model fitted under a protocol with a seed. An experiment's units are
+/// numbered protocol by protocol (in name order), model by model (in the spec's order), seed
+/// by seed (a deterministic model has one unit, with the first seed). Given the dataset, the
+/// spec and the thread count, a unit's fit depends on its protocol, model and seed only,
+/// never on the units fitted before it in the process (networks seed libtorch's generator
+/// when they start; the other models draw from their own seeded generators), so units can be
+/// fitted in any order and in any process: `forecast.experiment` shards by unit.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Unit {
+    pub protocol: String,
+    pub model: String,
+    pub seed: u64,
+}
+
+impl std::fmt::Display for Unit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}/seed {}", self.protocol, self.model, self.seed)
+    }
+}
+
+/// The experiment's units in order.
+pub fn units(spec: &ExperimentSpec) -> Result<Vec<Unit>, ForecastError> {
+    let mut units = Vec::new();
+    for protocol in spec.protocols.keys() {
+        for entry in &spec.models {
+            let config = ModelConfig::parse(&entry.kind, &entry.params)?;
+            let seeds = if config.is_stochastic() {
+                &spec.seeds[..]
+            } else {
+                &spec.seeds[..spec.seeds.len().min(1)]
+            };
+            units.extend(seeds.iter().map(|&seed| Unit {
+                protocol: protocol.clone(),
+                model: entry.label(),
+                seed,
+            }));
+        }
+    }
+    Ok(units)
+}
+
+/// What a unit's fit leaves for scoring: its validation and test scores (in the protocol's
+/// sample order) and facts about the fit. Thresholds, reports, intervals, paired tests and
+/// the table are all computed from these by [`assemble`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct UnitScores {
+    pub unit: Unit,
+    pub val: Vec<f64>,
+    pub test: Vec<f64>,
+    pub epochs: Option<usize>,
+    pub best_epoch: Option<usize>,
+    pub parameters: Option<i64>,
+    /// Per-epoch curves of networks: key → (epoch, value).
+    pub curves: BTreeMap<String, Vec<(i64, f64)>>,
+}
+
+/// One protocol's split and labels, shared by the fits and the scoring of its units.
+pub struct ProtocolSide {
+    pub name: String,
+    days: std::ops::Range<usize>,
+    split: crate::split::SplitIndices,
+    ytr: Vec<bool>,
+    yva: Vec<bool>,
+    yte: Vec<bool>,
+    test_clusters: Vec<u64>,
+    info: ProtocolInfo,
+}
+
+/// Splits `windows` under every protocol of `spec` (cheap: no windows are copied).
+pub fn prepare(
     spec: &ExperimentSpec,
     windows: &Windows,
-    device: tch::Device,
-    out: &Path,
     sink: &dyn Sink,
-) -> Result<(ExperimentResult, Vec<ProtocolPredictions>), ForecastError> {
-    let started = Instant::now();
-    let all_features: Vec<usize> = (0..windows.n_features()).collect();
-    let configs: Vec<ModelConfig> = spec
-        .models
-        .iter()
-        .map(|m| ModelConfig::parse(&m.kind, &m.params))
-        .collect::<Result<_, _>>()?;
-    let mut protocols = Vec::new();
-    let mut results = Vec::new();
-    let mut paired = Vec::new();
-    let mut predictions = Vec::new();
-    let total_fits: usize = spec.protocols.len()
-        * configs
-            .iter()
-            .map(|c| if c.is_stochastic() { spec.seeds.len() } else { 1 })
-            .sum::<usize>();
-    let mut fits_done = 0usize;
+) -> Result<Vec<ProtocolSide>, ForecastError> {
+    let mut sides = Vec::new();
     for (pname, protocol) in &spec.protocols {
         let key = format!("protocols.{pname}");
         let days = windows.day_range(protocol.days.0, protocol.days.1, &format!("{key}.days"))?;
         let split = crate::split::apply(windows, &protocol.split, protocol.days, &key)?;
-        let cut = |rows: &[usize]| Block::cut(windows, days.clone(), &all_features, rows);
-        let (btr, bva, bte) = (cut(&split.train), cut(&split.val), cut(&split.test));
         let labels = |rows: &[usize]| rows.iter().map(|&s| windows.labels[s]).collect::<Vec<_>>();
         let (ytr, yva, yte) = (labels(&split.train), labels(&split.val), labels(&split.test));
-        let meta = |rows: &[usize]| rows.iter().map(|&s| &windows.meta[s]).collect::<Vec<_>>();
         let test_clusters = clusters(windows, &split.test, spec.evaluation.cluster);
         let positives = yte.iter().filter(|&&l| l).count();
         let prevalence = positives as f64 / yte.len() as f64;
-        let oracle = oracle(windows, &split.test, &yte);
-        protocols.push(ProtocolInfo {
+        let info = ProtocolInfo {
             name: pname.clone(),
             days: protocol.days,
             split: split.description.clone(),
@@ -297,8 +347,8 @@ pub fn run(
             prevalence,
             majority_accuracy: prevalence.max(1.0 - prevalence),
             leaks_future: protocol.days.1 >= 0,
-            oracle: oracle.clone(),
-        });
+            oracle: oracle(windows, &split.test, &yte),
+        };
         sink.message(&format!(
             "protocol {pname}: days {}..{}, {} (train {}, val {}, test {} with {} positive, dropped {})",
             protocol.days.0,
@@ -310,132 +360,264 @@ pub fn run(
             positives,
             split.dropped.len()
         ));
+        sides.push(ProtocolSide {
+            name: pname.clone(),
+            days,
+            split,
+            ytr,
+            yva,
+            yte,
+            test_clusters,
+            info,
+        });
+    }
+    Ok(sides)
+}
+
+/// The model entry of `spec` named `label`, its config and its threshold rule.
+fn model_of<'s>(
+    spec: &'s ExperimentSpec,
+    label: &str,
+) -> Result<(&'s crate::spec::ModelEntry, ModelConfig, ThresholdRule), ForecastError> {
+    let entry = spec
+        .models
+        .iter()
+        .find(|m| m.label() == label)
+        .ok_or_else(|| ForecastError::Model(format!("the experiment has no model `{label}`")))?;
+    let config = ModelConfig::parse(&entry.kind, &entry.params)?;
+    let rule = entry.threshold.unwrap_or_else(|| config.default_threshold());
+    Ok((entry, config, rule))
+}
+
+fn side_of<'a>(sides: &'a [ProtocolSide], name: &str) -> Result<&'a ProtocolSide, ForecastError> {
+    sides
+        .iter()
+        .find(|s| s.name == name)
+        .ok_or_else(|| ForecastError::Model(format!("the experiment has no protocol `{name}`")))
+}
+
+/// A unit's threshold (chosen on its validation scores) and its test and validation reports.
+fn score(
+    side: &ProtocolSide,
+    val: &[f64],
+    test: &[f64],
+    rule: ThresholdRule,
+    evaluation: &Evaluation,
+) -> (f64, BinaryReport, BinaryReport) {
+    let bins = evaluation.calibration_bins;
+    let threshold = firecast_eval::metrics::choose_threshold(&side.yva, val, eval_rule(rule));
+    let report = firecast_eval::metrics::evaluate(&side.yte, test, threshold, bins);
+    let validation = firecast_eval::metrics::evaluate(&side.yva, val, threshold, bins);
+    (threshold, report, validation)
+}
+
+/// Where a unit's fitted model is saved, relative to the report folder.
+fn model_dir(unit: &Unit) -> String {
+    format!("models/{}/{}/seed-{}", unit.protocol, unit.model, unit.seed)
+}
+
+/// Fits `units` in order, saving each fitted model under `out/models/…`, and returns their
+/// scores. Reports per-unit metrics (test metrics at step = seed, fit seconds, curves).
+pub fn fit_units(
+    spec: &ExperimentSpec,
+    windows: &Windows,
+    sides: &[ProtocolSide],
+    units: &[Unit],
+    device: tch::Device,
+    out: &Path,
+    sink: &dyn Sink,
+) -> Result<Vec<UnitScores>, ForecastError> {
+    let all_features: Vec<usize> = (0..windows.n_features()).collect();
+    let meta = |rows: &[usize]| rows.iter().map(|&s| &windows.meta[s]).collect::<Vec<_>>();
+    // Units come protocol by protocol: one protocol's blocks at a time, each cut once.
+    let mut blocks: Option<(&str, [Block; 3])> = None;
+    let mut scores = Vec::with_capacity(units.len());
+    for (done, unit) in units.iter().enumerate() {
+        let side = side_of(sides, &unit.protocol)?;
+        let (entry, config, rule) = model_of(spec, &unit.model)?;
+        if blocks.as_ref().is_some_and(|(p, _)| *p != side.name) {
+            blocks = None;
+        }
+        let (_, [btr, bva, bte]) = blocks.get_or_insert_with(|| {
+            let cut = |rows: &[usize]| Block::cut(windows, side.days.clone(), &all_features, rows);
+            (
+                &side.name,
+                [
+                    cut(&side.split.train),
+                    cut(&side.split.val),
+                    cut(&side.split.test),
+                ],
+            )
+        });
+        let (btr, bva, bte) = (&*btr, &*bva, &*bte);
+        let (pname, label, seed) = (&unit.protocol, &unit.model, unit.seed);
+        let what = format!("{pname}/{label}/seed {seed}");
+        let progress =
+            |done: u64, total: u64, step: &str| sink.progress(&format!("{what} {step}"), done, total);
+        let curve_prefix = format!("{pname}/{label}/seed{seed}");
+        let recorded: std::sync::Mutex<BTreeMap<String, Vec<(i64, f64)>>> = Default::default();
+        let curve = |epoch: i64, k: &str, v: f64| {
+            sink.metric(&format!("{curve_prefix}/{k}"), epoch, v);
+            recorded
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .entry(k.to_string())
+                .or_default()
+                .push((epoch, v));
+        };
+        let ctx = FitContext {
+            train: Inputs {
+                block: btr,
+                meta: meta(&side.split.train),
+            },
+            train_labels: &side.ytr,
+            val: Inputs {
+                block: bva,
+                meta: meta(&side.split.val),
+            },
+            val_labels: &side.yva,
+            seed,
+            device,
+            progress: &progress,
+            curve: &curve,
+        };
+        let t0 = Instant::now();
+        let trained = crate::models::fit(&config, &ctx).map_err(|e| e.in_model(label))?;
+        let fit_seconds = t0.elapsed().as_secs_f64();
+        let val_inputs = Inputs {
+            block: bva,
+            meta: meta(&side.split.val),
+        };
+        let test_inputs = Inputs {
+            block: bte,
+            meta: meta(&side.split.test),
+        };
+        let pv = trained
+            .predict(&val_inputs, device)
+            .map_err(|e| e.in_model(label))?;
+        let pt = trained
+            .predict(&test_inputs, device)
+            .map_err(|e| e.in_model(label))?;
+        let (threshold, report, validation) = score(side, &pv, &pt, rule, &spec.evaluation);
+        crate::bundle::save(
+            &out.join(model_dir(unit)),
+            &crate::bundle::BundleInfo {
+                model: label.clone(),
+                kind: entry.kind.clone(),
+                protocol: pname.clone(),
+                days: side.info.days,
+                seed,
+                threshold,
+                threshold_rule: rule_label(rule),
+                dataset: windows.manifest.name.clone(),
+                dataset_version: windows.manifest.version.clone(),
+                validation_auprc: validation.auprc,
+                validation_auroc: validation.auroc,
+                test_auroc: report.auroc,
+                features: btr.features.clone(),
+            },
+            &trained,
+        )?;
+        let (epochs, best_epoch) = match &trained {
+            Trained::Neural(n) => (Some(n.epochs_run), Some(n.best_epoch)),
+            _ => (None, None),
+        };
+        for (k, v) in report_metrics(&report) {
+            sink.metric(&format!("{pname}/{label}/test/{k}"), seed as i64, v);
+        }
+        // Times go to the registry and the log only: the stage's files stay the same bytes
+        // for the same config and seeds.
+        sink.metric(&format!("{pname}/{label}/fit_seconds"), seed as i64, fit_seconds);
+        sink.progress("experiment", done as u64 + 1, units.len() as u64);
+        sink.message(&format!(
+            "{what}: test AUROC {:.3} AUPRC {:.3} acc {:.3} (threshold {threshold:.3}, {fit_seconds:.1} s)",
+            report.auroc.unwrap_or(f64::NAN),
+            report.auprc.unwrap_or(f64::NAN),
+            report.accuracy
+        ));
+        scores.push(UnitScores {
+            unit: unit.clone(),
+            val: pv,
+            test: pt,
+            epochs,
+            best_epoch,
+            parameters: trained.parameter_count(),
+            curves: recorded.into_inner().unwrap_or_else(|e| e.into_inner()),
+        });
+    }
+    Ok(scores)
+}
+
+/// Table III from every unit's scores (`scores[k]` is unit `k` of [`units`]): thresholds and
+/// reports per seed, seed means with cluster-bootstrap intervals, breakdowns, skill against
+/// the oracle, and per protocol the paired test of the best model against the best baseline.
+pub fn assemble(
+    spec: &ExperimentSpec,
+    windows: &Windows,
+    sides: &[ProtocolSide],
+    scores: Vec<UnitScores>,
+    device: &str,
+    sink: &dyn Sink,
+) -> Result<(ExperimentResult, Vec<ProtocolPredictions>), ForecastError> {
+    let expected = units(spec)?;
+    if scores.len() != expected.len() || scores.iter().zip(&expected).any(|(s, u)| s.unit != *u) {
+        return Err(ForecastError::Model(format!(
+            "the scores cover {} units, not the experiment's {} in order",
+            scores.len(),
+            expected.len()
+        )));
+    }
+    let mut scores = scores.into_iter().peekable();
+    let mut results = Vec::new();
+    let mut paired = Vec::new();
+    let mut predictions = Vec::new();
+    for side in sides {
+        let pname = &side.name;
         let mut test_scores: Vec<ModelScores> = Vec::new();
-        for (entry, config) in spec.models.iter().zip(&configs) {
+        for entry in &spec.models {
             let label = entry.label();
-            let seeds: Vec<u64> = if config.is_stochastic() {
-                spec.seeds.clone()
-            } else {
-                vec![spec.seeds[0]]
-            };
-            let rule = entry.threshold.unwrap_or_else(|| config.default_threshold());
+            let (_, _, rule) = model_of(spec, &label)?;
             let mut runs = Vec::new();
             let mut per_seed_scores = Vec::new();
+            let mut seeds = Vec::new();
             let mut parameters = None;
-            for &seed in &seeds {
-                let what = format!("{pname}/{label}/seed {seed}");
-                let progress =
-                    |done: u64, total: u64, step: &str| sink.progress(&format!("{what} {step}"), done, total);
-                let curve_prefix = format!("{pname}/{label}/seed{seed}");
-                let recorded: std::sync::Mutex<BTreeMap<String, Vec<(i64, f64)>>> = Default::default();
-                let curve = |epoch: i64, k: &str, v: f64| {
-                    sink.metric(&format!("{curve_prefix}/{k}"), epoch, v);
-                    recorded
-                        .lock()
-                        .unwrap_or_else(|e| e.into_inner())
-                        .entry(k.to_string())
-                        .or_default()
-                        .push((epoch, v));
-                };
-                let ctx = FitContext {
-                    train: Inputs {
-                        block: &btr,
-                        meta: meta(&split.train),
-                    },
-                    train_labels: &ytr,
-                    val: Inputs {
-                        block: &bva,
-                        meta: meta(&split.val),
-                    },
-                    val_labels: &yva,
-                    seed,
-                    device,
-                    progress: &progress,
-                    curve: &curve,
-                };
-                let t0 = Instant::now();
-                let trained = crate::models::fit(config, &ctx).map_err(|e| e.in_model(&label))?;
-                let fit_seconds = t0.elapsed().as_secs_f64();
-                let val_inputs = Inputs {
-                    block: &bva,
-                    meta: meta(&split.val),
-                };
-                let test_inputs = Inputs {
-                    block: &bte,
-                    meta: meta(&split.test),
-                };
-                let pv = trained
-                    .predict(&val_inputs, device)
-                    .map_err(|e| e.in_model(&label))?;
-                let pt = trained
-                    .predict(&test_inputs, device)
-                    .map_err(|e| e.in_model(&label))?;
-                let threshold = firecast_eval::metrics::choose_threshold(&yva, &pv, eval_rule(rule));
-                let report =
-                    firecast_eval::metrics::evaluate(&yte, &pt, threshold, spec.evaluation.calibration_bins);
-                let validation =
-                    firecast_eval::metrics::evaluate(&yva, &pv, threshold, spec.evaluation.calibration_bins);
-                let model_rel = format!("models/{pname}/{label}/seed-{seed}");
-                crate::bundle::save(
-                    &out.join(&model_rel),
-                    &crate::bundle::BundleInfo {
-                        model: label.clone(),
-                        kind: entry.kind.clone(),
-                        protocol: pname.clone(),
-                        days: protocol.days,
-                        seed,
-                        threshold,
-                        threshold_rule: rule_label(rule),
-                        dataset: windows.manifest.name.clone(),
-                        dataset_version: windows.manifest.version.clone(),
-                        validation_auprc: validation.auprc,
-                        validation_auroc: validation.auroc,
-                        test_auroc: report.auroc,
-                        features: btr.features.clone(),
-                    },
-                    &trained,
-                )?;
-                let (epochs, best_epoch) = match &trained {
-                    Trained::Neural(n) => (Some(n.epochs_run), Some(n.best_epoch)),
-                    _ => (None, None),
-                };
-                parameters = trained.parameter_count();
-                for (k, v) in report_metrics(&report) {
-                    sink.metric(&format!("{pname}/{label}/test/{k}"), seed as i64, v);
+            while let Some(unit) = scores.next_if(|s| s.unit.protocol == *pname && s.unit.model == label) {
+                if unit.val.len() != side.yva.len() || unit.test.len() != side.yte.len() {
+                    return Err(ForecastError::Model(format!(
+                        "{}: {} validation and {} test scores for {} and {} samples",
+                        unit.unit,
+                        unit.val.len(),
+                        unit.test.len(),
+                        side.yva.len(),
+                        side.yte.len()
+                    )));
                 }
-                // Times go to the registry and the log only: the stage's files stay the
-                // same bytes for the same config and seeds.
-                sink.metric(&format!("{pname}/{label}/fit_seconds"), seed as i64, fit_seconds);
-                fits_done += 1;
-                sink.progress("experiment", fits_done as u64, total_fits as u64);
-                sink.message(&format!(
-                    "{what}: test AUROC {:.3} AUPRC {:.3} acc {:.3} (threshold {threshold:.3}, {fit_seconds:.1} s)",
-                    report.auroc.unwrap_or(f64::NAN),
-                    report.auprc.unwrap_or(f64::NAN),
-                    report.accuracy
-                ));
+                let (threshold, report, validation) =
+                    score(side, &unit.val, &unit.test, rule, &spec.evaluation);
+                seeds.push(unit.unit.seed);
+                parameters = unit.parameters;
                 runs.push(SeedRun {
-                    seed,
+                    seed: unit.unit.seed,
                     threshold,
                     threshold_rule: rule_label(rule),
                     report,
                     validation: Some(validation),
-                    epochs,
-                    best_epoch,
-                    model_dir: model_rel,
-                    curves: recorded.into_inner().unwrap_or_else(|e| e.into_inner()),
+                    epochs: unit.epochs,
+                    best_epoch: unit.best_epoch,
+                    model_dir: model_dir(&unit.unit),
+                    curves: unit.curves,
                 });
-                per_seed_scores.push(pt);
+                per_seed_scores.push(unit.test);
             }
             let thresholds: Vec<f64> = runs.iter().map(|r| r.threshold).collect();
             results.push(summarise(
                 TestSide {
                     protocol: pname,
                     windows,
-                    rows: &split.test,
-                    labels: &yte,
-                    clusters: &test_clusters,
-                    oracle: oracle.as_ref(),
+                    rows: &side.split.test,
+                    labels: &side.yte,
+                    clusters: &side.test_clusters,
+                    oracle: side.info.oracle.as_ref(),
                 },
                 &label,
                 &entry.kind,
@@ -451,14 +633,19 @@ pub fn run(
             pname,
             &results,
             &test_scores,
-            &yte,
-            &test_clusters,
+            &side.yte,
+            &side.test_clusters,
             &spec.evaluation,
         );
         predictions.push(ProtocolPredictions {
             protocol: pname.clone(),
-            sample_ids: split.test.iter().map(|&s| windows.meta[s].sample_id).collect(),
-            labels: yte.clone(),
+            sample_ids: side
+                .split
+                .test
+                .iter()
+                .map(|&s| windows.meta[s].sample_id)
+                .collect(),
+            labels: side.yte.clone(),
             models: test_scores.into_iter().map(|(m, _, s, t)| (m, s, t)).collect(),
         });
         if let Some(test) = paired_result {
@@ -481,16 +668,37 @@ pub fn run(
         dataset_version: windows.manifest.version.clone(),
         framing: format!("{:?}", windows.manifest.framing.kind).to_lowercase(),
         headline: spec.headline_protocol().to_string(),
-        device: format!("{device:?}"),
+        device: device.to_string(),
         bootstrap: spec.evaluation.bootstrap,
         level: spec.evaluation.level,
         cluster: format!("{:?}", spec.evaluation.cluster).to_lowercase(),
-        protocols,
+        protocols: sides.iter().map(|s| s.info.clone()).collect(),
         results,
         paired,
     };
-    sink.metric("experiment_seconds", 0, started.elapsed().as_secs_f64());
     Ok((result, predictions))
+}
+
+/// How an experiment names its device in `results.json`.
+pub fn device_label(device: tch::Device) -> String {
+    format!("{device:?}")
+}
+
+/// Runs the whole experiment on `windows` in this process; fitted models go under
+/// `out/models/`.
+pub fn run(
+    spec: &ExperimentSpec,
+    windows: &Windows,
+    device: tch::Device,
+    out: &Path,
+    sink: &dyn Sink,
+) -> Result<(ExperimentResult, Vec<ProtocolPredictions>), ForecastError> {
+    let started = Instant::now();
+    let sides = prepare(spec, windows, sink)?;
+    let scores = fit_units(spec, windows, &sides, &units(spec)?, device, out, sink)?;
+    let done = assemble(spec, windows, &sides, scores, &device_label(device), sink)?;
+    sink.metric("experiment_seconds", 0, started.elapsed().as_secs_f64());
+    Ok(done)
 }
 
 /// The scored side of one protocol: which samples, their labels and bootstrap clusters.

@@ -14,7 +14,8 @@
 //! - [`table`], [`plots`]: Table III (Markdown, CSV, JSON), DVC metrics and plot files, PNG
 //!   plots; [`bundle`]: fitted models on disk; [`predict`]: a model asked about a place
 //!   and a date; [`evaluate`]: saved models scored on another dataset; [`stage`]: the
-//!   `forecast.experiment`, `forecast.evaluate` and `forecast.predict` pipeline stage kinds.
+//!   `forecast.experiment`, `forecast.evaluate` and `forecast.predict` pipeline stage kinds;
+//!   [`shard`]: `forecast.experiment` sharded by training unit (protocol × model × seed).
 //! - [`bench`]: `firecast bench forecast` — the flattened baselines against scikit-learn /
 //!   xgboost on the same exported split, network sizes and training speed against PyTorch
 //!   eager, and the full-size run projected.
@@ -32,6 +33,7 @@ pub mod models;
 pub mod neural;
 pub mod plots;
 pub mod predict;
+pub mod shard;
 pub mod spec;
 pub mod split;
 pub mod stage;

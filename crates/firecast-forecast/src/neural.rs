@@ -799,6 +799,8 @@ pub fn train(cfg: &NeuralConfig, ctx: &FitContext<'_>) -> Result<NeuralModel, Fo
         .to_device(device);
     let yva = to_y(ctx.val_labels).to_device(device);
 
+    // Every fit starts libtorch's one generator from its own seed: weights and dropout masks
+    // do not depend on what was fitted before in the process (sharded experiments rely on it).
     tch::manual_seed(ctx.seed as i64);
     let vs = nn::VarStore::new(device);
     let net = net(cfg, &vs.root(), width, days);

@@ -10,7 +10,6 @@ use std::path::Path;
 use firecast_render::chart::{BarChart, Chart, Heatmap, LegendPosition, Marker, Series};
 
 use crate::ForecastError;
-use crate::data::Windows;
 use crate::experiment::{ExperimentResult, ProtocolPredictions};
 
 fn render_err(path: &Path) -> impl FnOnce(firecast_render::RenderError) -> ForecastError + '_ {
@@ -72,7 +71,6 @@ pub fn write_all(
     out: &Path,
     result: &ExperimentResult,
     predictions: &[ProtocolPredictions],
-    _w: &Windows,
 ) -> Result<(), ForecastError> {
     let dir = out.join("plots");
     std::fs::create_dir_all(&dir).map_err(ForecastError::io("creating", &dir))?;

@@ -8,7 +8,6 @@
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::sync::Mutex;
 
 use firecast_pipeline::dvc::MetricsAndPlots;
 use firecast_pipeline::{ParamsError, Port, Ports, StageContext, StageError, StageKind, typed_params};
@@ -28,10 +27,20 @@ const fn port(name: &'static str, required: bool, description: &'static str) -> 
     }
 }
 
-struct StageSink<'a, 'b> {
+/// Where an experiment stage reports: the stage's log, progress bar and metrics (finite
+/// values only).
+pub(crate) struct StageSink<'a, 'b> {
     ctx: &'a StageContext<'b>,
-    bar: indicatif::ProgressBar,
-    log: Mutex<Vec<String>>,
+    pub(crate) bar: indicatif::ProgressBar,
+}
+
+impl<'a, 'b> StageSink<'a, 'b> {
+    pub(crate) fn new(ctx: &'a StageContext<'b>, what: &str) -> Self {
+        Self {
+            bar: ctx.progress_bar(1, what),
+            ctx,
+        }
+    }
 }
 
 impl Sink for StageSink<'_, '_> {
@@ -46,10 +55,6 @@ impl Sink for StageSink<'_, '_> {
     }
     fn message(&self, line: &str) {
         self.ctx.log(line);
-        self.log
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .push(line.to_string());
     }
     fn metric(&self, key: &str, step: i64, value: f64) {
         if value.is_finite() {
@@ -141,43 +146,53 @@ impl StageKind for ExperimentStage {
             let device = crate::parse_device(&spec.device)?;
             firecast_learn::set_threads(ctx.jobs());
             let windows = crate::data::Windows::load(&dataset)?;
-            let bar = ctx.progress_bar(1, "models");
-            let sink = StageSink {
-                ctx,
-                bar,
-                log: Mutex::new(Vec::new()),
-            };
+            let sink = StageSink::new(ctx, "models");
             let (result, predictions) = crate::experiment::run(&spec, &windows, device, &out, &sink)?;
             sink.bar.finish_and_clear();
-            crate::table::write_all(&out, &result)?;
-            crate::plots::write_all(&out, &result, &predictions, &windows)?;
-            for p in &result.protocols {
-                for r in result.results.iter().filter(|r| r.protocol == p.name) {
-                    for (k, v) in &r.test {
-                        if v.is_finite() {
-                            ctx.metric(&format!("{}/{}/{k}", p.name, r.model), 0, *v);
-                        }
-                    }
-                }
-            }
-            // Saved models go to the artifact store (the run links dataset → models → metrics).
-            if ctx.output_final_path("report").is_some() {
-                for r in &result.results {
-                    for s in &r.runs {
-                        let dir = out.join(&s.model_dir);
-                        for file in [crate::bundle::MODEL_FILE, crate::bundle::WEIGHTS_FILE] {
-                            let path = dir.join(file);
-                            if path.exists() {
-                                let name = format!("model/{}/{}/seed-{}", r.protocol, r.model, s.seed);
-                                let _ = ctx.artifact(&name, &path)?;
-                            }
-                        }
-                    }
-                }
-            }
-            Ok(())
+            finish_experiment(ctx, &out, &result, &predictions)
         })
     }
+
+    fn sharded(&self) -> Option<&dyn firecast_pipeline::ShardedKind> {
+        Some(self)
+    }
+}
+
+/// What an experiment writes and reports once every unit is scored, sharded or not: the
+/// table, the plots, each row's seed-averaged test metrics, and the saved models as
+/// artifacts (the run links dataset → models → metrics).
+pub(crate) fn finish_experiment(
+    ctx: &StageContext<'_>,
+    out: &std::path::Path,
+    result: &crate::experiment::ExperimentResult,
+    predictions: &[crate::experiment::ProtocolPredictions],
+) -> Result<(), StageError> {
+    crate::table::write_all(out, result)?;
+    crate::plots::write_all(out, result, predictions)?;
+    for p in &result.protocols {
+        for r in result.results.iter().filter(|r| r.protocol == p.name) {
+            for (k, v) in &r.test {
+                if v.is_finite() {
+                    ctx.metric(&format!("{}/{}/{k}", p.name, r.model), 0, *v);
+                }
+            }
+        }
+    }
+    if ctx.output_final_path("report").is_some() {
+        for r in &result.results {
+            for s in &r.runs {
+                let dir = out.join(&s.model_dir);
+                for file in [crate::bundle::MODEL_FILE, crate::bundle::WEIGHTS_FILE] {
+                    let path = dir.join(file);
+                    if path.exists() {
+                        let name = format!("model/{}/{}/seed-{}", r.protocol, r.model, s.seed);
+                        let _ = ctx.artifact(&name, &path)?;
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// `forecast.evaluate`: the saved models of an experiment (its report folder, or any folder
@@ -248,16 +263,11 @@ impl StageKind for EvaluateStage {
             let device = crate::parse_device(&params.device)?;
             firecast_learn::set_threads(ctx.jobs());
             let windows = crate::data::Windows::load(&dataset)?;
-            let bar = ctx.progress_bar(1, "models");
-            let sink = StageSink {
-                ctx,
-                bar,
-                log: Mutex::new(Vec::new()),
-            };
+            let sink = StageSink::new(ctx, "models");
             let (result, predictions) = crate::evaluate::evaluate(&models, &windows, &params, device, &sink)?;
             sink.bar.finish_and_clear();
             crate::table::write_all(&out, &result)?;
-            crate::plots::write_all(&out, &result, &predictions, &windows)?;
+            crate::plots::write_all(&out, &result, &predictions)?;
             Ok(())
         })
     }

@@ -145,9 +145,39 @@ pub struct InvocationReport {
     pub pending_artifacts: Vec<PendingArtifact>,
 }
 
-/// Run `kind` and check it wrote every declared output. The report is returned also
-/// when the stage failed (its log explains why).
+/// Run `kind` (the shard `inv.shard` of it, when set) and check it wrote every declared
+/// output. The report is returned also when the stage failed (its log explains why).
 pub fn invoke(kind: &dyn StageKind, inv: &Invocation<'_>) -> (Result<(), StageError>, InvocationReport) {
+    let work = match inv.shard {
+        None => Work::Stage,
+        Some(shard) => Work::Shard(shard),
+    };
+    invoke_work(kind, inv, work)
+}
+
+/// Merge the parts of a sharded stage (shard 0 first) into `inv.outputs`, with the stage's
+/// context: what the merge logs, the metrics and artifacts it reports come back in the
+/// report and the observer, as from [`invoke`].
+pub fn invoke_merge(
+    kind: &dyn StageKind,
+    inv: &Invocation<'_>,
+    parts: &[PathBuf],
+) -> (Result<(), StageError>, InvocationReport) {
+    invoke_work(kind, inv, Work::Merge(parts))
+}
+
+/// What one invocation does.
+enum Work<'p> {
+    Stage,
+    Shard(Shard),
+    Merge(&'p [PathBuf]),
+}
+
+fn invoke_work(
+    kind: &dyn StageKind,
+    inv: &Invocation<'_>,
+    work: Work<'_>,
+) -> (Result<(), StageError>, InvocationReport) {
     let log = Mutex::new(Vec::new());
     let warnings = Mutex::new(Vec::new());
     let pending = Mutex::new(Vec::new());
@@ -167,17 +197,22 @@ pub fn invoke(kind: &dyn StageKind, inv: &Invocation<'_>) -> (Result<(), StageEr
             warnings: &warnings,
             pending_artifacts: &pending,
             jobs: inv.jobs,
-            shard: inv.shard,
+            shard: match work {
+                Work::Shard(shard) => Some(shard),
+                Work::Stage | Work::Merge(_) => None,
+            },
         };
+        let cannot = || StageError::msg(format!("stage kind `{}` cannot be sharded", kind.name()));
         // A panicking stage is a failed stage, not a runner waiting for ever on its result.
-        let ran = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match inv.shard {
-            None => kind.run(&mut ctx),
-            Some(shard) => match kind.sharded() {
+        let ran = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match work {
+            Work::Stage => kind.run(&mut ctx),
+            Work::Shard(shard) => match kind.sharded() {
                 Some(sharded) => sharded.run_shard(&mut ctx, shard),
-                None => Err(StageError::msg(format!(
-                    "stage kind `{}` cannot be sharded",
-                    kind.name()
-                ))),
+                None => Err(cannot()),
+            },
+            Work::Merge(parts) => match kind.sharded() {
+                Some(sharded) => sharded.merge(&mut ctx, parts),
+                None => Err(cannot()),
             },
         }))
         .unwrap_or_else(|payload| {
@@ -223,9 +258,12 @@ pub fn invoke_sharded(
 ) -> (Result<(), StageError>, InvocationReport) {
     let mut total = InvocationReport::default();
     let result = (|| {
-        let sharded = kind
-            .sharded()
-            .ok_or_else(|| StageError::msg(format!("stage kind `{}` cannot be sharded", kind.name())))?;
+        if kind.sharded().is_none() {
+            return Err(StageError::msg(format!(
+                "stage kind `{}` cannot be sharded",
+                kind.name()
+            )));
+        }
         crate::fsutil::remove_path(parts_dir);
         std::fs::create_dir_all(parts_dir)?;
         let mut parts = Vec::new();
@@ -247,19 +285,26 @@ pub fn invoke_sharded(
                 },
             );
             total.log.push(format!("# shard {shard}"));
-            total.log.extend(report.log);
-            total.warnings.extend(report.warnings);
-            total.pending_artifacts.extend(report.pending_artifacts);
+            total.absorb(report);
             result.map_err(|e| StageError::msg(format!("shard {shard}: {e}")))?;
             parts.push(part);
         }
-        let merged = sharded.merge(inv.params, &parts, inv.outputs)?;
+        let (result, report) = invoke_merge(kind, &Invocation { shard: None, ..*inv }, &parts);
         total.log.push(format!("# merged {count} shards"));
-        total.log.extend(merged);
-        Ok(())
+        total.absorb(report);
+        result
     })();
     crate::fsutil::remove_path(parts_dir);
     (result, total)
+}
+
+impl InvocationReport {
+    /// Append another invocation's log, warnings and artifacts (a shard's, the merge's).
+    pub fn absorb(&mut self, other: InvocationReport) {
+        self.log.extend(other.log);
+        self.warnings.extend(other.warnings);
+        self.pending_artifacts.extend(other.pending_artifacts);
+    }
 }
 
 fn into_inner<T>(m: Mutex<Vec<T>>) -> Vec<T> {

@@ -129,9 +129,10 @@ impl std::fmt::Display for Shard {
 pub const SHARD_OUTPUT: &str = "shard";
 
 /// The sharding contract of a kind, independent of where shards run: shard `i/N` reads
-/// the stage's inputs and writes one part file (`ctx.output(SHARD_OUTPUT)`); `merge`
-/// turns the parts, in shard order, into the stage's outputs, byte for byte what the
-/// unsharded run writes.
+/// the stage's inputs and writes one part (`ctx.output(SHARD_OUTPUT)`, a file or a folder);
+/// `merge` turns the parts, in shard order, into the stage's outputs, byte for byte what the
+/// unsharded run writes, and reports what the unsharded run reports beyond what the shards
+/// did, so a sharded run records the same metrics.
 pub trait ShardedKind: Send + Sync {
     /// What a shard splits, for messages (`episodes`).
     fn unit_name(&self) -> &'static str;
@@ -139,13 +140,10 @@ pub trait ShardedKind: Send + Sync {
     fn units(&self, params: &serde_json::Value) -> Result<usize, ParamsError>;
     /// Run one shard (`ctx.shard()` says which).
     fn run_shard(&self, ctx: &mut StageContext<'_>, shard: Shard) -> Result<(), StageError>;
-    /// Merge the parts (shard 0 first) into the outputs; returns lines for the stage's log.
-    fn merge(
-        &self,
-        params: &serde_json::Value,
-        parts: &[PathBuf],
-        outputs: &BTreeMap<String, PathBuf>,
-    ) -> Result<Vec<String>, StageError>;
+    /// Merge the parts (shard 0 first) into the outputs (`ctx.output(..)`). `ctx` is the
+    /// stage's own, on the machine that merges (the runner's, or a remote executor's driver):
+    /// its params, inputs and outputs, its log, metrics and artifacts; `ctx.shard()` is `None`.
+    fn merge(&self, ctx: &mut StageContext<'_>, parts: &[PathBuf]) -> Result<(), StageError>;
     /// Which of `files` (paths inside the folder given as input `input`) shard `shard` reads;
     /// `None` (the default): all of them. A remote worker fetches only these and leaves the
     /// others as empty files, so the folder lists the same in every shard while each shard
