@@ -6,13 +6,10 @@ use std::path::Path;
 use firecast_episodes::ensemble::{Ensemble, Setup, assemble};
 use firecast_episodes::{LandscapeSpec, Scenario};
 use firecast_rl::ensemble::{EnsemblePolicy, load_policies, run_policies};
-use firecast_rl::run::RunSink;
-use firecast_rl::spec::{EnvSpec, PpoSpec, TrainSpec};
 use firecast_sim::EnvConfig;
 use tch::Device;
 
-struct Quiet;
-impl RunSink for Quiet {}
+use crate::tiny::tiny_run;
 
 const FIRES: &str = r#"
 train:
@@ -35,42 +32,6 @@ evaluate:
   dead_1h_frac: [0.04, 0.06]
   ignition_margin_cells: 8
 "#;
-
-/// Trains seeds 0 and 1 for 32 steps each, normalising observations; returns the run folder.
-fn tiny_run(dir: &Path) -> std::path::PathBuf {
-    let fires = dir.join("fires.yaml");
-    std::fs::write(&fires, FIRES).expect("writing the fire file");
-    let overrides = serde_json::json!({
-        "n_envs": 2, "n_steps": 16, "batch_size": 16, "n_epochs": 1, "total_timesteps": 32,
-        // Observation statistics, so the frozen normaliser is loaded and applied.
-        "normalize": {"obs": true, "reward": true}
-    });
-    let spec = TrainSpec {
-        name: "tiny".into(),
-        description: None,
-        env: EnvSpec::Helitack { fires: None },
-        policy: None,
-        ppo: PpoSpec {
-            preset: "paper".into(),
-            overrides: overrides.as_object().cloned().unwrap_or_default(),
-        },
-        seeds: vec![0, 1],
-        checkpoint_every: 1,
-        device: "cpu".into(),
-    };
-    let out = dir.join("run");
-    firecast_rl::run::train(
-        &spec,
-        Some(&fires),
-        &dir.join("work"),
-        &out,
-        Device::Cpu,
-        &Quiet,
-        None,
-    )
-    .expect("training the tiny run");
-    out
-}
 
 fn setup(width: usize, height: usize) -> Setup {
     let env = EnvConfig {
@@ -97,7 +58,7 @@ fn ensemble(setup: &Setup, policies: &[EnsemblePolicy], runs: usize, seed: u64) 
 #[test]
 fn a_runs_policies_play_an_ensemble_reproducibly() {
     let tmp = tempfile::tempdir().expect("a temporary folder");
-    let run = tiny_run(tmp.path());
+    let (run, _) = tiny_run(tmp.path(), FIRES);
     let (summary, policies) = load_policies(&run, Device::Cpu).expect("loading the run");
     assert_eq!(summary.seeds.len(), 2);
     assert!(policies.iter().all(|p| p.normalize.is_some()));

@@ -4,3 +4,4 @@ mod cartpole;
 mod ensemble;
 mod golden;
 mod recordings;
+mod tiny;

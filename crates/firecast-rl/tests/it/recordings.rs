@@ -7,12 +7,10 @@ use std::path::{Path, PathBuf};
 use firecast_rl::agent::PpoAgent;
 use firecast_rl::ensemble::load_policies;
 use firecast_rl::evaluate::{EvalConfig, EvalReport, PPO, action_seed, episode_seed};
-use firecast_rl::run::RunSink;
-use firecast_rl::spec::{EnvSpec, FiresSpec, PpoSpec, TrainSpec};
+use firecast_rl::spec::FiresSpec;
 use tch::Device;
 
-struct Quiet;
-impl RunSink for Quiet {}
+use crate::tiny::tiny_run;
 
 const FIRES: &str = r#"
 train:
@@ -36,42 +34,6 @@ evaluate:
   ignition_margin_cells: 8
   env: {max_steps: 40}
 "#;
-
-/// Trains seeds 0 and 1 for 32 steps each, normalising observations; returns the run
-/// folder and the fire file.
-fn tiny_run(dir: &Path) -> (PathBuf, PathBuf) {
-    let fires = dir.join("fires.yaml");
-    std::fs::write(&fires, FIRES).expect("writing the fire file");
-    let overrides = serde_json::json!({
-        "n_envs": 2, "n_steps": 16, "batch_size": 16, "n_epochs": 1, "total_timesteps": 32,
-        "normalize": {"obs": true, "reward": true}
-    });
-    let spec = TrainSpec {
-        name: "tiny".into(),
-        description: None,
-        env: EnvSpec::Helitack { fires: None },
-        policy: None,
-        ppo: PpoSpec {
-            preset: "paper".into(),
-            overrides: overrides.as_object().cloned().unwrap_or_default(),
-        },
-        seeds: vec![0, 1],
-        checkpoint_every: 1,
-        device: "cpu".into(),
-    };
-    let out = dir.join("run");
-    firecast_rl::run::train(
-        &spec,
-        Some(&fires),
-        &dir.join("work"),
-        &out,
-        Device::Cpu,
-        &Quiet,
-        None,
-    )
-    .expect("training the tiny run");
-    (out, fires)
-}
 
 fn evaluate(run: &Path, fires: &Path, out: &Path, cfg: &EvalConfig) -> EvalReport {
     firecast_rl::stage::evaluate_run(run, fires, out, cfg, Device::Cpu, &|_| {}).expect("the evaluation")
@@ -119,7 +81,7 @@ fn replay_all(run: &Path, fires: &Path, report: &EvalReport, cfg: &EvalConfig) {
 #[test]
 fn evaluation_records_the_best_median_and_worst_ppo_episodes() {
     let tmp = tempfile::tempdir().expect("a temporary folder");
-    let (run, fires) = tiny_run(tmp.path());
+    let (run, fires) = tiny_run(tmp.path(), FIRES);
     let cfg = EvalConfig {
         resamples: 50,
         ..EvalConfig::default()
