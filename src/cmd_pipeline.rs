@@ -303,7 +303,8 @@ fn executor(
             // it) on however many CPUs Ray gave it, so jobs share cores; OpenMP's spinning
             // waiters then starve each other (two libtorch jobs on a two-core loopback cluster
             // ran 18x slower than alone). Passive waiting, unless `ray: {env: …}` says otherwise.
-            opts.env.insert("OMP_WAIT_POLICY".to_string(), "PASSIVE".to_string());
+            opts.env
+                .insert("OMP_WAIT_POLICY".to_string(), "PASSIVE".to_string());
             opts.env.extend(ray.env.clone());
             let store = store.ok_or_else(|| anyhow::anyhow!("--executor ray needs an artifact store"))?;
             let executor = firecast_executor::RayExecutor::connect(opts, store)?;
