@@ -602,10 +602,30 @@ fn ray_runs_match_local_and_survive_faults() {
     let error = report["stages"][0]["error"].as_str().unwrap();
     assert!(
         error.starts_with("stage `big`: ray job firecast-")
-            && error.contains("stayed PENDING for 3 s (asked for 64 CPUs)")
+            && error.contains(
+                "stayed PENDING for 3 s while no other job of this run was running (asked for 64 CPUs)"
+            )
             && error.contains("the job was stopped"),
         "{error}"
     );
+
+    // Queued behind this run's own jobs is waiting, not stuck: three 1-CPU stages on the
+    // two 1-CPU nodes, the third pending for longer than the timeout, all finish.
+    let queued: String = (0..3)
+        .map(|i| {
+            format!(
+                "  wait{i}:\n    uses: cmd\n    params: {{command: \"sleep 4; echo {i} > ${{outputs.out}}\"}}\n    outputs: {{out: wait{i}.txt}}\n"
+            )
+        })
+        .collect();
+    faults.write("pipelines/queued.yaml", &format!("stages:\n{queued}"));
+    let out = ray_run(
+        &faults,
+        &moto,
+        "pipelines/queued.yaml",
+        &["--ray-address", &address, "--ray-pending-timeout", "2", "-j", "3"],
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", describe(&out));
 
     // The driver killed mid-run: the rerun takes what finished from the lockfile.
     faults.write(

@@ -209,6 +209,27 @@ pub struct RayExecutor {
     ray_version: String,
     opts: RayOptions,
     store: Arc<ArtifactStore>,
+    /// This driver's jobs Ray reports as running: a job queued behind them is waiting its
+    /// turn, not stuck, so the pending timeout only counts while none runs.
+    running: std::sync::atomic::AtomicUsize,
+}
+
+/// Counts a job as running from its first non-PENDING status until `wait` returns.
+struct RunningJob<'a>(Option<&'a std::sync::atomic::AtomicUsize>);
+
+impl<'a> RunningJob<'a> {
+    fn start(running: &'a std::sync::atomic::AtomicUsize) -> Self {
+        running.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        RunningJob(Some(running))
+    }
+}
+
+impl Drop for RunningJob<'_> {
+    fn drop(&mut self) {
+        if let Some(running) = self.0 {
+            running.fetch_sub(1, std::sync::atomic::Ordering::SeqCst);
+        }
+    }
 }
 
 impl RayExecutor {
@@ -228,6 +249,7 @@ impl RayExecutor {
             ray_version,
             opts,
             store,
+            running: std::sync::atomic::AtomicUsize::new(0),
         })
     }
 
@@ -285,18 +307,28 @@ impl RayExecutor {
 
     /// Poll until the job ends; stop it and fail if it stays pending too long.
     fn wait(&self, id: &str, job: &StageJob<'_>) -> Result<JobInfo, String> {
+        use std::sync::atomic::Ordering;
         let submitted = Instant::now();
+        // Time pending while none of this driver's other jobs ran.
+        let mut stuck_since = Instant::now();
+        let mut counted = RunningJob(None);
         let mut delay = Duration::from_millis(50);
         loop {
             let info = self.jobs.info(id).map_err(|e| e.to_string())?;
             if info.is_terminal() {
                 return Ok(info);
             }
-            if info.status == "PENDING" && submitted.elapsed() > self.opts.pending_timeout {
+            if info.status != "PENDING" && counted.0.is_none() {
+                counted = RunningJob::start(&self.running);
+            }
+            if info.status == "PENDING" && self.running.load(Ordering::SeqCst) > 0 {
+                stuck_since = Instant::now();
+            }
+            if info.status == "PENDING" && stuck_since.elapsed() > self.opts.pending_timeout {
                 let stopped = self.jobs.stop(id);
                 let r = &job.stage.resources;
                 return Err(format!(
-                    "ray job {id} stayed PENDING for {:.0} s (asked for {} CPU{}{}{}): the cluster lacks these resources or has no live worker node{}",
+                    "ray job {id} stayed PENDING for {:.0} s while no other job of this run was running (asked for {} CPU{}{}{}): the cluster lacks these resources or has no live worker node{}",
                     submitted.elapsed().as_secs_f64(),
                     r.cpus.unwrap_or(1.0),
                     if r.cpus.unwrap_or(1.0) == 1.0 { "" } else { "s" },
