@@ -302,7 +302,7 @@ fn executor(
             // A job runs libtorch with the driver's thread count (network results depend on
             // it) on however many CPUs Ray gave it, so jobs share cores; OpenMP's spinning
             // waiters then starve each other (two libtorch jobs on a two-core loopback cluster
-            // ran 18x slower than alone). Passive waiting, unless `ray: {env: …}` says otherwise.
+            // ran 19x slower than alone). Passive waiting, unless `ray: {env: …}` says otherwise.
             opts.env
                 .insert("OMP_WAIT_POLICY".to_string(), "PASSIVE".to_string());
             opts.env.extend(ray.env.clone());
