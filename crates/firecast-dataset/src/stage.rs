@@ -529,12 +529,8 @@ impl StageKind for WindowsStage {
         };
         let m = run_windows_with_truth(&samples, &gridmet, truth.as_deref(), &cfg, &out, &progress)
             .map_err(stage_err)?;
-        if let Some(t) = &m.truth {
-            ctx.metric("samples_with_true_probability", 0, t.samples_with_value as f64);
-        }
         bar.finish_and_clear();
-        ctx.metric("windows", 0, m.report.samples_out as f64);
-        ctx.metric("gridmet_files_read", 0, m.report.files_read as f64);
+        windows_metrics(ctx, &m);
         ctx.log(windows_line(&m));
         Ok(())
     }
@@ -544,6 +540,15 @@ impl StageKind for WindowsStage {
 }
 
 /// The stage log's summary of a windows extraction.
+/// The metrics a windows run records, sharded (in the merge) or not.
+pub(crate) fn windows_metrics(ctx: &StageContext<'_>, m: &WindowsManifest) {
+    if let Some(t) = &m.truth {
+        ctx.metric("samples_with_true_probability", 0, t.samples_with_value as f64);
+    }
+    ctx.metric("windows", 0, m.report.samples_out as f64);
+    ctx.metric("gridmet_files_read", 0, m.report.files_read as f64);
+}
+
 pub(crate) fn windows_line(m: &WindowsManifest) -> String {
     format!(
         "{} of {} samples have windows; {} files read; dropped {:?}",

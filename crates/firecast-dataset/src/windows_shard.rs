@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::card::MapGrid;
 use crate::land::LandMask;
-use crate::stage::{WindowsManifest, WindowsStage, finish_windows, windows_line, windows_source};
+use crate::stage::{WindowsStage, finish_windows, windows_line, windows_metrics, windows_source};
 use crate::truth::{TruthFile, TruthLookup};
 use crate::windows::{ExtractConfig, ExtractHead, ExtractPlan, ExtractReport, Gathered, WindowSample};
 use crate::{DatasetError, Tier, table};
@@ -217,16 +217,6 @@ impl ShardedKind for WindowsStage {
             _ => None,
         }
     }
-}
-
-/// The metrics `WindowsStage::run` records (the CLI test compares a sharded run's with an
-/// unsharded run's).
-fn windows_metrics(ctx: &StageContext<'_>, m: &WindowsManifest) {
-    if let Some(t) = &m.truth {
-        ctx.metric("samples_with_true_probability", 0, t.samples_with_value as f64);
-    }
-    ctx.metric("windows", 0, m.report.samples_out as f64);
-    ctx.metric("gridmet_files_read", 0, m.report.files_read as f64);
 }
 
 /// BLAKE3 over the kept samples' ids, days and cells: every shard must plan the same windows.
