@@ -3,7 +3,9 @@
 
 use std::collections::BTreeMap;
 
-use crate::{Project, describe, files_under, outcomes, recorded};
+use crate::{
+    Project, describe, files_under, first_stage_run_id, lock_without_run_ids, outcomes, recorded, stage_log,
+};
 
 const EXPERIMENT: &str = r#"
 name: cli-exp
@@ -708,25 +710,15 @@ fn bench_forecast_compares_every_baseline_and_network_with_its_python_reference(
     );
 }
 
-/// The lockfile without run ids (they differ between any two runs).
-fn lock_without_run_ids(p: &Project, file: &str) -> String {
-    p.read(file)
-        .lines()
-        .filter(|l| !l.trim_start().starts_with("run_id:"))
-        .collect::<Vec<_>>()
-        .join("\n")
-}
-
 #[test]
 fn sharded_experiment_equals_unsharded_locally() {
     let p = project_with_dataset();
     p.write("pipelines/exp.yaml", &experiment_stage(None));
     let report = p.json(&["pipeline", "run", "pipelines/exp.yaml"]);
     assert_eq!(outcomes(&report)["table3"], "ran", "{report}");
-    let run_id = |report: &serde_json::Value| report["stages"][0]["run_id"].as_str().unwrap().to_string();
     let whole = files_under(&p.path("build/table3"));
     let whole_lock = lock_without_run_ids(&p, "pipelines/exp.lock");
-    let (whole_metrics, whole_artifacts) = recorded(&p, &run_id(&report));
+    let (whole_metrics, whole_artifacts) = recorded(&p, first_stage_run_id(&report));
     // Per unit (test metrics per seed, curves, fit times), per row, the experiment's time.
     for key in [
         "paper/cnn_bilstm_R/test/auroc",
@@ -764,10 +756,10 @@ fn sharded_experiment_equals_unsharded_locally() {
         }
         assert_eq!(lock_without_run_ids(&p, "pipelines/exp.lock"), whole_lock);
         // The same metrics (times aside) and model artifacts as the unsharded run.
-        let (metrics, artifacts) = recorded(&p, &run_id(&report));
+        let (metrics, artifacts) = recorded(&p, first_stage_run_id(&report));
         assert_eq!(metrics, whole_metrics, "{n} shards");
         assert_eq!(artifacts, whole_artifacts, "{n} shards");
-        let log = p.read(&format!(".firecast/logs/{}.log", run_id(&report)));
+        let log = stage_log(&p, first_stage_run_id(&report));
         assert!(
             log.contains(&format!("shard {}/{n}: ", n - 1))
                 && log.contains(&format!("# merged {n} shards"))

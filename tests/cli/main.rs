@@ -128,6 +128,25 @@ pub fn venv_bin(name: &str) -> PathBuf {
     repo_root().join(".venv/bin").join(name)
 }
 
+/// The run id of a pipeline report's first stage.
+pub fn first_stage_run_id(report: &serde_json::Value) -> &str {
+    report["stages"][0]["run_id"].as_str().unwrap()
+}
+
+/// A stage run's log (`.firecast/logs/<run>.log`).
+pub fn stage_log(p: &Project, run_id: &str) -> String {
+    p.read(&format!(".firecast/logs/{run_id}.log"))
+}
+
+/// The lockfile without run ids (they differ between any two runs).
+pub fn lock_without_run_ids(p: &Project, file: &str) -> String {
+    p.read(file)
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("run_id:"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 /// What a stage run recorded, from `runs show`: metric key → (count, last, min, max), and
 /// artifact name → hash (the `metrics` recording aside: it differs between any two runs).
 /// Keys ending in `_seconds` (wall-clock times) keep only their count.

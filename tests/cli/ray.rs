@@ -13,7 +13,10 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::store::Moto;
-use crate::{Project, describe, files_under, outcomes, recorded, venv_bin};
+use crate::{
+    Project, describe, files_under, first_stage_run_id, lock_without_run_ids, outcomes, recorded, stage_log,
+    venv_bin,
+};
 
 fn free_port() -> u16 {
     TcpListener::bind("127.0.0.1:0")
@@ -334,15 +337,6 @@ fn check_windows_equal(p: &Project, whole: &[Vec<u8>], shards: u32) {
     }
 }
 
-/// The lockfile without run ids (they differ between any two runs).
-fn lock_without_run_ids(p: &Project, file: &str) -> String {
-    p.read(file)
-        .lines()
-        .filter(|l| !l.trim_start().starts_with("run_id:"))
-        .collect::<Vec<_>>()
-        .join("\n")
-}
-
 fn ray_run(p: &Project, moto: &Moto, file: &str, extra: &[&str]) -> std::process::Output {
     let mut cmd = p.firecast();
     moto.env(&mut cmd);
@@ -416,10 +410,7 @@ fn ray_runs_match_local_and_survive_faults() {
         .iter()
         .find(|s| s["stage"] == "helitack")
         .unwrap();
-    let log = remote.read(&format!(
-        ".firecast/logs/{}.log",
-        helitack["run_id"].as_str().unwrap()
-    ));
+    let log = stage_log(&remote, helitack["run_id"].as_str().unwrap());
     assert!(
         log.contains("# shard 0/2 on") && log.contains("# shard 1/2 on"),
         "{log}"
@@ -459,14 +450,8 @@ fn ray_runs_match_local_and_survive_faults() {
         lock_without_run_ids(&windows, "pipelines/windows.lock"),
         whole_lock
     );
-    assert_eq!(
-        recorded(&windows, report["stages"][0]["run_id"].as_str().unwrap()).0,
-        whole_metrics
-    );
-    let log = windows.read(&format!(
-        ".firecast/logs/{}.log",
-        report["stages"][0]["run_id"].as_str().unwrap()
-    ));
+    assert_eq!(recorded(&windows, first_stage_run_id(&report)).0, whole_metrics);
+    let log = stage_log(&windows, first_stage_run_id(&report));
     assert!(
         log.contains("# shard 1/2 on") && log.contains("# merged 2 shards on the driver"),
         "{log}"
@@ -492,7 +477,7 @@ fn ray_runs_match_local_and_survive_faults() {
     assert_eq!(outcomes(&report)["table3"], "ran", "{report}");
     let whole = files_under(&exp.path("build/table3"));
     let whole_lock = lock_without_run_ids(&exp, "pipelines/exp.lock");
-    let whole_recorded = recorded(&exp, report["stages"][0]["run_id"].as_str().unwrap());
+    let whole_recorded = recorded(&exp, first_stage_run_id(&report));
     let local_experiment = started.elapsed() - first_run - windows_run;
     exp.write("pipelines/exp.yaml", &crate::forecast::experiment_stage(Some(2)));
     let out = ray_run(
@@ -509,14 +494,8 @@ fn ray_runs_match_local_and_survive_faults() {
         "the report differs between the local run and 2 shards on Ray"
     );
     assert_eq!(lock_without_run_ids(&exp, "pipelines/exp.lock"), whole_lock);
-    assert_eq!(
-        recorded(&exp, report["stages"][0]["run_id"].as_str().unwrap()),
-        whole_recorded
-    );
-    let log = exp.read(&format!(
-        ".firecast/logs/{}.log",
-        report["stages"][0]["run_id"].as_str().unwrap()
-    ));
+    assert_eq!(recorded(&exp, first_stage_run_id(&report)), whole_recorded);
+    let log = stage_log(&exp, first_stage_run_id(&report));
     assert!(
         log.contains("shard 1/2: 8 of 16 training units") && log.contains("# merged 2 shards on the driver"),
         "{log}"
@@ -576,12 +555,7 @@ fn ray_runs_match_local_and_survive_faults() {
             && error.contains("(log: .firecast/logs/"),
         "{error}"
     );
-    let run_id = report["stages"][0]["run_id"].as_str().unwrap();
-    assert!(
-        faults
-            .read(&format!(".firecast/logs/{run_id}.log"))
-            .contains("about to fail")
-    );
+    assert!(stage_log(&faults, first_stage_run_id(&report)).contains("about to fail"));
     assert!(!faults.path("bad.txt").exists());
 
     // More CPUs than the cluster has: reported after the pending timeout, not waited on.
@@ -861,14 +835,11 @@ fn sharded_windows_equal_unsharded_locally() {
         assert_eq!(lock_without_run_ids(&p, "pipelines/windows.lock"), whole_lock);
         // The merge records the unsharded run's metrics.
         assert_eq!(
-            recorded(&p, report["stages"][0]["run_id"].as_str().unwrap()).0,
+            recorded(&p, first_stage_run_id(&report)).0,
             whole_metrics,
             "{n} shards"
         );
-        let log = p.read(&format!(
-            ".firecast/logs/{}.log",
-            report["stages"][0]["run_id"].as_str().unwrap()
-        ));
+        let log = stage_log(&p, first_stage_run_id(&report));
         assert!(
             log.contains(&format!("# shard {}/{n}", n - 1)) && log.contains(&format!("# merged {n} shards")),
             "{log}"
