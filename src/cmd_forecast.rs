@@ -35,6 +35,9 @@ pub struct RunArgs {
     /// Torch device: auto, cpu, cuda, cuda:N (overrides the file's `device`).
     #[arg(long)]
     pub device: Option<String>,
+    /// libtorch and XGBoost threads (overrides the file's `threads`; part of the result and its cache key).
+    #[arg(long)]
+    pub threads: Option<usize>,
     /// Report folder [default: experiments/runs/<name>].
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
@@ -82,6 +85,9 @@ pub struct PredictArgs {
     pub points: Option<PathBuf>,
     #[arg(long, default_value = "auto")]
     pub device: String,
+    /// libtorch threads.
+    #[arg(long, default_value_t = firecast_learn::DEFAULT_THREADS)]
+    pub threads: usize,
 }
 
 pub fn run_experiment_command(settings: &Settings, command: ExperimentCommand) -> anyhow::Result<ExitCode> {
@@ -96,6 +102,9 @@ fn run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
     let mut spec = ExperimentSpec::load(&settings.root, &file, &args.set)?;
     if let Some(device) = &args.device {
         spec.device = device.clone();
+    }
+    if let Some(threads) = args.threads {
+        spec.threads = threads;
     }
     let dataset = spec.dataset.take().with_context(|| {
         format!(
@@ -362,6 +371,8 @@ fn predict(settings: &Settings, args: &PredictArgs) -> anyhow::Result<ExitCode> 
         _ => anyhow::bail!("give --lat, --lon and --date, or --points FILE.csv"),
     };
     let device = firecast_forecast::parse_device(&args.device)?;
+    firecast_learn::check_threads(args.threads).map_err(|m| anyhow::anyhow!("--threads: {m}"))?;
+    firecast_learn::set_threads(args.threads);
     let model_dir = resolve_model(settings, &args.model)?;
     let bundle = firecast_forecast::bundle::load(&model_dir, device)?;
     let answers =

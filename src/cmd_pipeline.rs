@@ -299,8 +299,8 @@ fn executor(
                     opts.env.insert(var.to_string(), value);
                 }
             }
-            // A job runs libtorch with the driver's thread count (network results depend on
-            // it) on however many CPUs Ray gave it, so jobs share cores; OpenMP's spinning
+            // A job runs libtorch with its stage's `threads` on however many CPUs Ray gave
+            // it, so jobs share cores; OpenMP's spinning
             // waiters then starve each other (two libtorch jobs on a two-core loopback cluster
             // ran 19x slower than alone). Passive waiting, unless `ray: {env: …}` says otherwise.
             opts.env

@@ -38,6 +38,9 @@ pub struct TrainArgs {
     /// Torch device: auto, cpu, cuda, cuda:N (overrides the spec's `device`).
     #[arg(long)]
     pub device: Option<String>,
+    /// libtorch threads (overrides the spec's `threads`; part of the result and its cache key).
+    #[arg(long)]
+    pub threads: Option<usize>,
     /// Run folder [default: experiments/runs/<name>].
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
@@ -77,6 +80,9 @@ pub struct EvaluateArgs {
     pub no_recordings: bool,
     #[arg(long, default_value = "auto")]
     pub device: String,
+    /// libtorch threads (part of the result and its cache key).
+    #[arg(long, default_value_t = firecast_learn::DEFAULT_THREADS)]
+    pub threads: usize,
     /// Run even when nothing changed.
     #[arg(short, long)]
     pub force: bool,
@@ -94,6 +100,9 @@ fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
     let mut spec = TrainSpec::load(&settings.root, &file, &args.set)?;
     if let Some(device) = &args.device {
         spec.device = device.clone();
+    }
+    if let Some(threads) = args.threads {
+        spec.threads = threads;
     }
     let fires = firecast_rl::spec::fires_path(&spec).cloned();
     if let EnvSpec::Helitack { fires: f } = &mut spec.env {
@@ -223,6 +232,7 @@ fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode
             ..Default::default()
         },
         device: args.device.clone(),
+        threads: args.threads,
     };
     let stage = serde_json::json!({
         "uses": "rl.evaluate",

@@ -738,6 +738,16 @@ fn sharded_experiment_equals_unsharded_locally() {
         "{whole_artifacts:?}"
     );
 
+    // `--jobs` only schedules stages: the networks' thread count is the stage's `threads`
+    // param (default 1), so another `--jobs` is the same cache key and the same bytes.
+    let report = p.json(&["pipeline", "run", "pipelines/exp.yaml", "-j", "1"]);
+    assert_eq!(outcomes(&report)["table3"], "up_to_date", "{report}");
+    p.json(&["pipeline", "run", "pipelines/exp.yaml", "-j", "1", "--force"]);
+    assert!(
+        files_under(&p.path("build/table3")) == whole,
+        "-j 1 wrote other files than the default --jobs"
+    );
+
     for n in [2, 3] {
         p.write("pipelines/exp.yaml", &experiment_stage(Some(n)));
         let report = p.json(&["pipeline", "run", "pipelines/exp.yaml", "--force"]);
@@ -770,6 +780,19 @@ fn sharded_experiment_equals_unsharded_locally() {
     assert!(
         std::fs::read_dir(p.path(".firecast/shards")).map_or(0, Iterator::count) == 0,
         "no parts are left behind"
+    );
+
+    // The thread count can change the numbers, so it is part of the cache key.
+    p.write(
+        "pipelines/exp.yaml",
+        &experiment_stage(None).replace("      device: cpu\n", "      device: cpu\n      threads: 2\n"),
+    );
+    let report = p.json(&["pipeline", "run", "pipelines/exp.yaml"]);
+    assert_eq!(outcomes(&report)["table3"], "ran", "{report}");
+    assert!(
+        p.read("pipelines/exp.lock").contains("threads: 2"),
+        "{}",
+        p.read("pipelines/exp.lock")
     );
 
     p.write("pipelines/exp.yaml", &experiment_stage(Some(17)));

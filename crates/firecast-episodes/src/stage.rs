@@ -617,6 +617,9 @@ pub struct EnsembleParams {
     /// `rl.ensemble` only: `auto`, `cpu` or `cuda[:N]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub device: Option<String>,
+    /// `rl.ensemble` only: libtorch threads (part of the result; default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub threads: Option<usize>,
 }
 
 fn default_runs() -> usize {

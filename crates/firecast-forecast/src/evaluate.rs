@@ -61,6 +61,10 @@ pub struct EvaluateParams {
     /// `auto`, `cpu`, `cuda`, `cuda:N`.
     #[serde(default = "default_device")]
     pub device: String,
+    /// libtorch threads (and XGBoost's `nthread` where a model names none). Part of the
+    /// result, so part of the cache key; fixed default, not the machine's core count.
+    #[serde(default = "firecast_learn::default_threads")]
+    pub threads: usize,
 }
 
 fn default_name() -> String {
@@ -78,6 +82,7 @@ impl Default for EvaluateParams {
             models: Vec::new(),
             evaluation: Evaluation::default(),
             device: default_device(),
+            threads: firecast_learn::DEFAULT_THREADS,
         }
     }
 }

@@ -384,7 +384,7 @@ fn model_of<'s>(
         .iter()
         .find(|m| m.label() == label)
         .ok_or_else(|| ForecastError::Model(format!("the experiment has no model `{label}`")))?;
-    let config = ModelConfig::parse(&entry.kind, &entry.params)?;
+    let config = ModelConfig::parse(&entry.kind, &entry.params)?.with_threads(spec.threads, &entry.params);
     let rule = entry.threshold.unwrap_or_else(|| config.default_threshold());
     Ok((entry, config, rule))
 }

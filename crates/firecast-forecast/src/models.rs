@@ -241,6 +241,17 @@ impl ModelConfig {
         })
     }
 
+    /// XGBoost's `nthread` from the experiment's `threads` when the model's `params` name
+    /// none (the count can change the trees, so it must not be the machine's core count).
+    pub fn with_threads(mut self, threads: usize, params: &serde_json::Value) -> Self {
+        if let ModelConfig::Xgboost(x) | ModelConfig::WindowStatsXgboost(x) = &mut self
+            && params.get("nthread").is_none()
+        {
+            x.params.nthread = u32::try_from(threads).unwrap_or(u32::MAX);
+        }
+        self
+    }
+
     /// Whether training draws random numbers (then every seed is a separate run).
     pub fn is_stochastic(&self) -> bool {
         match self {

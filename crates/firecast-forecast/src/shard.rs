@@ -70,7 +70,7 @@ impl ShardedKind for ExperimentStage {
                     all.len()
                 )));
             }
-            firecast_learn::set_threads(ctx.jobs());
+            firecast_learn::set_threads(spec.threads);
             let windows = crate::data::Windows::load(&dataset)?;
             let units: Vec<Unit> = mine.iter().map(|&k| all[k].clone()).collect();
             let sink = StageSink::new(ctx, "training units");

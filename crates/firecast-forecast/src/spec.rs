@@ -36,6 +36,10 @@ pub struct ExperimentSpec {
     /// Torch device: `auto` (CUDA when present), `cpu`, `cuda`, `cuda:N`.
     #[serde(default = "default_device")]
     pub device: String,
+    /// libtorch threads (and XGBoost's `nthread` where a model names none). Part of the
+    /// result, so part of the cache key; fixed default, not the machine's core count.
+    #[serde(default = "firecast_learn::default_threads")]
+    pub threads: usize,
 }
 
 fn default_seeds() -> Vec<u64> {
@@ -280,6 +284,7 @@ impl ExperimentSpec {
         if self.name.trim().is_empty() || self.name.contains('/') {
             return Err(bad("name", "must be a non-empty name without `/`".into()));
         }
+        firecast_learn::check_threads(self.threads).map_err(|m| bad("threads", m))?;
         if self.models.is_empty() {
             return Err(bad("models", "the experiment names no model".into()));
         }

@@ -144,7 +144,7 @@ impl StageKind for ExperimentStage {
             let dataset = ctx.input("dataset")?.to_path_buf();
             let out = ctx.output("report")?.to_path_buf();
             let device = crate::parse_device(&spec.device)?;
-            firecast_learn::set_threads(ctx.jobs());
+            firecast_learn::set_threads(spec.threads);
             let windows = crate::data::Windows::load(&dataset)?;
             let sink = StageSink::new(ctx, "models");
             let (result, predictions) = crate::experiment::run(&spec, &windows, device, &out, &sink)?;
@@ -236,6 +236,10 @@ impl StageKind for EvaluateStage {
             path: "device".into(),
             message: e.to_string(),
         })?;
+        firecast_learn::check_threads(params.threads).map_err(|message| ParamsError {
+            path: "threads".into(),
+            message,
+        })?;
         Ok(v)
     }
     /// `metrics.json` only: which models and protocols get plot files is known once the
@@ -261,7 +265,7 @@ impl StageKind for EvaluateStage {
             let dataset = ctx.input("dataset")?.to_path_buf();
             let out = ctx.output("report")?.to_path_buf();
             let device = crate::parse_device(&params.device)?;
-            firecast_learn::set_threads(ctx.jobs());
+            firecast_learn::set_threads(params.threads);
             let windows = crate::data::Windows::load(&dataset)?;
             let sink = StageSink::new(ctx, "models");
             let (result, predictions) = crate::evaluate::evaluate(&models, &windows, &params, device, &sink)?;
@@ -288,6 +292,10 @@ pub struct PredictParams {
     pub protocol: Option<String>,
     #[serde(default = "default_predict_device")]
     pub device: String,
+    /// libtorch threads (and XGBoost's `nthread` where a model names none). Part of the
+    /// result, so part of the cache key; fixed default, not the machine's core count.
+    #[serde(default = "firecast_learn::default_threads")]
+    pub threads: usize,
 }
 
 fn default_predict_device() -> String {
@@ -659,6 +667,10 @@ impl StageKind for PredictStage {
             }
         }
         check_folder_name("model", &p.model)?;
+        firecast_learn::check_threads(p.threads).map_err(|message| ParamsError {
+            path: "threads".into(),
+            message,
+        })?;
         if let Some(protocol) = &p.protocol {
             check_folder_name("protocol", protocol)?;
         }
@@ -678,7 +690,7 @@ impl StageKind for PredictStage {
             let experiment = ctx.input("experiment")?.to_path_buf();
             let gridmet = ctx.input("gridmet")?.to_path_buf();
             let device = crate::parse_device(&params.device)?;
-            firecast_learn::set_threads(ctx.jobs());
+            firecast_learn::set_threads(params.threads);
             let f = forecast_point(&experiment, &gridmet, &params, device)?;
             std::fs::write(ctx.output("forecast")?, serde_json::to_vec_pretty(&f)?)?;
             ctx.metric("probability", 0, f.probability);
@@ -896,6 +908,7 @@ mod tests {
             model: "fdi".into(),
             protocol: None,
             device: "cpu".into(),
+            threads: 1,
         };
         let f = forecast_point(exp, &fixture_gridmet(), &params, tch::Device::Cpu).unwrap();
         assert_eq!(f.protocol, "leak_free");

@@ -66,6 +66,27 @@ pub fn torch_info() -> TorchInfo {
     }
 }
 
+/// libtorch threads (and XGBoost's `nthread`) of a stage that names none. The count changes
+/// how reductions are split, so it changes results: it is a stage param (in the cache key)
+/// with this fixed default, never the machine's core count, so the same config and seed
+/// give the same bytes on every machine. One thread is also the fastest measured for
+/// FireCast's small networks on a shared 2-core machine.
+pub const DEFAULT_THREADS: usize = 1;
+
+/// serde default for a `threads` param.
+pub fn default_threads() -> usize {
+    DEFAULT_THREADS
+}
+
+/// Checks a `threads` param: 1 to 1,024.
+pub fn check_threads(n: usize) -> Result<(), String> {
+    if (1..=1024).contains(&n) {
+        Ok(())
+    } else {
+        Err(format!("{n} threads: must be 1 to 1024"))
+    }
+}
+
 /// Intra-op threads of libtorch (at least 1). Set once per command so a 2-core machine is not
 /// oversubscribed and the same settings give the same numbers.
 pub fn set_threads(n: usize) {

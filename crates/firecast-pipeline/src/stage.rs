@@ -228,7 +228,8 @@ impl StageContext<'_> {
         self.shard
     }
 
-    /// Threads this stage may use (the runner's `--jobs`).
+    /// Stages the runner runs at once (`--jobs`). Not a thread count for work whose numbers
+    /// depend on it: such kinds take a `threads` param, which is part of the cache key.
     pub fn jobs(&self) -> usize {
         self.jobs
     }

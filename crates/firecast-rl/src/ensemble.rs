@@ -272,6 +272,11 @@ impl StageKind for EnsembleStage {
         let (params, mut resolved): (EnsembleParams, serde_json::Value) = typed_params(raw)?;
         params.validate(false)?;
         let device = params.device.clone().unwrap_or_else(|| "auto".into());
+        let threads = params.threads.unwrap_or(firecast_learn::DEFAULT_THREADS);
+        firecast_learn::check_threads(threads).map_err(|message| ParamsError {
+            path: "threads".into(),
+            message,
+        })?;
         crate::parse_device(&device).map_err(|e| ParamsError {
             path: "device".into(),
             message: match e {
@@ -284,6 +289,7 @@ impl StageKind for EnsembleStage {
                 obj.insert("env".into(), serde_json::json!({}));
             }
             obj.insert("device".into(), device.into());
+            obj.insert("threads".into(), threads.into());
         }
         Ok(resolved)
     }
@@ -294,7 +300,7 @@ impl StageKind for EnsembleStage {
             let params: EnsembleParams = ctx.params()?;
             let run = ctx.input("run")?.to_path_buf();
             let device = crate::parse_device(params.device.as_deref().unwrap_or("auto"))?;
-            firecast_learn::set_threads(ctx.jobs());
+            firecast_learn::set_threads(params.threads.unwrap_or(firecast_learn::DEFAULT_THREADS));
             let setup = prepare_ensemble(ctx, &params)?;
             let (summary, policies) = load_policies(&run, device)?;
             let (w, h) = (setup.landscape.width, setup.landscape.height);

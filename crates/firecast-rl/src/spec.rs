@@ -68,6 +68,10 @@ pub struct TrainSpec {
     /// `auto` (CUDA when present), `cpu`, `cuda` or `cuda:N`.
     #[serde(default = "default_device")]
     pub device: String,
+    /// libtorch threads. Part of the
+    /// result, so part of the cache key; fixed default, not the machine's core count.
+    #[serde(default = "firecast_learn::default_threads")]
+    pub threads: usize,
 }
 
 fn default_seeds() -> Vec<u64> {
@@ -127,6 +131,7 @@ impl TrainSpec {
                 format!("`{}`: use letters, digits, -, _ or .", self.name),
             ));
         }
+        firecast_learn::check_threads(self.threads).map_err(|m| RlError::config("threads", m))?;
         if self.seeds.is_empty() {
             return Err(RlError::config("seeds", "needs at least one seed"));
         }

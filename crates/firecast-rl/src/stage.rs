@@ -107,7 +107,7 @@ impl StageKind for TrainStage {
             let fires_abs = fires.as_ref().map(|p| ctx.root().join(p));
             let out = ctx.output("run")?.to_path_buf();
             let device = crate::parse_device(&spec.device).map_err(stage_error)?;
-            firecast_learn::set_threads(ctx.jobs());
+            firecast_learn::set_threads(spec.threads);
             let work = crate::run::work_dir(ctx.root(), &spec, fires_abs.as_deref()).map_err(stage_error)?;
             let stop_after = std::env::var(STOP_AFTER_ENV).ok().and_then(|v| v.parse().ok());
             let bar = ctx.progress_bar(spec.ppo().map_err(stage_error)?.total_timesteps, "steps");
@@ -160,6 +160,10 @@ pub struct EvaluateParams {
     pub eval: EvalConfig,
     #[serde(default = "default_device")]
     pub device: String,
+    /// libtorch threads. Part of the
+    /// result, so part of the cache key; fixed default, not the machine's core count.
+    #[serde(default = "firecast_learn::default_threads")]
+    pub threads: usize,
 }
 
 fn default_device() -> String {
@@ -282,6 +286,10 @@ impl StageKind for EvaluateStage {
     fn resolve_params(&self, raw: &serde_json::Value) -> Result<serde_json::Value, ParamsError> {
         let (p, v) = typed_params::<EvaluateParams>(raw)?;
         crate::parse_device(&p.device).map_err(params_error)?;
+        firecast_learn::check_threads(p.threads).map_err(|message| ParamsError {
+            path: "threads".into(),
+            message,
+        })?;
         Ok(v)
     }
     fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
@@ -292,7 +300,7 @@ impl StageKind for EvaluateStage {
             let fires = ctx.input("fires")?.to_path_buf();
             let out = ctx.output("report")?.to_path_buf();
             let device = crate::parse_device(&p.device).map_err(stage_error)?;
-            firecast_learn::set_threads(ctx.jobs());
+            firecast_learn::set_threads(p.threads);
             let report = evaluate_run(&run, &fires, &out, &p.eval, device, &|m| {
                 ctx.log(format!("evaluating {m}"))
             })

@@ -32,6 +32,7 @@ pub(crate) fn tiny_run(dir: &Path, fires: &str) -> (PathBuf, PathBuf) {
         seeds: vec![0, 1],
         checkpoint_every: 1,
         device: "cpu".into(),
+        threads: 1,
     };
     let out = dir.join("run");
     firecast_rl::run::train(
