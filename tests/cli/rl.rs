@@ -156,13 +156,13 @@ fn an_interrupted_helitack_run_resumes_to_the_same_policy() {
         .iter()
         .map(|a| a["agent"].as_str().unwrap())
         .collect();
-    assert_eq!(agents, ["ppo", "rule", "rule-concentric", "none"]);
+    assert_eq!(agents, ["ppo", "rule", "rule-concentric", "chaser", "none"]);
     assert_eq!(r["episodes"].as_array().unwrap().len(), 5 * 4);
     assert_eq!(r["fires"].as_array().unwrap().len(), 5);
     let none = &r["agents"][3];
     assert_eq!(none["helitacks"]["mean"]["estimate"], 0.0);
     assert_eq!(none["cells_saved"]["mean"]["estimate"], 0.0);
-    assert_eq!(r["comparisons"].as_array().unwrap().len(), 3);
+    assert_eq!(r["comparisons"].as_array().unwrap().len(), 4);
     for f in [
         "table4.md",
         "episodes.csv",

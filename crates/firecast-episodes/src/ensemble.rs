@@ -571,6 +571,9 @@ pub fn run_agent(
         AgentKind::RuleConcentric => {
             "rule-based helitack plan: drops on concentric circles of 45, 40 and 35 cells".to_string()
         }
+        AgentKind::Chaser => {
+            "helicopter flying to the nearest flames (3 cells a move) and dropping on them".to_string()
+        }
     };
     assemble(setup, agent.name(), description, out)
 }

@@ -17,8 +17,8 @@ use std::str::FromStr;
 
 use firecast_landscape::{LandCoverScheme, Landscape, procedural};
 use firecast_sim::{
-    Action, Decision, EnvConfig, EpisodeStats, EvalReport, MeanStd, NoSuppression, Observation, Policy,
-    RuleBasedAgent, StepInfo, WildfireEnv, run_episode,
+    Action, Decision, EnvConfig, EpisodeStats, EvalReport, FireChaser, MeanStd, NoSuppression, Observation,
+    Policy, RuleBasedAgent, StepInfo, WildfireEnv, run_episode,
 };
 use serde::{Deserialize, Serialize};
 
@@ -32,7 +32,7 @@ pub use weather::{ResolvedWeather, WeatherSpec};
 pub enum EpisodeError {
     #[error("invalid landscape `{spec}`: {reason}")]
     LandscapeSpec { spec: String, reason: String },
-    #[error("unknown agent `{0}` (use none, rule or rule-concentric)")]
+    #[error("unknown agent `{0}` (use none, rule, rule-concentric or chaser)")]
     Agent(String),
     #[error(transparent)]
     Landscape(#[from] firecast_landscape::LandscapeError),
@@ -283,6 +283,8 @@ pub enum AgentKind {
     Rule,
     /// Concentric circles of radius 45, 40 and 35 cells.
     RuleConcentric,
+    /// A helicopter that flies (3 cells a move) to the nearest flames and drops on them.
+    Chaser,
 }
 
 impl FromStr for AgentKind {
@@ -293,6 +295,7 @@ impl FromStr for AgentKind {
             "none" => Ok(Self::None),
             "rule" => Ok(Self::Rule),
             "rule-concentric" => Ok(Self::RuleConcentric),
+            "chaser" => Ok(Self::Chaser),
             other => Err(EpisodeError::Agent(other.to_string())),
         }
     }
@@ -304,6 +307,7 @@ impl AgentKind {
             Self::None => "none",
             Self::Rule => "rule",
             Self::RuleConcentric => "rule-concentric",
+            Self::Chaser => "chaser",
         }
     }
 
@@ -312,6 +316,7 @@ impl AgentKind {
             Self::None => Box::new(NoSuppression),
             Self::Rule => Box::new(RuleBasedAgent::single_circle()),
             Self::RuleConcentric => Box::new(RuleBasedAgent::concentric_circles()),
+            Self::Chaser => Box::new(FireChaser::default()),
         }
     }
 }

@@ -643,7 +643,7 @@ impl EnsembleParams {
         match (agent_required, self.agent) {
             (true, None) => Err(ParamsError {
                 path: "agent".into(),
-                message: "missing: none, rule or rule-concentric".into(),
+                message: "missing: none, rule, rule-concentric or chaser".into(),
             }),
             (false, Some(_)) => Err(ParamsError {
                 path: "agent".into(),

@@ -152,6 +152,7 @@ pub fn strategy_label(s: &str) -> String {
         "none" => "No suppression".into(),
         "rule" => "Rule-based plan".into(),
         "rule-concentric" => "Rule-based plan (concentric)".into(),
+        "chaser" => "Helicopter chasing the nearest flames".into(),
         "ppo" => "Trained agent (PPO)".into(),
         other => other.to_string(),
     }
@@ -162,8 +163,9 @@ fn order(s: &str) -> usize {
         "none" => 0,
         "rule" => 1,
         "rule-concentric" => 2,
-        "ppo" => 3,
-        _ => 4,
+        "chaser" => 3,
+        "ppo" => 4,
+        _ => 5,
     }
 }
 

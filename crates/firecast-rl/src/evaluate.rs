@@ -8,7 +8,9 @@ use std::path::{Path, PathBuf};
 
 use firecast_eval::bootstrap::{Interval, iqm, stratified_bootstrap};
 use firecast_sim::env::EnvCore;
-use firecast_sim::{Action, EpisodeContext, NoSuppression, Observation, Policy as SimPolicy, RuleBasedAgent};
+use firecast_sim::{
+    Action, EpisodeContext, FireChaser, NoSuppression, Observation, Policy as SimPolicy, RuleBasedAgent,
+};
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
 use rayon::prelude::*;
@@ -432,6 +434,8 @@ fn compare(
 pub const PPO: &str = "ppo";
 pub const RULE: &str = "rule";
 pub const RULE_CONCENTRIC: &str = "rule-concentric";
+/// Flies like the PPO agent (no teleport): what a simple rule achieves under the same moves.
+pub const CHASER: &str = "chaser";
 pub const NONE: &str = "none";
 
 /// Evaluates the PPO policies (one per training seed, each with its frozen observation
@@ -454,12 +458,15 @@ pub fn evaluate(
         &|| Box::new(RuleBasedAgent::concentric_circles()),
         cfg.seed,
     );
+    progress("helicopter chasing the nearest flames");
+    let chaser = run_baseline(&cores, &|| Box::new(FireChaser::default()), cfg.seed);
     for p in policies {
         progress(&format!("PPO (training seed {})", p.seed));
         raw.push((PPO.into(), Some(p.seed), run_ppo(&cores, p, cfg)?));
     }
     raw.push((RULE.into(), None, rule));
     raw.push((RULE_CONCENTRIC.into(), None, conc));
+    raw.push((CHASER.into(), None, chaser));
     let unsuppressed: Vec<f64> = {
         let mut v = vec![0.0; cores.len()];
         for r in &none {
@@ -485,7 +492,7 @@ pub fn evaluate(
         }
     }
     let mut agents = Vec::new();
-    for name in [PPO, RULE, RULE_CONCENTRIC, NONE] {
+    for name in [PPO, RULE, RULE_CONCENTRIC, CHASER, NONE] {
         let eps: Vec<&Episode> = episodes.iter().filter(|e| e.agent == name).collect();
         if !eps.is_empty() {
             agents.push(summarize(name, &eps, cfg)?);
@@ -493,7 +500,7 @@ pub fn evaluate(
     }
     let mut comparisons = Vec::new();
     if !policies.is_empty() {
-        for base in [RULE, RULE_CONCENTRIC, NONE] {
+        for base in [RULE, RULE_CONCENTRIC, CHASER, NONE] {
             comparisons.push(compare(PPO, base, &episodes, cfg)?);
         }
     }

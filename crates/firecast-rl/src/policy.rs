@@ -43,6 +43,29 @@ pub struct PolicyConfig {
     /// in `compact` because rollouts run it in eval mode and updates in train mode, so the
     /// PPO ratio starts away from 1).
     pub batch_norm: bool,
+    /// What the `compact` extractor looks at: the whole map as observed (`map`) or the map
+    /// re-centred on the helicopter (`helicopter`), so "flames to the left" reads the same
+    /// wherever the helicopter is.
+    #[serde(skip_serializing_if = "View::is_map")]
+    pub view: View,
+}
+
+/// The frame of reference of the image the extractor sees.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum View {
+    /// The observation as the environment gives it.
+    #[default]
+    Map,
+    /// Shifted so the helicopter sits at the centre (row H/2, column W/2); cells beyond the
+    /// map read 0, the code of non-burnable cells.
+    Helicopter,
+}
+
+impl View {
+    fn is_map(&self) -> bool {
+        *self == View::Map
+    }
 }
 
 impl Default for PolicyConfig {
@@ -54,6 +77,7 @@ impl Default for PolicyConfig {
             activation: Activation::Tanh,
             ortho_init: true,
             batch_norm: false,
+            view: View::Map,
         }
     }
 }
@@ -341,6 +365,12 @@ impl Policy {
         num_actions: usize,
         device: Device,
     ) -> Result<Self, RlError> {
+        if config.view == View::Helicopter && config.kind != PolicyKind::Compact {
+            return Err(RlError::config(
+                "policy.view",
+                "`helicopter` is a view of the `compact` extractor",
+            ));
+        }
         let vs = nn::VarStore::new(device);
         let root = vs.root();
         let ortho = config.ortho_init;
@@ -474,6 +504,10 @@ impl Policy {
                 fuse,
             } => {
                 let img = image_float(obs);
+                let img = match self.config.view {
+                    View::Map => img,
+                    View::Helicopter => centred_on_helicopter(&img),
+                };
                 let f = trunk.forward(&img, train);
                 let f = reduce
                     .forward(&f)
@@ -536,9 +570,63 @@ impl Policy {
     }
 }
 
+/// `[N, C, H, W]` images shifted so that the helicopter (the cell of the last channel's
+/// maximum, its own channel) is at (H/2, W/2); outside the map is 0.
+fn centred_on_helicopter(img: &Tensor) -> Tensor {
+    let size = img.size();
+    let (n, c, h, w) = (size[0], size[1], size[2], size[3]);
+    let cells = Vec::<i64>::try_from(img.select(1, c - 1).flatten(1, -1).argmax(1, false))
+        .expect("argmax of a CPU or CUDA tensor");
+    let padded = img.constant_pad_nd([w / 2, w - w / 2, h / 2, h - h / 2]);
+    let rows: Vec<Tensor> = (0..n)
+        .map(|i| {
+            let cell = cells[i as usize];
+            // Padded row r is map row r − H/2: rows hy .. hy + H put map row hy at H/2.
+            padded.get(i).narrow(1, cell / w, h).narrow(2, cell % w, w)
+        })
+        .collect();
+    Tensor::stack(&rows, 0)
+}
+
 fn image_float(obs: &ObsTensors) -> Tensor {
     match &obs.image {
         Some(img) => img.to_kind(Kind::Float) / IMAGE_SCALE,
         None => Tensor::zeros([0], (Kind::Float, obs.vector.device())),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The helicopter lands on (H/2, W/2), its neighbours keep their offsets, and cells
+    /// beyond the map read 0.
+    #[test]
+    fn helicopter_view_centres_the_helicopter() {
+        let (h, w) = (4_i64, 6_i64);
+        for (hx, hy) in [(1_i64, 3_i64), (5, 0), (3, 2)] {
+            let map = Tensor::arange(h * w, (Kind::Float, Device::Cpu)).view([1, 1, h, w]) + 1.0;
+            let heli = Tensor::zeros([1, 1, h, w], (Kind::Float, Device::Cpu));
+            let _ = heli.get(0).get(0).get(hy).get(hx).fill_(1.0);
+            let img = Tensor::cat(&[map, heli], 1);
+            let out = centred_on_helicopter(&img);
+            assert_eq!(out.size(), [1, 2, h, w]);
+            for y in 0..h {
+                for x in 0..w {
+                    let (mx, my) = (x + hx - w / 2, y + hy - h / 2);
+                    let want = if (0..w).contains(&mx) && (0..h).contains(&my) {
+                        (my * w + mx + 1) as f64
+                    } else {
+                        0.0
+                    };
+                    assert_eq!(
+                        out.double_value(&[0, 0, y, x]),
+                        want,
+                        "({x}, {y}) from ({hx}, {hy})"
+                    );
+                }
+            }
+            assert_eq!(out.double_value(&[0, 1, h / 2, w / 2]), 1.0);
+        }
     }
 }

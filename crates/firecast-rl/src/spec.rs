@@ -8,6 +8,7 @@ use crate::RlError;
 use crate::helitack::FireSet;
 use crate::policy::{PolicyConfig, PolicyKind};
 use crate::ppo::PpoConfig;
+use firecast_sim::RewardWeights;
 
 /// Which environment to train on.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -168,7 +169,7 @@ impl TrainSpec {
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FiresSpec {
-    /// Reward profile: `p2`, `websocket_t` or `p1_improved`.
+    /// Reward profile: `p2`, `websocket_t`, `p1_improved` or `burnt_area`.
     #[serde(default = "default_profile")]
     pub profile: String,
     pub train: FireSet,
@@ -185,6 +186,14 @@ impl FiresSpec {
             std::fs::read_to_string(path).map_err(|e| RlError::io("reading the fire file", path, e))?;
         let mut spec: Self = firecast_pipeline::spec::deserialize_mapping_enums(path, &text)?;
         let reward = crate::helitack::reward_profile(&spec.profile)?;
+        for (key, set) in [("train", &spec.train), ("evaluate", &spec.evaluate)] {
+            if set.env.reward != RewardWeights::default() {
+                return Err(RlError::config(
+                    format!("{key}.env.reward"),
+                    "the reward comes from `profile` (p2, websocket_t, p1_improved or burnt_area)",
+                ));
+            }
+        }
         spec.train.env.reward = reward.clone();
         spec.evaluate.env.reward = reward;
         spec.train.validate("train")?;

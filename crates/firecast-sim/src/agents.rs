@@ -163,6 +163,67 @@ impl Policy for RuleBasedAgent {
     }
 }
 
+/// A helicopter that must fly (3 cells per move, no teleport, like the PPO agent): it heads
+/// for the nearest burning cell and drops when a burning cell lies within `reach` cells. The
+/// flying counterpart of the rule-based agent, so Table IV can tell what flying costs from
+/// what learning costs.
+#[derive(Debug, Clone, Copy)]
+pub struct FireChaser {
+    reach: i32,
+}
+
+impl Default for FireChaser {
+    /// Reach 4: inside the 5-cell drop footprint (§A8), so a drop always hits the cell it aims at.
+    fn default() -> Self {
+        Self { reach: 4 }
+    }
+}
+
+impl FireChaser {
+    pub fn with_reach(reach: u32) -> Self {
+        Self {
+            reach: i32::try_from(reach).unwrap_or(i32::MAX),
+        }
+    }
+}
+
+/// Cell codes of Burning cells in an observation frame (`state · 3 + BI + 1`, state 1).
+const BURNING_CODES: std::ops::RangeInclusive<u8> = 4..=6;
+
+impl Policy for FireChaser {
+    fn act(&mut self, obs: &Observation<'_>) -> Decision {
+        let frame = obs.current_frame();
+        let [hx, hy] = obs.agent;
+        // Nearest burning cell (squared distance, then lowest index).
+        let mut best: Option<(i64, i32, i32)> = None;
+        for (i, &code) in frame.iter().enumerate() {
+            if !BURNING_CODES.contains(&code) {
+                continue;
+            }
+            let (x, y) = ((i % obs.width) as i32, (i / obs.width) as i32);
+            let d2 = i64::from(x - hx).pow(2) + i64::from(y - hy).pow(2);
+            if best.is_none_or(|(b, ..)| d2 < b) {
+                best = Some((d2, x, y));
+            }
+        }
+        let Some((d2, tx, ty)) = best else {
+            return Action::Down.into();
+        };
+        if d2 <= i64::from(self.reach).pow(2) {
+            return Action::Drop.into();
+        }
+        let (dx, dy) = (tx - hx, ty - hy);
+        if dx.abs() >= dy.abs() {
+            if dx > 0 { Action::Right } else { Action::Left }
+        } else if dy > 0 {
+            Action::Down
+        } else {
+            Action::Up
+        }
+        .into()
+    }
+}
+
 /// One episode's Table IV numbers.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EpisodeStats {

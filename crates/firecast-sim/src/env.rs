@@ -83,6 +83,11 @@ pub struct RewardWeights {
     /// helicopter to the nearest burning cell; 0 when nothing burns.
     pub proximity: f64,
     pub proximity_scale_cells: f64,
+    /// Per cell the helicopter got closer to the nearest burning cell during the step
+    /// (negative when it moved away): shaping with the potential −d, so it rewards flying to
+    /// the fire without changing which policies are best (Ng et al., 1999, with γ = 1).
+    /// 0 when nothing burns before or after the step.
+    pub approach: f64,
     /// Drop on a Burning cell: this × (BI + 1).
     pub drop_burning_per_bi: f64,
     /// Drop on a Burnt cell.
@@ -117,6 +122,7 @@ impl RewardWeights {
             step: 0.0,
             proximity: 0.0,
             proximity_scale_cells: 20.0,
+            approach: 0.0,
             drop_burning_per_bi: 0.0,
             drop_burnt: 0.0,
             drop_non_burnable: None,
@@ -181,12 +187,27 @@ impl RewardWeights {
         }
     }
 
-    /// A named preset: `p2`, `websocket_t` or `p1_improved`.
+    /// FireCast's own: −1 per newly burnt cell (the quantity Table IV scores), +1 per
+    /// quenched cell (credit when the drop happens rather than when the cell would have burnt
+    /// out) and +1 per cell flown towards the nearest flames (potential shaping), unclipped,
+    /// with no drop penalties. The originals clip at ±10, so with a few hundred cells burning
+    /// every step reads −10 whatever a drop saved.
+    pub fn burnt_area() -> Self {
+        Self {
+            quenched: 1.0,
+            new_burnt: -1.0,
+            approach: 1.0,
+            ..Self::zero()
+        }
+    }
+
+    /// A named preset: `p2`, `websocket_t`, `p1_improved` or `burnt_area`.
     pub fn preset(name: &str) -> Option<Self> {
         match name {
             "p2" => Some(Self::p2()),
             "websocket_t" => Some(Self::websocket_t()),
             "p1_improved" => Some(Self::p1_improved()),
+            "burnt_area" => Some(Self::burnt_area()),
             _ => None,
         }
     }
@@ -282,6 +303,8 @@ pub struct EnvCore {
     quenched_total: u32,
     water: f64,
     last_drop_min: f64,
+    /// Distance (cells) from the helicopter to the nearest burning cell after the last step.
+    fire_distance: Option<f64>,
     cur_code: Vec<u8>,
     diffs: [Vec<(u32, u8)>; FRAME_STACK],
     head: usize,
@@ -318,6 +341,7 @@ impl EnvCore {
             steps: 0,
             drops: 0,
             quenched_total: 0,
+            fire_distance: None,
             water: 0.0,
             last_drop_min: f64::NEG_INFINITY,
             cur_code: vec![0; w * h],
@@ -356,6 +380,7 @@ impl EnvCore {
         self.quenched_total = 0;
         self.water = 0.0;
         self.last_drop_min = f64::NEG_INFINITY;
+        self.fire_distance = self.nearest_fire_distance();
         for i in 0..self.cur_code.len() {
             self.cur_code[i] = self.code(i);
         }
@@ -395,6 +420,26 @@ impl EnvCore {
     /// Moves the helicopter directly (clipped to the grid): the rule-based agent's teleport.
     pub fn teleport(&mut self, x: i32, y: i32) {
         self.clamp_heli(i64::from(x), i64::from(y));
+    }
+
+    /// Euclidean distance (cells) from the helicopter to the nearest burning cell; `None`
+    /// when nothing burns.
+    fn nearest_fire_distance(&self) -> Option<f64> {
+        let rw = &self.cfg.reward;
+        if rw.proximity == 0.0 && rw.approach == 0.0 {
+            return None;
+        }
+        let w = self.sim.width() as i64;
+        let (hx, hy) = (i64::from(self.heli.0), i64::from(self.heli.1));
+        self.sim
+            .burning_cells()
+            .iter()
+            .map(|&c| {
+                let (x, y) = (i64::from(c) % w, i64::from(c) / w);
+                (x - hx) * (x - hx) + (y - hy) * (y - hy)
+            })
+            .min()
+            .map(|d2| (d2 as f64).sqrt())
     }
 
     fn drop_reward(&self, i: usize) -> f64 {
@@ -477,20 +522,15 @@ impl EnvCore {
             + rw.burning * f64::from(burning)
             + rw.burning_reduction * (f64::from(prev_burning) - f64::from(burning))
             + rw.step;
-        if rw.proximity != 0.0 && burning > 0 {
-            let w = self.sim.width() as i64;
-            let (hx, hy) = (i64::from(self.heli.0), i64::from(self.heli.1));
-            let d2 = self
-                .sim
-                .burning_cells()
-                .iter()
-                .map(|&c| {
-                    let (x, y) = (i64::from(c) % w, i64::from(c) / w);
-                    (x - hx) * (x - hx) + (y - hy) * (y - hy)
-                })
-                .min()
-                .unwrap_or(0);
-            reward += rw.proximity * (-(d2 as f64).sqrt() / rw.proximity_scale_cells).exp();
+        if rw.proximity != 0.0 || rw.approach != 0.0 {
+            let before = self.fire_distance;
+            self.fire_distance = self.nearest_fire_distance();
+            if let Some(d) = self.fire_distance {
+                reward += rw.proximity * (-d / rw.proximity_scale_cells).exp();
+                if let Some(b) = before {
+                    reward += rw.approach * (b - d);
+                }
+            }
         }
         reward *= rw.scale;
         if let Some([lo, hi]) = rw.clip {

@@ -22,8 +22,8 @@ pub mod rothermel;
 pub mod spread_csv;
 
 pub use agents::{
-    Decision, EpisodeContext, EpisodeFrames, EpisodeStats, EvalReport, MeanStd, NoSuppression, Policy,
-    RuleBasedAgent, RuleNavigation, record_frames, run_episode, run_episodes,
+    Decision, EpisodeContext, EpisodeFrames, EpisodeStats, EvalReport, FireChaser, MeanStd, NoSuppression,
+    Policy, RuleBasedAgent, RuleNavigation, record_frames, run_episode, run_episodes,
 };
 pub use automaton::{
     Automaton, BurnIndex, DEFAULT_DT_MIN, FireState, HelitackFootprint, KernelConfig, Neighbourhood,

@@ -1,7 +1,7 @@
 //! Baseline agents and the episode runner.
 
 use firecast_sim::{
-    EnvConfig, NoSuppression, Policy, RuleBasedAgent, RuleNavigation, WildfireEnv, record_frames,
+    EnvConfig, FireChaser, NoSuppression, Policy, RuleBasedAgent, RuleNavigation, WildfireEnv, record_frames,
     run_episodes,
 };
 
@@ -70,6 +70,43 @@ fn rule_based_burns_fewer_cells_than_no_suppression() {
         .sum::<f64>()
         / 6.0;
     assert!((none.cells_burned.mean - mean).abs() < 1e-9);
+}
+
+#[test]
+fn chaser_flies_to_the_fire_and_burns_fewer_cells() {
+    let land = modis_rough(6);
+    let cfg = EnvConfig::default();
+    let none = run_episodes(&land, &cfg, &mut NoSuppression, 4, 1).unwrap();
+    let chaser = run_episodes(&land, &cfg, &mut FireChaser::default(), 4, 1).unwrap();
+    println!(
+        "chaser: {:.0} cells, {:.0} drops; none {:.0}",
+        chaser.cells_burned.mean, chaser.helitacks.mean, none.cells_burned.mean
+    );
+    assert!(chaser.cells_burned.mean < none.cells_burned.mean);
+    assert!(chaser.helitacks.mean > 0.0);
+    // It flies: never more than one move (3 cells) per step, no teleport.
+    let frames = record_frames(&land, &cfg, &mut FireChaser::default(), 1).unwrap();
+    for (a, b) in frames.helicopter.iter().zip(&frames.helicopter[1..]) {
+        let moved = (a[0] - b[0]).abs() + (a[1] - b[1]).abs();
+        assert!(moved <= 3, "{a:?} -> {b:?}");
+    }
+    // Every drop lands within reach of a burning cell.
+    let w = frames.width as i32;
+    let mut drops = 0;
+    for (k, (a, b)) in frames.helicopter.iter().zip(&frames.helicopter[1..]).enumerate() {
+        if a != b {
+            continue;
+        }
+        let burning_near = frames.fire_states[k].iter().enumerate().any(|(i, &s)| {
+            let (x, y) = (i as i32 % w, i as i32 / w);
+            s == 1 && (x - a[0]).pow(2) + (y - a[1]).pow(2) <= 16
+        });
+        drops += u32::from(burning_near);
+    }
+    assert_eq!(
+        drops, frames.stats.helitacks,
+        "a drop (standing still) only near flames"
+    );
 }
 
 #[test]

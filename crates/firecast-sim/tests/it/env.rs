@@ -186,6 +186,77 @@ fn reward_presets_and_config_deserialisation() {
     );
 }
 
+/// `approach` is the potential −d: a step's shaping is the distance to the nearest flames
+/// before minus after, whatever moved (the helicopter or the fire); with nothing burning it is
+/// 0. `burnt_area` adds it to −1 per newly burnt cell and +1 per quenched cell.
+#[test]
+fn approach_shaping_is_the_change_in_distance_to_the_flames() {
+    let land = modis_rough(6);
+    let only_approach = RewardWeights {
+        quenched: 0.0,
+        burning: 0.0,
+        step: 0.0,
+        drop_burnt: 0.0,
+        drop_non_burnable: None,
+        clip: None,
+        approach: 1.0,
+        ..RewardWeights::p2()
+    };
+    let nearest = |env: &WildfireEnv| {
+        let [hx, hy] = env.core().helicopter();
+        let w = env.automaton().width() as i64;
+        env.automaton()
+            .burning_cells()
+            .iter()
+            .map(|&c| {
+                let (x, y) = (i64::from(c) % w, i64::from(c) / w);
+                (((x - i64::from(hx)).pow(2) + (y - i64::from(hy)).pow(2)) as f64).sqrt()
+            })
+            .min_by(f64::total_cmp)
+    };
+    for (weights, burnt_area) in [(only_approach, false), (RewardWeights::burnt_area(), true)] {
+        let cfg = EnvConfig {
+            reward: weights,
+            ..EnvConfig::default()
+        };
+        let mut env = WildfireEnv::new(&land, &cfg).unwrap();
+        env.reset(3);
+        let (mut closer, mut quenched) = (0, 0);
+        for k in 0..400 {
+            let before = nearest(&env);
+            // Fly towards the ignition, then drop on it.
+            let a = if k < 16 {
+                Action::Right
+            } else if k < 32 {
+                Action::Down
+            } else {
+                Action::Drop
+            };
+            let (_, r, terminated, truncated, info) = env.step(a);
+            let after = nearest(&env);
+            let shaping = match (before, after) {
+                (Some(b), Some(d)) => b - d,
+                _ => 0.0,
+            };
+            let want = if burnt_area {
+                shaping - f64::from(info.new_burnt) + f64::from(info.quenched_step)
+            } else {
+                shaping
+            };
+            assert!((r - want).abs() < 1e-9, "step {k}: {r} vs {want}");
+            closer += usize::from(shaping > 0.0);
+            quenched += info.quenched_step;
+            if terminated || truncated {
+                break;
+            }
+        }
+        assert!(closer > 10, "the helicopter flew towards the fire: {closer}");
+        if burnt_area {
+            assert!(quenched > 0, "the drops reached the fire");
+        }
+    }
+}
+
 #[test]
 fn drop_cooldown_blocks_drops() {
     let land = modis_rough(6);
