@@ -157,9 +157,9 @@ fn an_interrupted_helitack_run_resumes_to_the_same_policy() {
         .map(|a| a["agent"].as_str().unwrap())
         .collect();
     assert_eq!(agents, ["ppo", "rule", "rule-concentric", "chaser", "none"]);
-    assert_eq!(r["episodes"].as_array().unwrap().len(), 5 * 4);
+    assert_eq!(r["episodes"].as_array().unwrap().len(), 5 * 5);
     assert_eq!(r["fires"].as_array().unwrap().len(), 5);
-    let none = &r["agents"][3];
+    let none = &r["agents"][4];
     assert_eq!(none["helitacks"]["mean"]["estimate"], 0.0);
     assert_eq!(none["cells_saved"]["mean"]["estimate"], 0.0);
     assert_eq!(r["comparisons"].as_array().unwrap().len(), 4);
@@ -196,6 +196,8 @@ fn bad_training_specs_name_the_key() {
         ("-S", "ppo.preset=fast", "unknown preset `fast`"),
         ("-S", "policy.kind=mlp", "policy.kind"),
         ("-S", "seeds=[]", "seeds"),
+        ("-S", "policy.view=sideways", "policy.view"),
+        ("-S", "threads=0", "threads"),
     ];
     for (flag, value, expect) in cases {
         let out = p
@@ -215,6 +217,40 @@ fn bad_training_specs_name_the_key() {
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("c.yaml:3") && err.contains("learning_rate"), "{err}");
+
+    // Reward weights: the profile's, replaced by the top-level `reward`; not under `env`.
+    for (fires, expect) in [
+        (
+            FIRES.replace("profile: p2", "profile: suppression\nreward: {bogus: 1}"),
+            "bogus",
+        ),
+        (
+            FIRES.replace("profile: p2", "profile: suppression\nreward: {approach: yes}"),
+            "reward.approach",
+        ),
+        (
+            FIRES.replace(
+                "env: {max_steps: 40}\nevaluate",
+                "env: {max_steps: 40, reward: {step: -1}}\nevaluate",
+            ),
+            "train.env.reward",
+        ),
+        (
+            FIRES.replace("profile: p2", "profile: gentle"),
+            "unknown profile `gentle`",
+        ),
+    ] {
+        p.write("bad-fires.yaml", &fires);
+        p.write("d.yaml", &spec("heli-d").replace("fires.yaml", "bad-fires.yaml"));
+        let out = p
+            .firecast()
+            .args(["rl", "train", "--config", "d.yaml"])
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{fires}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(expect), "expected `{expect}` in\n{err}");
+    }
 }
 
 /// `bench ppo` part (b) on a tiny budget: FireCast's compact policy and SB3's re-statement

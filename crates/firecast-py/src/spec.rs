@@ -9,7 +9,7 @@ use firecast_sim::{EnvConfig, RewardWeights, SimError};
 use serde::Deserialize;
 
 /// The reward profiles (`RewardWeights::preset`).
-pub const PROFILES: &[&str] = &["p2", "websocket_t", "p1_improved", "burnt_area"];
+pub const PROFILES: &[&str] = &["p2", "websocket_t", "p1_improved", "suppression"];
 
 /// Errors building an environment from Python arguments.
 #[derive(Debug, thiserror::Error)]

@@ -225,7 +225,7 @@ pub fn reward_profile(name: &str) -> Result<RewardWeights, RlError> {
     RewardWeights::preset(name).ok_or_else(|| {
         RlError::config(
             "profile",
-            format!("unknown profile `{name}` (use p2, websocket_t, p1_improved or burnt_area)"),
+            format!("unknown profile `{name}` (use p2, websocket_t, p1_improved or suppression)"),
         )
     })
 }

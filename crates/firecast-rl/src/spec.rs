@@ -169,9 +169,12 @@ impl TrainSpec {
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FiresSpec {
-    /// Reward profile: `p2`, `websocket_t`, `p1_improved` or `burnt_area`.
+    /// Reward profile: `p2`, `websocket_t`, `p1_improved` or `suppression`.
     #[serde(default = "default_profile")]
     pub profile: String,
+    /// Weights that replace the profile's (`RewardWeights`' names), e.g. `{new_burnt: 0}`.
+    #[serde(default)]
+    pub reward: serde_json::Map<String, serde_json::Value>,
     pub train: FireSet,
     pub evaluate: FireSet,
 }
@@ -185,12 +188,26 @@ impl FiresSpec {
         let text =
             std::fs::read_to_string(path).map_err(|e| RlError::io("reading the fire file", path, e))?;
         let mut spec: Self = firecast_pipeline::spec::deserialize_mapping_enums(path, &text)?;
-        let reward = crate::helitack::reward_profile(&spec.profile)?;
+        let mut reward = crate::helitack::reward_profile(&spec.profile)?;
+        if !spec.reward.is_empty() {
+            let mut weights =
+                serde_json::to_value(&reward).map_err(|e| RlError::config("reward", e.to_string()))?;
+            if let Some(w) = weights.as_object_mut() {
+                w.extend(spec.reward.clone());
+            }
+            reward = firecast_pipeline::stage::deserialize_params(&weights).map_err(|e| {
+                RlError::config(
+                    format!("reward.{}", e.path).trim_end_matches('.').to_string(),
+                    e.message,
+                )
+            })?;
+        }
         for (key, set) in [("train", &spec.train), ("evaluate", &spec.evaluate)] {
             if set.env.reward != RewardWeights::default() {
                 return Err(RlError::config(
                     format!("{key}.env.reward"),
-                    "the reward comes from `profile` (p2, websocket_t, p1_improved or burnt_area)",
+                    "the reward comes from `profile` (p2, websocket_t, p1_improved or suppression) \
+                     and the top-level `reward` (weights that replace the profile's)",
                 ));
             }
         }

@@ -28,7 +28,7 @@ class HelitackEnv(gym.Env):
     """A helicopter fighting one wildfire (learning.md §2; the Rust ``WildfireEnv``).
 
     Args:
-        profile: reward preset, ``"p2"`` (the default), ``"websocket_t"``, ``"p1_improved"`` or ``"burnt_area"``.
+        profile: reward preset, ``"p2"`` (the default), ``"websocket_t"``, ``"p1_improved"`` or ``"suppression"``.
         landscape: ``"procedural:SEED"`` (240 × 160), ``"firecastrl:LC.png,HM.png"``, or a mapping
             ``{"procedural": {"seed": 0, "width": 48, "height": 32}}`` /
             ``{"firecastrl": {"land_cover": ..., "heightmap": ...}}``. Default ``procedural:0``.

@@ -188,7 +188,7 @@ fn reward_presets_and_config_deserialisation() {
 
 /// `approach` is the potential −d: a step's shaping is the distance to the nearest flames
 /// before minus after, whatever moved (the helicopter or the fire); with nothing burning it is
-/// 0. `burnt_area` adds it to −1 per newly burnt cell and +1 per quenched cell.
+/// 0. `suppression` adds it to +1 per quenched cell.
 #[test]
 fn approach_shaping_is_the_change_in_distance_to_the_flames() {
     let land = modis_rough(6);
@@ -214,7 +214,7 @@ fn approach_shaping_is_the_change_in_distance_to_the_flames() {
             })
             .min_by(f64::total_cmp)
     };
-    for (weights, burnt_area) in [(only_approach, false), (RewardWeights::burnt_area(), true)] {
+    for (weights, suppression) in [(only_approach, false), (RewardWeights::suppression(), true)] {
         let cfg = EnvConfig {
             reward: weights,
             ..EnvConfig::default()
@@ -238,8 +238,8 @@ fn approach_shaping_is_the_change_in_distance_to_the_flames() {
                 (Some(b), Some(d)) => b - d,
                 _ => 0.0,
             };
-            let want = if burnt_area {
-                shaping - f64::from(info.new_burnt) + f64::from(info.quenched_step)
+            let want = if suppression {
+                shaping + f64::from(info.quenched_step)
             } else {
                 shaping
             };
@@ -251,7 +251,7 @@ fn approach_shaping_is_the_change_in_distance_to_the_flames() {
             }
         }
         assert!(closer > 10, "the helicopter flew towards the fire: {closer}");
-        if burnt_area {
+        if suppression {
             assert!(quenched > 0, "the drops reached the fire");
         }
     }
