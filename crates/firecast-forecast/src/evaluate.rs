@@ -61,8 +61,8 @@ pub struct EvaluateParams {
     /// `auto`, `cpu`, `cuda`, `cuda:N`.
     #[serde(default = "default_device")]
     pub device: String,
-    /// libtorch threads (and XGBoost's `nthread` where a model names none). Part of the
-    /// result, so part of the cache key; fixed default, not the machine's core count.
+    /// libtorch threads: part of the result, so part of the cache key; a fixed default, not
+    /// the machine's core count.
     #[serde(default = "firecast_learn::default_threads")]
     pub threads: usize,
 }

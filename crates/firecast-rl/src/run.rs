@@ -307,6 +307,7 @@ pub fn work_dir(root: &Path, spec: &TrainSpec, fires_file: Option<&Path>) -> Res
         *fires = None;
     }
     s.description = None;
+    h.update(&crate::stage::TRAIN_VERSION.to_le_bytes());
     h.update(&serde_json::to_vec(&s).map_err(|e| RlError::config("", e.to_string()))?);
     if let Some(p) = fires_file {
         h.update(&std::fs::read(p).map_err(|e| RlError::io("reading the fire file", p, e))?);

@@ -69,8 +69,8 @@ pub struct TrainSpec {
     /// `auto` (CUDA when present), `cpu`, `cuda` or `cuda:N`.
     #[serde(default = "default_device")]
     pub device: String,
-    /// libtorch threads. Part of the
-    /// result, so part of the cache key; fixed default, not the machine's core count.
+    /// libtorch threads: part of the result, so part of the cache key; a fixed default, not
+    /// the machine's core count.
     #[serde(default = "firecast_learn::default_threads")]
     pub threads: usize,
 }

@@ -10,6 +10,10 @@ use crate::evaluate::EvalConfig;
 use crate::run::{RunSink, SUMMARY_FILE, TrainSummary};
 use crate::spec::{EnvSpec, FiresSpec, TrainSpec};
 
+/// Version of the `rl.train` kind; also keys the checkpoint folders in `.firecast/rl/`, so a
+/// resume never continues a checkpoint that other code made.
+pub const TRAIN_VERSION: u32 = 1;
+
 fn stage_error(e: RlError) -> StageError {
     StageError::msg(e.to_string())
 }
@@ -61,7 +65,7 @@ impl StageKind for TrainStage {
         "rl.train"
     }
     fn version(&self) -> u32 {
-        1
+        TRAIN_VERSION
     }
     fn summary(&self) -> &'static str {
         "PPO (SB3 semantics, tch) on CartPole or the helitack fires: policies per seed, metrics, curves"
@@ -160,8 +164,8 @@ pub struct EvaluateParams {
     pub eval: EvalConfig,
     #[serde(default = "default_device")]
     pub device: String,
-    /// libtorch threads. Part of the
-    /// result, so part of the cache key; fixed default, not the machine's core count.
+    /// libtorch threads: part of the result, so part of the cache key; a fixed default, not
+    /// the machine's core count.
     #[serde(default = "firecast_learn::default_threads")]
     pub threads: usize,
 }
@@ -250,8 +254,9 @@ impl StageKind for EvaluateStage {
         "rl.evaluate"
     }
     fn version(&self) -> u32 {
-        // 2: observations normalised as in training, one action stream per fire, recordings.
-        2
+        // 2: observations normalised as in training, one action stream per fire, recordings;
+        // 3: the chaser baseline.
+        3
     }
     fn summary(&self) -> &'static str {
         "Table IV: PPO per training seed vs rule-based agents and no suppression on the same held-out fires"
