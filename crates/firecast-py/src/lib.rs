@@ -101,8 +101,8 @@ struct Env {
 #[pymethods]
 impl Env {
     /// `landscape`: `procedural:SEED`, `firecastrl:LC.png,HM.png` or a JSON object;
-    /// `config`: a JSON object of `EnvConfig` keys; `profile`: `p2`, `websocket_t` or
-    /// `p1_improved`.
+    /// `config`: a JSON object of `EnvConfig` keys; `profile`: `p2`, `websocket_t`,
+    /// `p1_improved` or `suppression`.
     #[new]
     #[pyo3(signature = (landscape, config=None, profile=None))]
     fn new(py: Python<'_>, landscape: &str, config: Option<&str>, profile: Option<&str>) -> PyResult<Self> {
