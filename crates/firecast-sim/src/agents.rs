@@ -3,7 +3,7 @@
 
 use firecast_landscape::Landscape;
 
-use crate::automaton::SimError;
+use crate::automaton::{FireState, SimError};
 use crate::env::{Action, EnvConfig, Observation, StepInfo, WildfireEnv};
 
 /// What a policy returns: an action, optionally after teleporting the helicopter (only the
@@ -187,8 +187,10 @@ impl FireChaser {
     }
 }
 
-/// Cell codes of Burning cells in an observation frame (`state · 3 + BI + 1`, state 1).
-const BURNING_CODES: std::ops::RangeInclusive<u8> = 4..=6;
+/// Cell codes of Burning cells in an observation frame (`state · 3 + BI + 1`, BI 0–2; see
+/// `EnvCore::code`).
+const BURNING_CODES: std::ops::RangeInclusive<u8> =
+    (FireState::Burning as u8 * 3 + 1)..=(FireState::Burning as u8 * 3 + 3);
 
 impl Policy for FireChaser {
     fn act(&mut self, obs: &Observation<'_>) -> Decision {
