@@ -42,7 +42,8 @@ pub struct RunArgs {
     /// A scenario YAML (`landscape:` and `env:`), for GeoTIFF terrain and full env settings.
     #[arg(long, value_name = "FILE")]
     pub scenario: Option<PathBuf>,
-    /// Agent(s): none, rule (circle of radius 30), rule-concentric (45/40/35). Repeat to compare.
+    /// Agent(s): none, rule (circle of radius 30), rule-concentric (45/40/35), chaser (flies
+    /// to the nearest flames). Repeat to compare.
     #[arg(long, default_value = "rule", value_name = "AGENT")]
     pub agent: Vec<String>,
     /// Episodes per agent (seeds SEED, SEED+1, …).
