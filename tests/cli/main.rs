@@ -133,6 +133,16 @@ pub fn first_stage_run_id(report: &serde_json::Value) -> &str {
     report["stages"][0]["run_id"].as_str().unwrap()
 }
 
+/// The entry of stage `name` in a `pipeline run --json` report.
+pub fn stage_report<'a>(report: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
+    report["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["stage"] == name)
+        .unwrap_or_else(|| panic!("no stage `{name}` in {report}"))
+}
+
 /// A stage run's log (`.firecast/logs/<run>.log`).
 pub fn stage_log(p: &Project, run_id: &str) -> String {
     p.read(&format!(".firecast/logs/{run_id}.log"))

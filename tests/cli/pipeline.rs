@@ -2,7 +2,7 @@
 
 use std::time::{Duration, Instant};
 
-use crate::{Project, describe, outcomes, repo_root};
+use crate::{Project, describe, outcomes, repo_root, stage_report};
 
 const CHAIN: &str = r#"
 vars:
@@ -317,12 +317,7 @@ stages:
     assert_eq!(outcomes["join"], "ran");
     assert_eq!(outcomes["bad"], "failed");
     assert_eq!(outcomes["after_bad"], "skipped");
-    let bad = report["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|s| s["stage"] == "bad")
-        .unwrap();
+    let bad = stage_report(&report, "bad");
     let error = bad["error"].as_str().unwrap();
     assert!(
         error.starts_with("command exited with code 3; last output:"),

@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 use crate::store::Moto;
 use crate::{
     Project, describe, files_under, first_stage_run_id, lock_without_run_ids, outcomes, recorded, stage_log,
-    venv_bin,
+    stage_report, venv_bin,
 };
 
 fn free_port() -> u16 {
@@ -404,13 +404,10 @@ fn ray_runs_match_local_and_survive_faults() {
             "{file} differs between the local and the Ray run"
         );
     }
-    let helitack = report["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|s| s["stage"] == "helitack")
-        .unwrap();
-    let log = stage_log(&remote, helitack["run_id"].as_str().unwrap());
+    let log = stage_log(
+        &remote,
+        stage_report(&report, "helitack")["run_id"].as_str().unwrap(),
+    );
     assert!(
         log.contains("# shard 0/2 on") && log.contains("# shard 1/2 on"),
         "{log}"
@@ -754,13 +751,7 @@ fn sharded_episodes_equal_unsharded_locally() {
     for p in [&whole, &sharded] {
         let report = p.json(&["pipeline", "run", "pipelines/fire.yaml", "--only", "helitack"]);
         assert_eq!(outcomes(&report)["helitack"], "ran", "{report}");
-        let helitack = report["stages"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|s| s["stage"] == "helitack")
-            .unwrap();
-        recorded_by.push(recorded(p, helitack["run_id"].as_str().unwrap()).0);
+        recorded_by.push(recorded(p, stage_report(&report, "helitack")["run_id"].as_str().unwrap()).0);
     }
     // The shards record the per-episode metrics the unsharded run records.
     assert_eq!(recorded_by[0], recorded_by[1]);

@@ -150,14 +150,7 @@ impl Policy for RuleBasedAgent {
                     self.next += 1;
                     return Action::Drop.into();
                 }
-                if dx.abs() >= dy.abs() {
-                    if dx > 0 { Action::Right } else { Action::Left }
-                } else if dy > 0 {
-                    Action::Down
-                } else {
-                    Action::Up
-                }
-                .into()
+                move_towards(dx, dy).into()
             }
         }
     }
@@ -214,15 +207,18 @@ impl Policy for FireChaser {
         if d2 <= i64::from(self.reach).pow(2) {
             return Action::Drop.into();
         }
-        let (dx, dy) = (tx - hx, ty - hy);
-        if dx.abs() >= dy.abs() {
-            if dx > 0 { Action::Right } else { Action::Left }
-        } else if dy > 0 {
-            Action::Down
-        } else {
-            Action::Up
-        }
-        .into()
+        move_towards(tx - hx, ty - hy).into()
+    }
+}
+
+/// The move that closes the larger of the two offsets to a target cell (x first on a tie).
+fn move_towards(dx: i32, dy: i32) -> Action {
+    if dx.abs() >= dy.abs() {
+        if dx > 0 { Action::Right } else { Action::Left }
+    } else if dy > 0 {
+        Action::Down
+    } else {
+        Action::Up
     }
 }
 
