@@ -608,7 +608,14 @@ fn bench_helitack(
         fires.len(),
         args.helitack_steps
     );
-    let firecast = firecast_rl::bench::helitack(&fires, ppo, policy, args.helitack_steps, args.seed)?;
+    let firecast = firecast_rl::bench::helitack(
+        &fires,
+        ppo,
+        policy,
+        args.helitack_steps,
+        args.seed,
+        firecast_rl::Device::Cpu,
+    )?;
     progress_line(&firecast);
     eprintln!(
         "(b) SB3 PPO on firecast.HelitackVecEnv with the same network and settings ({}) ...",
@@ -664,7 +671,14 @@ fn bench_firecastrl(
         "(c) FireCast PPO on the FireCastRL training map ({} x {}, compact policy, {} steps per phase, {threads} threads) ...",
         landscape.width, landscape.height, args.reference_steps
     );
-    let firecast = firecast_rl::bench::helitack(&fires, ppo, policy, args.reference_steps, args.seed)?;
+    let firecast = firecast_rl::bench::helitack(
+        &fires,
+        ppo,
+        policy,
+        args.reference_steps,
+        args.seed,
+        firecast_rl::Device::Cpu,
+    )?;
     progress_line(&firecast);
     let python = args.reference_python.as_deref().unwrap_or(python);
     eprintln!(

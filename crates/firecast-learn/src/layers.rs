@@ -58,6 +58,7 @@ impl Recurrent {
                 params.push(p.var(&format!("bias_hh_l{layer}{suffix}"), &[gates * hidden], init));
             }
         }
+        flatten_parameters(&mut params);
         Self {
             cell,
             params,
@@ -72,6 +73,28 @@ impl Recurrent {
     /// Stacked layers.
     pub fn layers(&self) -> i64 {
         self.layers
+    }
+
+    /// The parameters in PyTorch's order (per layer and direction: `weight_ih`, `weight_hh`,
+    /// `bias_ih`, `bias_hh`), views of one contiguous buffer in cuDNN's packing (all weights,
+    /// then all biases).
+    pub fn parameters(&self) -> &[Tensor] {
+        &self.params
+    }
+
+    /// One step of a one-layer, one-direction LSTM: `x` `[n, input]` from `(h, c)`
+    /// (`[n, hidden]` each) to the next `(h, c)`. For policies that carry their state between
+    /// calls and reset it per environment.
+    ///
+    /// # Panics
+    /// On a GRU or a stacked or bidirectional layer (a programming error).
+    pub fn step(&self, x: &Tensor, h: &Tensor, c: &Tensor) -> (Tensor, Tensor) {
+        assert!(
+            self.cell == Cell::Lstm && self.layers == 1 && !self.bidirectional,
+            "Recurrent::step takes a one-layer, one-direction LSTM"
+        );
+        let p = &self.params;
+        x.lstm_cell(&[h, c], &p[0], &p[1], Some(&p[2]), Some(&p[3]))
     }
 
     pub fn forward(&self, x: &Tensor, train: bool) -> (Tensor, Tensor) {
@@ -105,4 +128,34 @@ impl Recurrent {
             ),
         }
     }
+}
+
+/// PyTorch's `flatten_parameters`: the weights become views of one contiguous buffer laid
+/// out as cuDNN packs them — every layer's and direction's `weight_ih`, `weight_hh`, then
+/// every `bias_ih`, `bias_hh` (read off `nn.LSTM` on an H200, cuDNN 9) — so on CUDA libtorch
+/// hands the buffer to cuDNN as it is instead of copying every weight at each call (and
+/// warning each time). `params` keep PyTorch's order (per layer: weights, then biases), which
+/// is what `lstm`/`gru` take. The variables stay the same variables for autograd, the VarStore
+/// and the optimisers; values are unchanged, so the CPU computes the same numbers.
+fn flatten_parameters(params: &mut [Tensor]) {
+    let Some(first) = params.first() else {
+        return;
+    };
+    let total: i64 = params.iter().map(|p| p.numel() as i64).sum();
+    let flat = Tensor::zeros([total], (first.kind(), first.device()));
+    // PyTorch's order is [w_ih, w_hh, b_ih, b_hh] per layer and direction: weights first.
+    let packed = (0..params.len())
+        .filter(|k| k % 4 < 2)
+        .chain((0..params.len()).filter(|k| k % 4 >= 2));
+    let mut offset = 0;
+    tch::no_grad(|| {
+        for k in packed {
+            let p = &mut params[k];
+            let n = p.numel() as i64;
+            let mut view = flat.narrow(0, offset, n).view(p.size().as_slice());
+            view.copy_(p);
+            p.set_data(&view);
+            offset += n;
+        }
+    });
 }

@@ -12,7 +12,7 @@ use crate::RlError;
 use crate::env::ObsBatch;
 use crate::helitack;
 use crate::normalize::VecNormalize;
-use crate::policy::Policy;
+use crate::policy::{Hidden, Policy};
 use crate::train::policy_actions;
 
 /// A trained policy playing one helitack environment.
@@ -23,6 +23,8 @@ pub struct PpoAgent<'a> {
     /// Draws of sampled actions (one per step); untouched when greedy.
     rng: ChaCha8Rng,
     obs: ObsBatch,
+    /// A recurrent policy's state (one agent plays one episode, from zero).
+    hidden: Option<Hidden>,
     width: usize,
     height: usize,
 }
@@ -55,6 +57,7 @@ impl<'a> PpoAgent<'a> {
             deterministic,
             rng: ChaCha8Rng::seed_from_u64(action_seed),
             obs: ObsBatch::new(space, 1),
+            hidden: policy.initial_hidden(1),
             width,
             height,
         })
@@ -80,10 +83,16 @@ impl firecast_sim::Policy for PpoAgent<'_> {
         if let Some(n) = self.normalize {
             n.normalize_obs(&mut self.obs.vector);
         }
-        let action = policy_actions(self.policy, &self.obs, self.deterministic, &mut self.rng)
-            .first()
-            .copied()
-            .unwrap_or(0);
+        let action = policy_actions(
+            self.policy,
+            &self.obs,
+            self.hidden.as_mut(),
+            self.deterministic,
+            &mut self.rng,
+        )
+        .first()
+        .copied()
+        .unwrap_or(0);
         Action::try_from(action).unwrap_or(Action::Down).into()
     }
 }

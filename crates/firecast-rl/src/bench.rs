@@ -45,13 +45,15 @@ pub struct BenchRun {
     pub parameters: i64,
 }
 
-/// The three phases on environments made by `make_env`, each for about `steps` steps.
+/// The three phases on environments made by `make_env`, each for about `steps` steps, with
+/// the policy on `device`.
 pub fn phases(
     make_env: &dyn Fn() -> Result<Box<dyn VecEnvironment>, RlError>,
     ppo: &PpoConfig,
     policy: &PolicyConfig,
     steps: u64,
     seed: u64,
+    device: Device,
 ) -> Result<BenchRun, RlError> {
     let n = ppo.n_envs;
     let mut env = make_env()?;
@@ -74,7 +76,7 @@ pub fn phases(
 
     let mut cfg = ppo.clone();
     cfg.total_timesteps = steps;
-    let mut trainer = Trainer::new(cfg.clone(), policy, make_env()?, seed, Device::Cpu)?;
+    let mut trainer = Trainer::new(cfg.clone(), policy, make_env()?, seed, device)?;
     let parameters = trainer.policy.parameter_count();
     let rollouts = (steps / ppo.buffer_size() as u64).max(1);
     let t = Instant::now();
@@ -84,7 +86,7 @@ pub fn phases(
     let rollout_sps = (rollouts * ppo.buffer_size() as u64) as f64 / t.elapsed().as_secs_f64();
     drop(trainer);
 
-    let mut trainer = Trainer::new(cfg, policy, make_env()?, seed, Device::Cpu)?;
+    let mut trainer = Trainer::new(cfg, policy, make_env()?, seed, device)?;
     let t = Instant::now();
     trainer.learn(&NoSink, None)?;
     let train_sps = trainer.num_timesteps as f64 / t.elapsed().as_secs_f64();
@@ -107,7 +109,7 @@ pub fn cartpole(ppo: &PpoConfig, steps: u64, seed: u64) -> Result<BenchRun, RlEr
     let n = ppo.n_envs;
     let make =
         move || -> Result<Box<dyn VecEnvironment>, RlError> { Ok(Box::new(CartPoleVec::new(n, seed))) };
-    phases(&make, ppo, &policy, steps, seed)
+    phases(&make, ppo, &policy, steps, seed, Device::Cpu)
 }
 
 /// (b)'s fire pool, built the way `firecast.HelitackVecEnv` builds its pool (every landscape
@@ -131,10 +133,16 @@ impl HelitackPool {
     /// 400-step episodes, a light west wind and 11 % 1-h moisture (the middle of the demo's
     /// ranges), two ignition cells burnable on all four.
     pub fn demo_scale() -> Result<Self, RlError> {
+        Self::sized(96, 64)
+    }
+
+    /// The demo's fires on `width` × `height` landscapes (240 × 160 is FireCastRL's map), the
+    /// ignition candidates scaled from the 96 × 64 ones.
+    pub fn sized(width: usize, height: usize) -> Result<Self, RlError> {
         let mut pool = Self {
             landscape_seeds: vec![1, 2, 3, 4],
-            width: 96,
-            height: 64,
+            width,
+            height,
             ignitions: Vec::new(),
             config: serde_json::json!({
                 "max_steps": 400,
@@ -171,6 +179,7 @@ impl HelitackPool {
         ];
         pool.ignitions = candidates
             .into_iter()
+            .map(|[x, y]| [x * width / 96, y * height / 64])
             .filter(|&[x, y]| {
                 cores
                     .iter()
@@ -238,19 +247,21 @@ impl HelitackPool {
     }
 }
 
-/// (b) and (c): the helitack environment over `fires` with `policy` (the compact one).
+/// (b) and (c): the helitack environment over `fires` with `policy` (the compact one) on
+/// `device`.
 pub fn helitack(
     fires: &[EnvCore],
     ppo: &PpoConfig,
     policy: &PolicyConfig,
     steps: u64,
     seed: u64,
+    device: Device,
 ) -> Result<BenchRun, RlError> {
     let n = ppo.n_envs;
     let make = move || -> Result<Box<dyn VecEnvironment>, RlError> {
         Ok(Box::new(HelitackVec::new(fires.to_vec(), n, seed)?))
     };
-    phases(&make, ppo, policy, steps, seed)
+    phases(&make, ppo, policy, steps, seed, device)
 }
 
 /// (c)'s FireCast side: the FireCastRL training map with `cfg` (the P2 parity settings).

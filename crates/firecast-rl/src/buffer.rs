@@ -21,6 +21,9 @@ pub struct RolloutBuffer {
     pub log_probs: Vec<f32>,
     pub advantages: Vec<f32>,
     pub returns: Vec<f32>,
+    /// A recurrent policy's state at each step, before that step's episode resets
+    /// (`Hidden::to_host` rows, step-major); empty without memory.
+    pub hidden: Vec<f32>,
     pos: usize,
 }
 
@@ -33,6 +36,20 @@ pub struct Minibatch {
     pub log_probs: Vec<f32>,
     pub advantages: Vec<f32>,
     pub returns: Vec<f32>,
+    /// Set by [`RolloutBuffer::gather_sequences`].
+    pub sequences: Option<SequenceBatch>,
+}
+
+/// The recurrent part of a minibatch of `count` sequences of `steps` steps (rows of the
+/// minibatch are time-major: row `k·count + j` is step `k` of sequence `j`).
+#[derive(Debug, Clone)]
+pub struct SequenceBatch {
+    pub count: usize,
+    pub steps: usize,
+    /// The state at each sequence's first step (`count` rows).
+    pub hidden: Vec<f32>,
+    /// Episode starts, time-major, 0/1.
+    pub starts: Vec<f32>,
 }
 
 impl RolloutBuffer {
@@ -51,6 +68,7 @@ impl RolloutBuffer {
             log_probs: vec![0.0; n],
             advantages: vec![0.0; n],
             returns: vec![0.0; n],
+            hidden: Vec::new(),
             pos: 0,
         }
     }
@@ -130,6 +148,53 @@ impl RolloutBuffer {
         }
     }
 
+    /// Stores the recurrent state of the step about to be added (all environments' rows of
+    /// `Hidden::to_host`); call before [`add`](Self::add).
+    pub fn add_hidden(&mut self, rows: &[f32]) {
+        let len = rows.len();
+        if self.hidden.len() != self.n_steps * len {
+            self.hidden = vec![0.0; self.n_steps * len];
+        }
+        self.hidden[self.pos * len..(self.pos + 1) * len].copy_from_slice(rows);
+    }
+
+    /// A shuffled list of the sequences of `len` steps (each env's rollout cut at multiples
+    /// of `len`), as flat env-major indices of their first steps.
+    pub fn sequence_permutation(&self, len: usize, rng: &mut ChaCha8Rng) -> Vec<usize> {
+        let mut firsts: Vec<usize> = (0..self.n_envs)
+            .flat_map(|e| (0..self.n_steps / len.max(1)).map(move |k| e * self.n_steps + k * len))
+            .collect();
+        firsts.shuffle(rng);
+        firsts
+    }
+
+    /// Gathers sequences of `len` steps starting at the flat env-major indices `firsts`,
+    /// time-major, with the state stored at each first step and the episode-start mask.
+    pub fn gather_sequences(&self, firsts: &[usize], len: usize) -> Minibatch {
+        let idx: Vec<usize> = (0..len)
+            .flat_map(|k| firsts.iter().map(move |&f| f + k))
+            .collect();
+        let mut mb = self.gather(&idx);
+        let row = self.hidden.len() / self.len().max(1);
+        let mut hidden = Vec::with_capacity(firsts.len() * row);
+        for &f in firsts {
+            let (env, step) = (f / self.n_steps, f % self.n_steps);
+            let i = step * self.n_envs + env;
+            hidden.extend_from_slice(&self.hidden[i * row..(i + 1) * row]);
+        }
+        let starts = idx
+            .iter()
+            .map(|&k| self.episode_starts[(k % self.n_steps) * self.n_envs + k / self.n_steps])
+            .collect();
+        mb.sequences = Some(SequenceBatch {
+            count: firsts.len(),
+            steps: len,
+            hidden,
+            starts,
+        });
+        mb
+    }
+
     /// A new permutation of SB3's flat env-major indices (k = env · n_steps + step).
     pub fn permutation(&self, rng: &mut ChaCha8Rng) -> Vec<usize> {
         let mut idx: Vec<usize> = (0..self.len()).collect();
@@ -149,6 +214,7 @@ impl RolloutBuffer {
             log_probs: Vec::with_capacity(idx.len()),
             advantages: Vec::with_capacity(idx.len()),
             returns: Vec::with_capacity(idx.len()),
+            sequences: None,
         };
         for (r, &k) in idx.iter().enumerate() {
             let (env, step) = (k / self.n_steps, k % self.n_steps);

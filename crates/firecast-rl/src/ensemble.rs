@@ -136,6 +136,11 @@ pub fn run_policies(
                 })
             })
             .collect::<Result<_, RlError>>()?;
+        // Recurrent policies' states, one row per run of the chunk (each run is one episode).
+        let mut hiddens: Vec<_> = policies
+            .iter()
+            .map(|p| p.policy.initial_hidden(ks.len()))
+            .collect();
         loop {
             // Per run of this chunk: its action this step (None: ended).
             let mut actions: Vec<Option<u8>> = vec![None; ks.len()];
@@ -162,7 +167,15 @@ pub fn run_policies(
                 if let Some(n) = &p.normalize {
                     n.normalize_obs(&mut obs.vector);
                 }
-                let acts = policy_actions(&p.policy, &obs, true, &mut rng);
+                let acts = match &mut hiddens[g] {
+                    Some(all) => {
+                        let mut sub = all.select(&rows);
+                        let acts = policy_actions(&p.policy, &obs, Some(&mut sub), true, &mut rng);
+                        all.scatter(&rows, &sub);
+                        acts
+                    }
+                    None => policy_actions(&p.policy, &obs, None, true, &mut rng),
+                };
                 for (&i, a) in rows.iter().zip(acts) {
                     actions[i] = Some(a);
                 }

@@ -246,6 +246,8 @@ fn run_ppo(cores: &[EnvCore], agent: &EnsemblePolicy, cfg: &EvalConfig) -> Resul
         .collect();
     let mut done: Vec<Option<Raw>> = (0..n).map(|_| None).collect();
     let il = space.image_len();
+    // A recurrent policy's state of every fire (each fire is one episode, from zero).
+    let mut hidden = policy.initial_hidden(n);
     loop {
         let active: Vec<usize> = (0..n).filter(|&f| done[f].is_none()).collect();
         if active.is_empty() {
@@ -271,7 +273,15 @@ fn run_ppo(cores: &[EnvCore], agent: &EnsemblePolicy, cfg: &EvalConfig) -> Resul
         if let Some(norm) = &agent.normalize {
             norm.normalize_obs(&mut obs.vector);
         }
-        let logp = policy_log_probs(policy, &obs);
+        let logp = match &mut hidden {
+            Some(all) => {
+                let mut rows = all.select(&active);
+                let logp = policy_log_probs(policy, &obs, Some(&mut rows));
+                all.scatter(&active, &rows);
+                logp
+            }
+            None => policy_log_probs(policy, &obs, None),
+        };
         let actions: Vec<u8> = logp
             .chunks(policy.num_actions)
             .zip(&active)

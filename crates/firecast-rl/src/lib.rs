@@ -28,6 +28,8 @@ pub mod stage;
 pub mod train;
 
 pub use error::RlError;
+/// The torch device type, for callers that do not link `tch` themselves.
+pub use tch::Device;
 
 /// Parses `auto`, `cpu`, `cuda` or `cuda:N` (see [`firecast_learn::parse_device`]).
 pub fn parse_device(s: &str) -> Result<tch::Device, RlError> {

@@ -48,6 +48,78 @@ pub struct PolicyConfig {
     /// wherever the helicopter is.
     #[serde(skip_serializing_if = "View::is_map")]
     pub view: View,
+    /// How the `compact` policy remembers: the environment's frame stack (`frames`), or an
+    /// LSTM over the newest frame (`lstm`: recurrent PPO, trained on sequences of
+    /// [`SEQUENCE`] steps from the states the rollout stored).
+    #[serde(skip_serializing_if = "Memory::is_frames")]
+    pub memory: Memory,
+}
+
+/// What the compact policy remembers the fire's past with.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Memory {
+    /// All frames of the observation's stack.
+    #[default]
+    Frames,
+    /// The newest frame and an LSTM (hidden size 256) after the extractor.
+    Lstm,
+}
+
+impl Memory {
+    fn is_frames(&self) -> bool {
+        *self == Memory::Frames
+    }
+}
+
+/// Steps per training sequence of a recurrent policy: minibatches are `batch_size / SEQUENCE`
+/// sequences, each replayed from the LSTM state stored at its first step.
+pub const SEQUENCE: usize = 16;
+
+/// LSTM state `(h, c)` of `n` environments, each `[n, hidden]` on the policy's device.
+#[derive(Debug)]
+pub struct Hidden {
+    pub h: Tensor,
+    pub c: Tensor,
+}
+
+impl Hidden {
+    /// Rows `rows` (a sub-batch).
+    pub fn select(&self, rows: &[usize]) -> Self {
+        let idx = index_tensor(rows, self.h.device());
+        Self {
+            h: self.h.index_select(0, &idx),
+            c: self.c.index_select(0, &idx),
+        }
+    }
+
+    /// Writes `other`'s rows into rows `rows`.
+    pub fn scatter(&mut self, rows: &[usize], other: &Hidden) {
+        let idx = index_tensor(rows, self.h.device());
+        let _ = self.h.index_copy_(0, &idx, &other.h);
+        let _ = self.c.index_copy_(0, &idx, &other.c);
+    }
+
+    /// `[n, 2·hidden]` on the host (h then c per row), for the rollout buffer and checkpoints.
+    pub fn to_host(&self) -> Vec<f32> {
+        let both = Tensor::cat(&[&self.h, &self.c], 1).to_device(Device::Cpu);
+        Vec::<f32>::try_from(both.flatten(0, -1)).unwrap_or_default()
+    }
+
+    /// The inverse of [`to_host`](Self::to_host).
+    pub fn from_host(data: &[f32], n: usize, device: Device) -> Self {
+        let both = Tensor::from_slice(data).view([n as i64, -1]).to_device(device);
+        let hidden = both.size()[1] / 2;
+        Self {
+            h: both.narrow(1, 0, hidden),
+            c: both.narrow(1, hidden, hidden),
+        }
+    }
+}
+
+fn index_tensor(rows: &[usize], device: Device) -> Tensor {
+    let rows: Vec<i64> = rows.iter().map(|&r| r as i64).collect();
+    Tensor::from_slice(&rows).to_device(device)
 }
 
 /// The frame of reference of the image the extractor sees.
@@ -78,6 +150,7 @@ impl Default for PolicyConfig {
             ortho_init: true,
             batch_norm: false,
             view: View::Map,
+            memory: Memory::Frames,
         }
     }
 }
@@ -328,6 +401,9 @@ enum Extractor {
         pooled: [i64; 2],
         vector_net: nn::Linear,
         fuse: nn::Linear,
+        /// `memory: lstm`: the LSTM after `fuse` (the image is then the newest frame and the
+        /// helicopter channel).
+        lstm: Option<Recurrent>,
     },
     Paper {
         trunk: Trunk,
@@ -371,6 +447,12 @@ impl Policy {
                 "`helicopter` is a view of the `compact` extractor",
             ));
         }
+        if config.memory == Memory::Lstm && config.kind != PolicyKind::Compact {
+            return Err(RlError::config(
+                "policy.memory",
+                "`lstm` is a memory of the `compact` extractor",
+            ));
+        }
         let vs = nn::VarStore::new(device);
         let root = vs.root();
         let ortho = config.ortho_init;
@@ -396,9 +478,11 @@ impl Policy {
                 };
                 let (c, hw) = (c as i64, [h as i64, w as i64]);
                 if config.kind == PolicyKind::Compact {
+                    let lstm = config.memory == Memory::Lstm;
+                    // With an LSTM the image is the newest frame and the helicopter channel.
                     let (trunk, ch) = Trunk::new(
                         &fx / "cnn",
-                        c,
+                        if lstm { c.min(2) } else { c },
                         hw,
                         [16, 32, 8, 16, 8, 16],
                         config.batch_norm,
@@ -414,6 +498,18 @@ impl Policy {
                         COMPACT_FEATURES,
                         g(sqrt2),
                     );
+                    // PyTorch's default LSTM init (U(±1/√h)), as sb3-contrib's RecurrentPPO keeps.
+                    let lstm = lstm.then(|| {
+                        Recurrent::new(
+                            &fx / "lstm",
+                            Cell::Lstm,
+                            COMPACT_FEATURES,
+                            COMPACT_FEATURES,
+                            1,
+                            false,
+                            0.0,
+                        )
+                    });
                     (
                         Extractor::Compact {
                             trunk,
@@ -421,6 +517,7 @@ impl Policy {
                             pooled,
                             vector_net,
                             fuse,
+                            lstm,
                         },
                         COMPACT_FEATURES,
                     )
@@ -502,8 +599,17 @@ impl Policy {
                 pooled,
                 vector_net,
                 fuse,
+                lstm,
             } => {
                 let img = image_float(obs);
+                let img = match lstm {
+                    // The newest frame and the helicopter channel.
+                    Some(_) => {
+                        let c = img.size()[1];
+                        img.narrow(1, c - 2, 2)
+                    }
+                    None => img,
+                };
                 let img = match self.config.view {
                     View::Map => img,
                     View::Helicopter => centred_on_helicopter(&img),
@@ -548,7 +654,8 @@ impl Policy {
         }
     }
 
-    /// Action logits `[n, actions]` and values `[n]`.
+    /// Action logits `[n, actions]` and values `[n]` of a policy without memory (a recurrent
+    /// one would run from a zero state: use [`sequence`](Self::sequence)).
     pub fn forward(&self, obs: &ObsTensors, train: bool) -> (Tensor, Tensor) {
         let f = self.features(obs, train);
         let logits = self.action_net.forward(&self.pi.forward(&f));
@@ -559,6 +666,74 @@ impl Policy {
     pub fn values(&self, obs: &ObsTensors) -> Tensor {
         let f = self.features(obs, false);
         self.value_net.forward(&self.vf.forward(&f)).squeeze_dim(-1)
+    }
+
+    fn lstm(&self) -> Option<&Recurrent> {
+        match &self.extractor {
+            Extractor::Compact { lstm, .. } => lstm.as_ref(),
+            _ => None,
+        }
+    }
+
+    /// Whether the policy carries a state from step to step ([`Memory::Lstm`]).
+    pub fn is_recurrent(&self) -> bool {
+        self.lstm().is_some()
+    }
+
+    /// The zero state of `n` environments, if the policy is recurrent.
+    pub fn initial_hidden(&self, n: usize) -> Option<Hidden> {
+        let hidden = COMPACT_FEATURES;
+        self.lstm().map(|_| {
+            let z = Tensor::zeros([n as i64, hidden], (Kind::Float, self.device()));
+            Hidden {
+                h: z.shallow_clone(),
+                c: z.zeros_like(),
+            }
+        })
+    }
+
+    /// `t` steps of `n` environments, time-major (row `k·n + i` is step `k` of environment
+    /// `i`), from `hidden`: before step `k`, the state of every environment whose
+    /// `starts[k·n + i]` is 1 is reset to zero (a new episode), as the rollout did. Returns the
+    /// logits `[t·n, actions]`, the values `[t·n]` and the state after the last step. Without
+    /// memory it is [`forward`](Self::forward) and `hidden` comes back unchanged.
+    pub fn sequence(
+        &self,
+        obs: &ObsTensors,
+        hidden: &Hidden,
+        starts: &[f32],
+        t: usize,
+        train: bool,
+    ) -> (Tensor, Tensor, Hidden) {
+        let f = self.features(obs, train);
+        let Some(lstm) = self.lstm() else {
+            let logits = self.action_net.forward(&self.pi.forward(&f));
+            let values = self.value_net.forward(&self.vf.forward(&f)).squeeze_dim(-1);
+            let same = Hidden {
+                h: hidden.h.shallow_clone(),
+                c: hidden.c.shallow_clone(),
+            };
+            return (logits, values, same);
+        };
+        let n = hidden.h.size()[0];
+        let x = f.view([t as i64, n, -1]);
+        let keep = Tensor::from_slice(starts)
+            .to_device(f.device())
+            .neg()
+            .g_add_scalar(1.0)
+            .view([t as i64, n, 1]);
+        let (mut h, mut c) = (hidden.h.shallow_clone(), hidden.c.shallow_clone());
+        let mut outs = Vec::with_capacity(t);
+        for k in 0..t as i64 {
+            let m = keep.get(k);
+            let (h2, c2) = lstm.step(&x.get(k), &(&h * &m), &(&c * &m));
+            outs.push(h2.shallow_clone());
+            (h, c) = (h2, c2);
+        }
+        let out = Tensor::cat(&outs, 0);
+        let logits = self.action_net.forward(&self.pi.forward(&out));
+        let values = self.value_net.forward(&self.vf.forward(&out)).squeeze_dim(-1);
+        (logits, values, Hidden { h, c })
     }
 
     pub fn parameter_count(&self) -> i64 {

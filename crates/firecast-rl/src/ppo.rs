@@ -6,7 +6,7 @@ use tch::{Kind, Tensor};
 
 use crate::RlError;
 use crate::normalize::NormalizeConfig;
-use crate::policy::{ObsTensors, Policy};
+use crate::policy::{Hidden, ObsTensors, Policy};
 
 /// A constant or linearly decaying value of the remaining progress p (1 → 0):
 /// `end + (start − end)·p` (RL-Zoo's `lin_<v>` is `{linear: v}`, ending at 0).
@@ -284,12 +284,24 @@ impl PpoConfig {
 /// numbers on the host (see [`loss_gradients`]).
 #[derive(Debug)]
 pub struct PpoMinibatch {
+    /// Rows are time-major sequences replayed through a recurrent policy (`None`: single
+    /// transitions).
+    pub sequences: Option<Sequences>,
     pub obs: ObsTensors,
     pub actions: Vec<u8>,
     pub old_values: Vec<f32>,
     pub old_log_probs: Vec<f32>,
     pub advantages: Vec<f32>,
     pub returns: Vec<f32>,
+}
+
+/// Sequences of a recurrent minibatch: `steps` steps of `hidden.h.size()[0]` sequences, the
+/// state stored at each sequence's first step, and the episode-start mask (time-major).
+#[derive(Debug)]
+pub struct Sequences {
+    pub hidden: Hidden,
+    pub starts: Vec<f32>,
+    pub steps: usize,
 }
 
 /// The loss settings of one update (SB3's names).
@@ -334,7 +346,13 @@ pub fn log_prob_entropy(logits: &Tensor, actions: &Tensor) -> (Tensor, Tensor) {
 /// same numbers, to the bit, as autograd through SB3's expression, without the ~130 small
 /// tensor operations of that graph.
 pub fn ppo_losses(policy: &Policy, mb: &PpoMinibatch, settings: &LossSettings) -> Losses {
-    let (logits, values) = policy.forward(&mb.obs, true);
+    let (logits, values) = match &mb.sequences {
+        None => policy.forward(&mb.obs, true),
+        Some(seq) => {
+            let (logits, values, _) = policy.sequence(&mb.obs, &seq.hidden, &seq.starts, seq.steps, true);
+            (logits, values)
+        }
+    };
     let (out, g_logits, g_values) = loss_gradients(&logits, &values, mb, settings);
     let surrogate = (&logits * g_logits).sum(Kind::Float) + (&values * g_values).sum(Kind::Float);
     Losses {
@@ -712,6 +730,7 @@ mod tests {
                 .collect::<Vec<f32>>()
         };
         PpoMinibatch {
+            sequences: None,
             obs: ObsTensors {
                 image: None,
                 vector: Tensor::zeros([n as i64, 1], (Kind::Float, tch::Device::Cpu)),
@@ -793,6 +812,7 @@ mod tests {
             let values = Tensor::randn([n], opts);
             let v = |t: Tensor| Vec::<f32>::try_from(t).expect("tensor");
             let mb = PpoMinibatch {
+                sequences: None,
                 obs: ObsTensors {
                     image: None,
                     vector: Tensor::zeros([n, 1], opts),

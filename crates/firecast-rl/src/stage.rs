@@ -11,8 +11,10 @@ use crate::run::{RunSink, SUMMARY_FILE, TrainSummary};
 use crate::spec::{EnvSpec, FiresSpec, TrainSpec};
 
 /// Version of the `rl.train` kind; also keys the checkpoint folders in `.firecast/rl/`, so a
-/// resume never continues a checkpoint that other code made.
-pub const TRAIN_VERSION: u32 = 1;
+/// resume never continues a checkpoint that other code made. 2: recurrent weights lead
+/// Adam's flat buffer in cuDNN's order (the `paper` policy's gradient-norm sums run in
+/// another order).
+pub const TRAIN_VERSION: u32 = 2;
 
 fn stage_error(e: RlError) -> StageError {
     StageError::msg(e.to_string())

@@ -15,8 +15,8 @@ use crate::RlError;
 use crate::buffer::{Minibatch, RolloutBuffer};
 use crate::env::{ObsBatch, ObsSpace, VecEnvironment};
 use crate::normalize::VecNormalize;
-use crate::policy::{ObsTensors, Policy, PolicyConfig};
-use crate::ppo::{Adam, LossSettings, PpoConfig, PpoMinibatch, log_prob_entropy, ppo_losses};
+use crate::policy::{Hidden, ObsTensors, Policy, PolicyConfig, SEQUENCE};
+use crate::ppo::{Adam, LossSettings, PpoConfig, PpoMinibatch, Sequences, log_prob_entropy, ppo_losses};
 use crate::rng::RngState;
 
 /// Finished episodes remembered for `rollout/ep_*_mean` (SB3's `stats_window_size`).
@@ -62,6 +62,9 @@ struct TrainerState {
     running: Vec<(f64, u64)>,
     episodes: VecDeque<EpisodeRecord>,
     env: serde_json::Value,
+    /// A recurrent policy's state for the next step (`Hidden::to_host`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    hidden: Option<Vec<f32>>,
 }
 
 const CHECKPOINT_FORMAT: u32 = 1;
@@ -92,6 +95,9 @@ pub struct Trainer {
     /// Every finished episode of this process (not only the window).
     pub all_episodes: Vec<EpisodeRecord>,
     last_checkpoint: Option<PathBuf>,
+    /// A recurrent policy's state for the next step of each environment (before the reset
+    /// of those whose episode starts there).
+    hidden: Option<Hidden>,
 }
 
 impl Trainer {
@@ -115,6 +121,8 @@ impl Trainer {
         let space = env.space();
         let num_actions = env.num_actions();
         let policy = firecast_learn::with_seed(seed, || Policy::new(policy, space, num_actions, device))?;
+        check_sequences(&policy, &ppo)?;
+        let hidden = policy.initial_hidden(ppo.n_envs);
         let (param_names, params) = trainable(&policy);
         let adam = Adam::new(params, ppo.adam_eps);
         let normalize = VecNormalize::new(ppo.normalize.clone(), ppo.gamma, space.vector, ppo.n_envs);
@@ -138,6 +146,7 @@ impl Trainer {
             episodes: VecDeque::new(),
             all_episodes: Vec::new(),
             last_checkpoint: None,
+            hidden,
         };
         t.env.observe(&mut t.last_obs);
         t.normalize.observe(&mut t.last_obs.vector);
@@ -225,8 +234,18 @@ impl Trainer {
     /// with this trainer's stream, or greedy.
     fn act(&mut self, obs: &ObsBatch, deterministic: bool) -> (Vec<u8>, Vec<f32>, Vec<f32>) {
         let device = self.policy.device();
-        let (logits, values) =
-            tch::no_grad(|| self.policy.forward(&ObsTensors::from_batch(obs, device), false));
+        let (logits, values) = match &self.hidden {
+            None => tch::no_grad(|| self.policy.forward(&ObsTensors::from_batch(obs, device), false)),
+            Some(hidden) => {
+                let starts = as_f32(&self.last_episode_starts);
+                let (logits, values, next) = tch::no_grad(|| {
+                    self.policy
+                        .sequence(&ObsTensors::from_batch(obs, device), hidden, &starts, 1, false)
+                });
+                self.hidden = Some(next);
+                (logits, values)
+            }
+        };
         let to_cpu = |t: Tensor| {
             if device == Device::Cpu {
                 t
@@ -268,6 +287,10 @@ impl Trainer {
         while !self.buffer.is_full() {
             // Moved out (not cloned) while `act` borrows the trainer; the buffers rotate.
             let obs = std::mem::replace(&mut self.last_obs, ObsBatch::new(self.env.space(), 0));
+            // The state this step starts from (before the resets of new episodes).
+            if let Some(h) = &self.hidden {
+                self.buffer.add_hidden(&h.to_host());
+            }
             let (actions, values, log_probs) = self.act(&obs, false);
             if let Err(e) = self.env.step(&actions) {
                 self.last_obs = obs;
@@ -317,7 +340,17 @@ impl Trainer {
                 }
                 self.normalize.normalize_obs(&mut term.vector);
                 let device = self.policy.device();
-                let v = tch::no_grad(|| self.policy.values(&ObsTensors::from_batch(&term, device)));
+                let term = ObsTensors::from_batch(&term, device);
+                let v = tch::no_grad(|| match &self.hidden {
+                    None => self.policy.values(&term),
+                    // One more step from the state after the episode's last.
+                    Some(h) => {
+                        let starts = vec![0.0; truncated.len()];
+                        self.policy
+                            .sequence(&term, &h.select(&truncated), &starts, 1, false)
+                            .1
+                    }
+                });
                 let v: Vec<f32> = Vec::<f32>::try_from(v.to_device(Device::Cpu)).unwrap_or_default();
                 for (row, &i) in truncated.iter().enumerate() {
                     rewards[i] += self.ppo.gamma as f32 * v[row];
@@ -335,9 +368,13 @@ impl Trainer {
             self.last_episode_starts.copy_from_slice(&dones);
         }
         let device = self.policy.device();
-        let last_values = tch::no_grad(|| {
-            self.policy
-                .values(&ObsTensors::from_batch(&self.last_obs, device))
+        let last = ObsTensors::from_batch(&self.last_obs, device);
+        let last_values = tch::no_grad(|| match &self.hidden {
+            None => self.policy.values(&last),
+            Some(h) => {
+                let starts = as_f32(&self.last_episode_starts);
+                self.policy.sequence(&last, h, &starts, 1, false).1
+            }
         });
         let last_values: Vec<f32> =
             Vec::<f32>::try_from(last_values.to_device(Device::Cpu)).unwrap_or_default();
@@ -347,8 +384,14 @@ impl Trainer {
     }
 
     fn minibatch(&self, mb: Minibatch) -> PpoMinibatch {
+        let device = self.policy.device();
         PpoMinibatch {
-            obs: ObsTensors::from_batch(&mb.obs, self.policy.device()),
+            sequences: mb.sequences.map(|s| Sequences {
+                hidden: Hidden::from_host(&s.hidden, s.count, device),
+                starts: s.starts,
+                steps: s.steps,
+            }),
+            obs: ObsTensors::from_batch(&mb.obs, device),
             actions: mb.actions,
             old_values: mb.values,
             old_log_probs: mb.log_probs,
@@ -374,9 +417,23 @@ impl Trainer {
         let mut continue_training = true;
         for _epoch in 0..self.ppo.n_epochs {
             approx_kls.clear();
-            let perm = self.buffer.permutation(&mut self.rng);
-            for chunk in perm.chunks(self.ppo.batch_size) {
-                let mb = self.minibatch(self.buffer.gather(chunk));
+            // Without memory: SB3's shuffled transitions. With an LSTM: shuffled sequences of
+            // SEQUENCE steps, `batch_size / SEQUENCE` to a minibatch, time-major.
+            let batches: Vec<Vec<usize>> = if self.hidden.is_some() {
+                let seqs = self.buffer.sequence_permutation(SEQUENCE, &mut self.rng);
+                seqs.chunks(self.ppo.batch_size / SEQUENCE)
+                    .map(<[usize]>::to_vec)
+                    .collect()
+            } else {
+                let perm = self.buffer.permutation(&mut self.rng);
+                perm.chunks(self.ppo.batch_size).map(<[usize]>::to_vec).collect()
+            };
+            for chunk in &batches {
+                let mb = if self.hidden.is_some() {
+                    self.minibatch(self.buffer.gather_sequences(chunk, SEQUENCE))
+                } else {
+                    self.minibatch(self.buffer.gather(chunk))
+                };
                 let losses = ppo_losses(&self.policy, &mb, &settings);
                 let loss_value = losses.loss_value;
                 if !loss_value.is_finite() {
@@ -478,6 +535,7 @@ impl Trainer {
             running: self.running.clone(),
             episodes: self.episodes.clone(),
             env: self.env.snapshot(),
+            hidden: self.hidden.as_ref().map(Hidden::to_host),
         };
         let json = serde_json::to_vec_pretty(&state).map_err(|e| RlError::Checkpoint {
             path: dir.to_path_buf(),
@@ -569,6 +627,13 @@ impl Trainer {
         }
         adam.step = state.adam_step;
         env.restore(&state.env)?;
+        let hidden = match (policy.is_recurrent(), &state.hidden) {
+            (false, _) => None,
+            (true, Some(h)) if h.len() == ppo.n_envs * 2 * policy_hidden_size(&policy) => {
+                Some(Hidden::from_host(h, ppo.n_envs, device))
+            }
+            (true, _) => return Err(bad(format!("{STATE_FILE} lacks the recurrent policy's state"))),
+        };
         let space = state.space;
         let mut t = Self {
             buffer: RolloutBuffer::new(ppo.n_steps, ppo.n_envs, space),
@@ -589,6 +654,7 @@ impl Trainer {
             episodes: state.episodes,
             all_episodes: Vec::new(),
             last_checkpoint: Some(dir.to_path_buf()),
+            hidden,
         };
         t.env.observe(&mut t.last_obs);
         // The statistics already include these observations: normalise without updating.
@@ -613,6 +679,35 @@ impl Trainer {
     }
 }
 
+/// 0/1 as f32 (episode starts as the recurrent policy's reset mask).
+fn as_f32(flags: &[bool]) -> Vec<f32> {
+    flags.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect()
+}
+
+/// Hidden size of a recurrent policy (0 without memory).
+fn policy_hidden_size(policy: &Policy) -> usize {
+    policy
+        .initial_hidden(1)
+        .map_or(0, |h| h.h.size().get(1).copied().unwrap_or(0) as usize)
+}
+
+/// A recurrent policy trains on whole sequences: the rollout and the minibatch must hold a
+/// whole number of them.
+fn check_sequences(policy: &Policy, ppo: &PpoConfig) -> Result<(), RlError> {
+    if !policy.is_recurrent() {
+        return Ok(());
+    }
+    for (key, v) in [("ppo.n_steps", ppo.n_steps), ("ppo.batch_size", ppo.batch_size)] {
+        if !v.is_multiple_of(SEQUENCE) {
+            return Err(RlError::config(
+                key,
+                format!("{v} is not a multiple of {SEQUENCE}, the sequence length of `memory: lstm`"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Trainable variables sorted by name.
 fn trainable(policy: &Policy) -> (Vec<String>, Vec<Tensor>) {
     let mut vars: Vec<(String, Tensor)> = policy
@@ -621,8 +716,35 @@ fn trainable(policy: &Policy) -> (Vec<String>, Vec<Tensor>) {
         .into_iter()
         .filter(|(_, t)| t.requires_grad())
         .collect();
-    vars.sort_by(|a, b| a.0.cmp(&b.0));
+    vars.sort_by_cached_key(|(name, _)| flat_order(name));
     vars.into_iter().unzip()
+}
+
+/// Where a parameter goes in Adam's flat buffer: recurrent layers first, each packed as
+/// cuDNN packs them (every layer's and direction's `weight_ih`, `weight_hh`, then the biases
+/// in the same order), so on CUDA they stay the one chunk cuDNN takes as it is (see
+/// `firecast_learn::layers::Recurrent`); everything else after them, by name.
+fn flat_order(name: &str) -> (u8, String, u8, u32, u8, u8) {
+    let (prefix, leaf) = name.rsplit_once('.').unwrap_or(("", name));
+    let (leaf, reverse) = match leaf.strip_suffix("_reverse") {
+        Some(l) => (l, 1),
+        None => (leaf, 0),
+    };
+    let recurrent = [
+        ("weight_ih", 0, 0),
+        ("weight_hh", 0, 1),
+        ("bias_ih", 1, 0),
+        ("bias_hh", 1, 1),
+    ]
+    .iter()
+    .find_map(|&(kind, bias, hh)| {
+        let layer = leaf.strip_prefix(kind)?.strip_prefix("_l")?.parse::<u32>().ok()?;
+        Some((bias, layer, hh))
+    });
+    match recurrent {
+        Some((bias, layer, hh)) => (0, prefix.to_string(), bias, layer, reverse, hh),
+        None => (1, name.to_string(), 0, 0, 0, 0),
+    }
 }
 
 /// 1 − Var(y − ŷ)/Var(y) (population variances); NaN when Var(y) = 0 (SB3).
@@ -668,17 +790,40 @@ fn sample(logp: &[f32], u: f64) -> usize {
 
 /// Greedy or sampled actions from a trained policy (evaluation), without a trainer; rows
 /// draw from `rng` in order when sampling.
-pub fn policy_actions(policy: &Policy, obs: &ObsBatch, deterministic: bool, rng: &mut ChaCha8Rng) -> Vec<u8> {
-    policy_log_probs(policy, obs)
+pub fn policy_actions(
+    policy: &Policy,
+    obs: &ObsBatch,
+    hidden: Option<&mut Hidden>,
+    deterministic: bool,
+    rng: &mut ChaCha8Rng,
+) -> Vec<u8> {
+    policy_log_probs(policy, obs, hidden)
         .chunks(policy.num_actions)
         .map(|row| pick_action(row, deterministic, rng))
         .collect()
 }
 
-/// Action log-probabilities of a batch, `n × num_actions` row-major.
-pub fn policy_log_probs(policy: &Policy, obs: &ObsBatch) -> Vec<f32> {
+/// Action log-probabilities of a batch, `n × num_actions` row-major. A recurrent policy
+/// steps from `hidden` (one row per observation; a new episode's row is zero) and leaves the
+/// next state there; without `hidden` it starts from zero.
+pub fn policy_log_probs(policy: &Policy, obs: &ObsBatch, hidden: Option<&mut Hidden>) -> Vec<f32> {
     let device = policy.device();
-    let logits = tch::no_grad(|| policy.forward(&ObsTensors::from_batch(obs, device), false).0);
+    let obs_t = ObsTensors::from_batch(obs, device);
+    let logits = tch::no_grad(|| match (policy.is_recurrent(), hidden) {
+        (false, _) => policy.forward(&obs_t, false).0,
+        (true, Some(h)) => {
+            let (logits, _, next) = policy.sequence(&obs_t, h, &vec![0.0; obs.n], 1, false);
+            *h = next;
+            logits
+        }
+        (true, None) => {
+            let zero = policy.initial_hidden(obs.n);
+            zero.map_or_else(
+                || policy.forward(&obs_t, false).0,
+                |z| policy.sequence(&obs_t, &z, &vec![0.0; obs.n], 1, false).0,
+            )
+        }
+    });
     Vec::<f32>::try_from(
         logits
             .log_softmax(-1, Kind::Float)
@@ -704,4 +849,41 @@ pub fn evaluate_actions(policy: &Policy, obs: &ObsBatch, actions: &[u8]) -> (Ten
     let a = Tensor::from_slice(actions).to_kind(Kind::Int64).to_device(device);
     let (lp, h) = log_prob_entropy(&logits, &a);
     (values, lp, h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::flat_order;
+
+    #[test]
+    fn recurrent_weights_lead_adams_buffer_in_cudnn_order() {
+        let mut names = vec![
+            "pi_features_extractor.fusion.weight",
+            "features_extractor.lstm.bias_hh_l1",
+            "features_extractor.lstm.weight_ih_l1",
+            "features_extractor.lstm.bias_ih_l0",
+            "features_extractor.lstm.weight_hh_l0",
+            "action_net.bias",
+            "features_extractor.lstm.weight_ih_l0",
+            "features_extractor.lstm.bias_hh_l0",
+            "features_extractor.lstm.weight_hh_l1",
+            "features_extractor.lstm.bias_ih_l1",
+        ];
+        names.sort_by_cached_key(|n| flat_order(n));
+        assert_eq!(
+            names,
+            [
+                "features_extractor.lstm.weight_ih_l0",
+                "features_extractor.lstm.weight_hh_l0",
+                "features_extractor.lstm.weight_ih_l1",
+                "features_extractor.lstm.weight_hh_l1",
+                "features_extractor.lstm.bias_ih_l0",
+                "features_extractor.lstm.bias_hh_l0",
+                "features_extractor.lstm.bias_ih_l1",
+                "features_extractor.lstm.bias_hh_l1",
+                "action_net.bias",
+                "pi_features_extractor.fusion.weight",
+            ]
+        );
+    }
 }

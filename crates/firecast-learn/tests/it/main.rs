@@ -40,3 +40,41 @@ fn cuda_backend_from_the_torch_wheel_loads() {
         "dlopen(libtorch_cuda.so) failed"
     );
 }
+
+#[test]
+fn recurrent_weights_are_one_buffer_in_cudnn_order() {
+    use firecast_learn::layers::{Cell, Recurrent};
+    let vs = tch::nn::VarStore::new(tch::Device::Cpu);
+    let lstm = Recurrent::new(&vs.root() / "lstm", Cell::Lstm, 5, 3, 2, true, 0.0);
+    let params = lstm.parameters();
+    assert_eq!(params.len(), 2 * 2 * 4);
+    // One contiguous chunk as cuDNN packs it: every weight (by layer, direction, ih/hh),
+    // then every bias in the same order.
+    let packed: Vec<&Tensor> = (0..params.len())
+        .filter(|k| k % 4 < 2)
+        .chain((0..params.len()).filter(|k| k % 4 >= 2))
+        .map(|k| &params[k])
+        .collect();
+    for pair in packed.windows(2) {
+        assert_eq!(
+            pair[1].data_ptr() as usize,
+            pair[0].data_ptr() as usize + pair[0].numel() * 4
+        );
+    }
+    // They are still the VarStore's variables, with PyTorch's names.
+    let vars = vs.variables();
+    let order = ["weight_ih_l0", "weight_hh_l0", "bias_ih_l0", "bias_hh_l0"];
+    for (k, leaf) in order.iter().enumerate() {
+        assert_eq!(
+            vars[&format!("lstm.{leaf}")].data_ptr(),
+            params[k].data_ptr(),
+            "{leaf}"
+        );
+    }
+    assert_eq!(vars["lstm.weight_ih_l0_reverse"].data_ptr(), params[4].data_ptr());
+    // And the layer trains through them.
+    let x = Tensor::randn([2, 4, 5], (Kind::Float, tch::Device::Cpu));
+    let (out, _) = lstm.forward(&x, true);
+    out.sum(Kind::Float).backward();
+    assert!(vars["lstm.weight_hh_l1"].grad().defined());
+}

@@ -27,7 +27,7 @@ fn evaluate(trainer: &Trainer, episodes: u64, seed: u64, deterministic: bool) ->
         let mut obs = ObsBatch::new(trainer.policy.space, 1);
         obs.vector.copy_from_slice(&env.obs());
         loop {
-            let a = policy_actions(&trainer.policy, &obs, deterministic, &mut rng)[0];
+            let a = policy_actions(&trainer.policy, &obs, None, deterministic, &mut rng)[0];
             let (o, r, te, tr) = env.step(a == 1);
             total += r;
             if te || tr {

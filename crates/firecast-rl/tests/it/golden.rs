@@ -234,6 +234,7 @@ fn ppo_losses_gradients_and_adam_match_sb3_train() {
             .map(|a| a.as_i64().expect("action"))
             .collect();
         let mb = PpoMinibatch {
+            sequences: None,
             obs: obs_tensors(&floats(&c["obs"]), obs_dim),
             actions: actions
                 .iter()

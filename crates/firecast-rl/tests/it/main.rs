@@ -4,4 +4,5 @@ mod cartpole;
 mod ensemble;
 mod golden;
 mod recordings;
+mod recurrent;
 mod tiny;
