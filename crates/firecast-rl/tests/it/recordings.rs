@@ -10,7 +10,7 @@ use firecast_rl::evaluate::{EvalConfig, EvalReport, PPO, action_seed, episode_se
 use firecast_rl::spec::FiresSpec;
 use tch::Device;
 
-use crate::tiny::tiny_run;
+use crate::tiny::{tiny_run, tiny_run_with};
 
 const FIRES: &str = r#"
 train:
@@ -188,4 +188,28 @@ fn evaluation_records_the_best_median_and_worst_ppo_episodes() {
     let report = evaluate(&run, &fires, &out, &off);
     assert!(report.recordings.is_empty());
     assert!(!out.join("recordings").exists());
+}
+
+#[test]
+fn a_recurrent_agent_replays_its_evaluated_episodes() {
+    // The batched evaluation carries each fire's LSTM state in its own row; the one-fire
+    // adapter carries its own: greedy and sampled, every episode must come out the same.
+    let tmp = tempfile::tempdir().expect("a temporary folder");
+    let policy = firecast_rl::policy::PolicyConfig {
+        kind: firecast_rl::policy::PolicyKind::Compact,
+        memory: firecast_rl::policy::Memory::Lstm,
+        ..Default::default()
+    };
+    let (run, fires) = tiny_run_with(tmp.path(), FIRES, Some(policy));
+    for deterministic in [true, false] {
+        let cfg = EvalConfig {
+            resamples: 50,
+            deterministic,
+            ..EvalConfig::default()
+        };
+        let out = tmp.path().join(format!("eval-{deterministic}"));
+        let report = evaluate(&run, &fires, &out, &cfg);
+        assert_eq!(report.recordings.len(), 3);
+        replay_all(&run, &fires, &report, &cfg);
+    }
 }

@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use firecast_rl::policy::PolicyConfig;
 use firecast_rl::run::RunSink;
 use firecast_rl::spec::{EnvSpec, PpoSpec, TrainSpec};
 use tch::Device;
@@ -14,6 +15,11 @@ impl RunSink for Quiet {}
 /// Writes `fires` (a fire file) into `dir`, trains the tiny run on it; returns the run
 /// folder and the fire file.
 pub(crate) fn tiny_run(dir: &Path, fires: &str) -> (PathBuf, PathBuf) {
+    tiny_run_with(dir, fires, None)
+}
+
+/// [`tiny_run`] with another policy (`None`: the default compact one).
+pub(crate) fn tiny_run_with(dir: &Path, fires: &str, policy: Option<PolicyConfig>) -> (PathBuf, PathBuf) {
     let fire_file = dir.join("fires.yaml");
     std::fs::write(&fire_file, fires).expect("writing the fire file");
     let overrides = serde_json::json!({
@@ -24,7 +30,7 @@ pub(crate) fn tiny_run(dir: &Path, fires: &str) -> (PathBuf, PathBuf) {
         name: "tiny".into(),
         description: None,
         env: EnvSpec::Helitack { fires: None },
-        policy: None,
+        policy,
         ppo: PpoSpec {
             preset: "paper".into(),
             overrides: overrides.as_object().cloned().unwrap_or_default(),
