@@ -23,7 +23,7 @@ use crate::helitack;
 use crate::normalize::VecNormalize;
 use crate::policy::{Policy, PolicyKind};
 use crate::run::TrainSummary;
-use crate::train::policy_actions;
+use crate::train::{pick_action, policy_log_probs_of};
 
 /// Runs stepped together at most; bounds memory for large ensembles (the chunking is fixed,
 /// so the output does not depend on the machine).
@@ -112,7 +112,7 @@ pub fn run_policies(
             ));
         }
     }
-    // Greedy actions draw nothing; the stream exists for policy_actions' signature.
+    // Greedy actions draw nothing; the stream exists for pick_action's signature.
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let il = space.image_len();
     let mut out = Vec::with_capacity(runs);
@@ -167,15 +167,10 @@ pub fn run_policies(
                 if let Some(n) = &p.normalize {
                     n.normalize_obs(&mut obs.vector);
                 }
-                let acts = match &mut hiddens[g] {
-                    Some(all) => {
-                        let mut sub = all.select(&rows);
-                        let acts = policy_actions(&p.policy, &obs, Some(&mut sub), true, &mut rng);
-                        all.scatter(&rows, &sub);
-                        acts
-                    }
-                    None => policy_actions(&p.policy, &obs, None, true, &mut rng),
-                };
+                let acts: Vec<u8> = policy_log_probs_of(&p.policy, &obs, hiddens[g].as_mut(), &rows)
+                    .chunks(p.policy.num_actions)
+                    .map(|row| pick_action(row, true, &mut rng))
+                    .collect();
                 for (&i, a) in rows.iter().zip(acts) {
                     actions[i] = Some(a);
                 }

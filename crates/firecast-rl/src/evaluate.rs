@@ -24,7 +24,7 @@ use crate::env::ObsBatch;
 use crate::helitack::{self, FireDraw, FireSet};
 use crate::policy::Policy;
 use crate::spec::FiresSpec;
-use crate::train::{POLICY_FILE, pick_action, policy_log_probs};
+use crate::train::{POLICY_FILE, pick_action, policy_log_probs_of};
 
 /// A statistic of (agent, baseline) pairs.
 type PairStat<'a> = &'a dyn Fn(&[(f64, f64)]) -> Option<f64>;
@@ -273,15 +273,7 @@ fn run_ppo(cores: &[EnvCore], agent: &EnsemblePolicy, cfg: &EvalConfig) -> Resul
         if let Some(norm) = &agent.normalize {
             norm.normalize_obs(&mut obs.vector);
         }
-        let logp = match &mut hidden {
-            Some(all) => {
-                let mut rows = all.select(&active);
-                let logp = policy_log_probs(policy, &obs, Some(&mut rows));
-                all.scatter(&active, &rows);
-                logp
-            }
-            None => policy_log_probs(policy, &obs, None),
-        };
+        let logp = policy_log_probs_of(policy, &obs, hidden.as_mut(), &active);
         let actions: Vec<u8> = logp
             .chunks(policy.num_actions)
             .zip(&active)

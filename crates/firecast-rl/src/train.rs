@@ -803,6 +803,26 @@ pub fn policy_actions(
         .collect()
 }
 
+/// [`policy_log_probs`] of a sub-batch: `obs` holds the observations of environments `rows`
+/// (in order) and `hidden`, when the policy is recurrent, every environment's state; only
+/// those rows step.
+pub fn policy_log_probs_of(
+    policy: &Policy,
+    obs: &ObsBatch,
+    hidden: Option<&mut Hidden>,
+    rows: &[usize],
+) -> Vec<f32> {
+    match hidden {
+        Some(all) => {
+            let mut sub = all.select(rows);
+            let logp = policy_log_probs(policy, obs, Some(&mut sub));
+            all.scatter(rows, &sub);
+            logp
+        }
+        None => policy_log_probs(policy, obs, None),
+    }
+}
+
 /// Action log-probabilities of a batch, `n × num_actions` row-major. A recurrent policy
 /// steps from `hidden` (one row per observation; a new episode's row is zero) and leaves the
 /// next state there; without `hidden` it starts from zero.
