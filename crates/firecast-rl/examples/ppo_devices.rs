@@ -5,7 +5,8 @@
 //!    100 training episodes after 100,000 steps (≥ 475 is the gate the CPU tests hold);
 //! 2. steps per second of rollouts (environment + inference) and of training (rollouts and
 //!    updates, as SB3's `time/fps`) for the compact policy on the demo's fires (96 × 64) and
-//!    on FireCastRL-sized fires (240 × 160), and for the authors' policy on 240 × 160 — with
+//!    on FireCastRL-sized fires (240 × 160), the recurrent compact policy (`memory: lstm`) on
+//!    the demo's fires, and for the authors' policy on 240 × 160 — with
 //!    a small rollout every device can afford, and with the paper's own settings on CUDA.
 //!
 //! ```text
@@ -22,7 +23,7 @@ use std::time::Instant;
 
 use firecast_rl::bench::{self, HelitackPool};
 use firecast_rl::cartpole::CartPoleVec;
-use firecast_rl::policy::{PolicyConfig, PolicyKind, View};
+use firecast_rl::policy::{Memory, PolicyConfig, PolicyKind, View};
 use firecast_rl::ppo::PpoConfig;
 use firecast_rl::train::{NoSink, Trainer};
 use firecast_rl::{Device, RlError};
@@ -127,6 +128,18 @@ fn cases(steps: u64) -> Vec<Case> {
         Case {
             name: "compact, demo fires 96x64, paper settings",
             policy: compact.clone(),
+            width: 96,
+            height: 64,
+            ppo: PpoConfig::paper(),
+            steps,
+            cuda_only: false,
+        },
+        Case {
+            name: "compact lstm, demo fires 96x64, paper settings",
+            policy: PolicyConfig {
+                memory: Memory::Lstm,
+                ..compact.clone()
+            },
             width: 96,
             height: 64,
             ppo: PpoConfig::paper(),
