@@ -657,9 +657,13 @@ impl Policy {
     /// Action logits `[n, actions]` and values `[n]` of a policy without memory (a recurrent
     /// one would run from a zero state: use [`sequence`](Self::sequence)).
     pub fn forward(&self, obs: &ObsTensors, train: bool) -> (Tensor, Tensor) {
-        let f = self.features(obs, train);
-        let logits = self.action_net.forward(&self.pi.forward(&f));
-        let values = self.value_net.forward(&self.vf.forward(&f)).squeeze_dim(-1);
+        self.heads(&self.features(obs, train))
+    }
+
+    /// Logits and values of features (the extractor's, or the LSTM's output).
+    fn heads(&self, f: &Tensor) -> (Tensor, Tensor) {
+        let logits = self.action_net.forward(&self.pi.forward(f));
+        let values = self.value_net.forward(&self.vf.forward(f)).squeeze_dim(-1);
         (logits, values)
     }
 
@@ -680,11 +684,19 @@ impl Policy {
         self.lstm().is_some()
     }
 
+    /// Length of one environment's row of [`Hidden::to_host`] (h and c); 0 without memory.
+    pub fn hidden_len(&self) -> usize {
+        if self.is_recurrent() {
+            2 * COMPACT_FEATURES as usize
+        } else {
+            0
+        }
+    }
+
     /// The zero state of `n` environments, if the policy is recurrent.
     pub fn initial_hidden(&self, n: usize) -> Option<Hidden> {
-        let hidden = COMPACT_FEATURES;
         self.lstm().map(|_| {
-            let z = Tensor::zeros([n as i64, hidden], (Kind::Float, self.device()));
+            let z = Tensor::zeros([n as i64, COMPACT_FEATURES], (Kind::Float, self.device()));
             Hidden {
                 h: z.shallow_clone(),
                 c: z.zeros_like(),
@@ -707,8 +719,7 @@ impl Policy {
     ) -> (Tensor, Tensor, Hidden) {
         let f = self.features(obs, train);
         let Some(lstm) = self.lstm() else {
-            let logits = self.action_net.forward(&self.pi.forward(&f));
-            let values = self.value_net.forward(&self.vf.forward(&f)).squeeze_dim(-1);
+            let (logits, values) = self.heads(&f);
             let same = Hidden {
                 h: hidden.h.shallow_clone(),
                 c: hidden.c.shallow_clone(),
@@ -730,9 +741,7 @@ impl Policy {
             outs.push(h2.shallow_clone());
             (h, c) = (h2, c2);
         }
-        let out = Tensor::cat(&outs, 0);
-        let logits = self.action_net.forward(&self.pi.forward(&out));
-        let values = self.value_net.forward(&self.vf.forward(&out)).squeeze_dim(-1);
+        let (logits, values) = self.heads(&Tensor::cat(&outs, 0));
         (logits, values, Hidden { h, c })
     }
 

@@ -629,7 +629,7 @@ impl Trainer {
         env.restore(&state.env)?;
         let hidden = match (policy.is_recurrent(), &state.hidden) {
             (false, _) => None,
-            (true, Some(h)) if h.len() == ppo.n_envs * 2 * policy_hidden_size(&policy) => {
+            (true, Some(h)) if h.len() == ppo.n_envs * policy.hidden_len() => {
                 Some(Hidden::from_host(h, ppo.n_envs, device))
             }
             (true, _) => return Err(bad(format!("{STATE_FILE} lacks the recurrent policy's state"))),
@@ -682,13 +682,6 @@ impl Trainer {
 /// 0/1 as f32 (episode starts as the recurrent policy's reset mask).
 fn as_f32(flags: &[bool]) -> Vec<f32> {
     flags.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect()
-}
-
-/// Hidden size of a recurrent policy (0 without memory).
-fn policy_hidden_size(policy: &Policy) -> usize {
-    policy
-        .initial_hidden(1)
-        .map_or(0, |h| h.h.size().get(1).copied().unwrap_or(0) as usize)
 }
 
 /// A recurrent policy trains on whole sequences: the rollout and the minibatch must hold a
@@ -829,20 +822,15 @@ pub fn policy_log_probs_of(
 pub fn policy_log_probs(policy: &Policy, obs: &ObsBatch, hidden: Option<&mut Hidden>) -> Vec<f32> {
     let device = policy.device();
     let obs_t = ObsTensors::from_batch(obs, device);
-    let logits = tch::no_grad(|| match (policy.is_recurrent(), hidden) {
-        (false, _) => policy.forward(&obs_t, false).0,
-        (true, Some(h)) => {
-            let (logits, _, next) = policy.sequence(&obs_t, h, &vec![0.0; obs.n], 1, false);
+    let starts = vec![0.0; obs.n];
+    let logits = tch::no_grad(|| match (hidden, policy.initial_hidden(obs.n)) {
+        (_, None) => policy.forward(&obs_t, false).0,
+        (Some(h), Some(_)) => {
+            let (logits, _, next) = policy.sequence(&obs_t, h, &starts, 1, false);
             *h = next;
             logits
         }
-        (true, None) => {
-            let zero = policy.initial_hidden(obs.n);
-            zero.map_or_else(
-                || policy.forward(&obs_t, false).0,
-                |z| policy.sequence(&obs_t, &z, &vec![0.0; obs.n], 1, false).0,
-            )
-        }
+        (None, Some(zero)) => policy.sequence(&obs_t, &zero, &starts, 1, false).0,
     });
     Vec::<f32>::try_from(
         logits

@@ -60,6 +60,10 @@ fn replayed(trainer: &Trainer, mb: &firecast_rl::buffer::Minibatch, hidden: &Hid
     Vec::<f32>::try_from(lp).expect("log-probabilities")
 }
 
+fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max)
+}
+
 #[test]
 fn replayed_sequences_give_the_rollouts_log_probabilities() {
     firecast_learn::set_threads(1);
@@ -76,24 +80,14 @@ fn replayed_sequences_give_the_rollouts_log_probabilities() {
     let mb = buffer.gather_sequences(&firsts, SEQUENCE);
     let seq = mb.sequences.as_ref().expect("sequences");
     let stored = Hidden::from_host(&seq.hidden, seq.count, Device::Cpu);
-    let lp = replayed(&t, &mb, &stored);
-    let worst = lp
-        .iter()
-        .zip(&mb.log_probs)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0f32, f32::max);
+    let worst = max_abs_diff(&replayed(&t, &mb, &stored), &mb.log_probs);
     assert!(
         worst < 1e-5,
         "replayed log-probabilities differ from the rollout's by {worst}"
     );
     // From zero states instead of the stored ones they differ: the memory is used.
     let zero = t.policy.initial_hidden(seq.count).expect("recurrent");
-    let lp0 = replayed(&t, &mb, &zero);
-    let off = lp0
-        .iter()
-        .zip(&mb.log_probs)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0f32, f32::max);
+    let off = max_abs_diff(&replayed(&t, &mb, &zero), &mb.log_probs);
     assert!(
         off > 1e-4,
         "zero states replay the rollout too ({off}): the state is not used"
