@@ -75,6 +75,10 @@ pub struct EvaluateArgs {
     /// Sample PPO actions instead of taking the greedy one.
     #[arg(long)]
     pub stochastic: bool,
+    /// Another training run to evaluate beside this one on the same fires, compared pair by
+    /// pair (its agent is `ppo:<its name>`).
+    #[arg(long, value_name = "DIR")]
+    pub against: Option<PathBuf>,
     /// Do not record the best, median and worst PPO episodes.
     #[arg(long)]
     pub no_recordings: bool,
@@ -177,23 +181,33 @@ fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
         output::print_json(&summary)?;
         return Ok(ExitCode::SUCCESS);
     }
-    let mut table = output::table(&[
-        "seed",
+    // Steps spent imitating a teacher before PPO, in their own column when there were any.
+    let imitated = summary.seeds.iter().any(|s| s.imitation_timesteps > 0);
+    let mut header = vec!["seed"];
+    if imitated {
+        header.push("imitation steps");
+    }
+    header.extend([
         "steps",
         "resumed from",
         "ep_rew_mean (last 100)",
         "ep_len_mean",
         "parameters",
     ]);
+    let mut table = output::table(&header);
     for s in &summary.seeds {
-        table.add_row(vec![
-            s.seed.to_string(),
+        let mut row = vec![s.seed.to_string()];
+        if imitated {
+            row.push(s.imitation_timesteps.to_string());
+        }
+        row.extend([
             s.timesteps.to_string(),
             s.resumed_from.map_or("-".into(), |r| r.to_string()),
             s.ep_rew_mean.map_or("-".into(), |v| format!("{v:.2}")),
             s.ep_len_mean.map_or("-".into(), |v| format!("{v:.1}")),
             s.parameters.to_string(),
         ]);
+        table.add_row(row);
     }
     println!("{table}");
     println!(
@@ -234,11 +248,29 @@ fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode
         device: args.device.clone(),
         threads: args.threads,
     };
+    let mut inputs =
+        serde_json::json!({"run": run.display().to_string(), "fires": fires.display().to_string()});
+    if let Some(other) = &args.against {
+        let other = crate::cmd_pipeline::relative_to_root(settings, other);
+        if !settings
+            .root
+            .join(&other)
+            .join(firecast_rl::run::SUMMARY_FILE)
+            .is_file()
+        {
+            anyhow::bail!(
+                "--against {}: not a training run folder (no {})",
+                other.display(),
+                firecast_rl::run::SUMMARY_FILE
+            );
+        }
+        inputs["against"] = other.display().to_string().into();
+    }
     let stage = serde_json::json!({
         "uses": "rl.evaluate",
         "description": format!("Table IV for {}", run.display()),
         "params": serde_json::to_value(&params)?,
-        "inputs": {"run": run.display().to_string(), "fires": fires.display().to_string()},
+        "inputs": inputs,
         "outputs": {"report": out.display().to_string()},
     });
     let (outcome, secs, run_id) =

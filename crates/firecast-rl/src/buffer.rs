@@ -24,6 +24,9 @@ pub struct RolloutBuffer {
     /// A recurrent policy's state at each step, before that step's episode resets
     /// (`Hidden::to_host` rows, step-major); empty without memory.
     pub hidden: Vec<f32>,
+    /// A teacher's action at each step (imitation, [`add_labels`](Self::add_labels));
+    /// empty otherwise.
+    pub labels: Vec<u8>,
     pos: usize,
 }
 
@@ -69,6 +72,7 @@ impl RolloutBuffer {
             advantages: vec![0.0; n],
             returns: vec![0.0; n],
             hidden: Vec::new(),
+            labels: Vec::new(),
             pos: 0,
         }
     }
@@ -156,6 +160,16 @@ impl RolloutBuffer {
             self.hidden = vec![0.0; self.n_steps * len];
         }
         self.hidden[self.pos * len..(self.pos + 1) * len].copy_from_slice(rows);
+    }
+
+    /// Stores a teacher's actions for the step about to be added (all environments); call
+    /// before [`add`](Self::add).
+    pub fn add_labels(&mut self, actions: &[u8]) {
+        let n = self.n_envs;
+        if self.labels.len() != self.len() {
+            self.labels = vec![0; self.len()];
+        }
+        self.labels[self.pos * n..(self.pos + 1) * n].copy_from_slice(actions);
     }
 
     /// A shuffled list of the sequences of `len` steps (each env's rollout cut at multiples

@@ -432,6 +432,110 @@ fn compare(
     })
 }
 
+/// Two trained agents (several training seeds each) on the same fires: a bootstrap that
+/// resamples the fires (paired: a fire drawn counts for both), the first agent's training
+/// seeds and the second's, each independently (three strata of
+/// [`stratified_bootstrap`]), so the interval carries both runs' seed-to-seed spread. On a
+/// resample, Δ = mean over fires of (mean over the first's seeds − mean over the second's);
+/// P(better) counts every (seed, seed) pair of a fire, ties ½.
+pub fn compare_runs(
+    agent: &str,
+    other: &str,
+    episodes: &[Episode],
+    cfg: &EvalConfig,
+) -> Result<PairedComparison, RlError> {
+    // Cells burned as [seed][fire], over the fires both agents played with every seed.
+    let table = |name: &str| -> Vec<std::collections::BTreeMap<usize, f64>> {
+        let mut seeds: Vec<u64> = episodes
+            .iter()
+            .filter(|e| e.agent == name)
+            .filter_map(|e| e.train_seed)
+            .collect();
+        seeds.sort_unstable();
+        seeds.dedup();
+        seeds
+            .iter()
+            .map(|&s| {
+                episodes
+                    .iter()
+                    .filter(|e| e.agent == name && e.train_seed == Some(s))
+                    .map(|e| (e.fire, f64::from(e.cells_burned)))
+                    .collect()
+            })
+            .collect()
+    };
+    let (ta, tb) = (table(agent), table(other));
+    let fires: Vec<usize> = ta
+        .first()
+        .map(|m| m.keys().copied().collect::<Vec<_>>())
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|f| ta.iter().chain(&tb).all(|m| m.contains_key(f)))
+        .collect();
+    let grid = |t: &[std::collections::BTreeMap<usize, f64>]| -> Vec<Vec<f64>> {
+        t.iter().map(|m| fires.iter().map(|f| m[f]).collect()).collect()
+    };
+    let (a, b) = (grid(&ta), grid(&tb));
+    let index = |n: usize| (0..n).map(|i| i as f64).collect::<Vec<f64>>();
+    let groups = vec![index(a.len()), index(b.len()), index(fires.len())];
+    // Per drawn fire: the two agents' means over their drawn seeds.
+    let means = |g: &[Vec<f64>]| -> Option<Vec<(f64, f64)>> {
+        let (sa, sb, fs) = (&g[0], &g[1], &g[2]);
+        if sa.is_empty() || sb.is_empty() || fs.is_empty() {
+            return None;
+        }
+        let mean = |rows: &[Vec<f64>], seeds: &[f64], f: usize| {
+            seeds.iter().map(|&s| rows[s as usize][f]).sum::<f64>() / seeds.len() as f64
+        };
+        Some(
+            fs.iter()
+                .map(|&f| (mean(&a, sa, f as usize), mean(&b, sb, f as usize)))
+                .collect(),
+        )
+    };
+    let diff = |g: &[Vec<f64>]| {
+        let m = means(g)?;
+        Some(m.iter().map(|(x, y)| x - y).sum::<f64>() / m.len() as f64)
+    };
+    let reduction = |g: &[Vec<f64>]| {
+        let (x, y) = means(g)?.iter().fold((0.0, 0.0), |(p, q), (x, y)| (p + x, q + y));
+        (y > 0.0).then(|| 1.0 - x / y)
+    };
+    let better = |g: &[Vec<f64>]| {
+        let (sa, sb, fs) = (&g[0], &g[1], &g[2]);
+        if sa.is_empty() || sb.is_empty() || fs.is_empty() {
+            return None;
+        }
+        let mut wins = 0.0;
+        for &f in fs {
+            for &s in sa {
+                for &t in sb {
+                    let (x, y) = (a[s as usize][f as usize], b[t as usize][f as usize]);
+                    wins += if x < y {
+                        1.0
+                    } else if x == y {
+                        0.5
+                    } else {
+                        0.0
+                    };
+                }
+            }
+        }
+        Some(wins / (fs.len() * sa.len() * sb.len()) as f64)
+    };
+    let err = |e: firecast_eval::EvalError| RlError::config("evaluation", e.to_string());
+    let run = |f: &dyn Fn(&[Vec<f64>]) -> Option<f64>| {
+        stratified_bootstrap(&groups, cfg.resamples, cfg.seed ^ 12, cfg.level, f).map_err(err)
+    };
+    Ok(PairedComparison {
+        agent: agent.to_string(),
+        baseline: other.to_string(),
+        cells_burned_diff: run(&diff)?,
+        relative_reduction: run(&reduction)?,
+        probability_better: run(&better)?,
+    })
+}
+
 /// Agent names in Table IV order.
 pub const PPO: &str = "ppo";
 pub const RULE: &str = "rule";
@@ -440,11 +544,25 @@ pub const RULE_CONCENTRIC: &str = "rule-concentric";
 pub const CHASER: &str = "chaser";
 pub const NONE: &str = "none";
 
+/// Another training run evaluated beside the PPO agent, as agent `ppo:<name>`.
+pub struct Against<'a> {
+    pub name: &'a str,
+    pub policies: &'a [EnsemblePolicy],
+}
+
+impl Against<'_> {
+    pub fn agent(&self) -> String {
+        format!("{PPO}:{}", self.name)
+    }
+}
+
 /// Evaluates the PPO policies (one per training seed, each with its frozen observation
-/// normaliser) and the baselines on the held-out fires of `fires`.
+/// normaliser) and the baselines on the held-out fires of `fires`; with `against`, another
+/// run's policies too, compared with PPO pair by pair ([`compare_runs`]).
 pub fn evaluate(
     fires: &FiresSpec,
     policies: &[EnsemblePolicy],
+    against: Option<&Against<'_>>,
     cfg: &EvalConfig,
     progress: &dyn Fn(&str),
 ) -> Result<EvalReport, RlError> {
@@ -465,6 +583,13 @@ pub fn evaluate(
     for p in policies {
         progress(&format!("PPO (training seed {})", p.seed));
         raw.push((PPO.into(), Some(p.seed), run_ppo(&cores, p, cfg)?));
+    }
+    let other = against.map(Against::agent);
+    if let (Some(a), Some(name)) = (against, &other) {
+        for p in a.policies {
+            progress(&format!("{name} (training seed {})", p.seed));
+            raw.push((name.clone(), Some(p.seed), run_ppo(&cores, p, cfg)?));
+        }
     }
     raw.push((RULE.into(), None, rule));
     raw.push((RULE_CONCENTRIC.into(), None, conc));
@@ -494,7 +619,10 @@ pub fn evaluate(
         }
     }
     let mut agents = Vec::new();
-    for name in [PPO, RULE, RULE_CONCENTRIC, CHASER, NONE] {
+    let mut names = vec![PPO];
+    names.extend(other.as_deref());
+    names.extend([RULE, RULE_CONCENTRIC, CHASER, NONE]);
+    for name in names {
         let eps: Vec<&Episode> = episodes.iter().filter(|e| e.agent == name).collect();
         if !eps.is_empty() {
             agents.push(summarize(name, &eps, cfg)?);
@@ -502,6 +630,9 @@ pub fn evaluate(
     }
     let mut comparisons = Vec::new();
     if !policies.is_empty() {
+        if let Some(name) = &other {
+            comparisons.push(compare_runs(PPO, name, &episodes, cfg)?);
+        }
         for base in [RULE, RULE_CONCENTRIC, CHASER, NONE] {
             comparisons.push(compare(PPO, base, &episodes, cfg)?);
         }
@@ -769,4 +900,55 @@ pub fn plot(report: &EvalReport, out: &Path) -> Result<(), RlError> {
             .save_png(out.join("ppo_vs_rule.png"))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn episode(agent: &str, seed: u64, fire: usize, cells: u32) -> Episode {
+        Episode {
+            agent: agent.into(),
+            train_seed: Some(seed),
+            fire,
+            cells_burned: cells,
+            cells_saved: 0.0,
+            timesteps: 1,
+            helitacks: 0,
+            water_used_gal: 0.0,
+            contained: false,
+        }
+    }
+
+    /// B burns 10 more cells than A on every fire whatever the seeds: every resample says
+    /// Δ = −10 and P(A burns less) = 1; the reduction is 1 − ΣA/ΣB.
+    #[test]
+    fn runs_compare_pair_by_pair_across_both_runs_seeds() {
+        let mut eps = Vec::new();
+        for f in 0..20 {
+            let base = 100 + 7 * f as u32;
+            for s in 0..3 {
+                eps.push(episode("a", s, f, base + s as u32 % 2));
+            }
+            for s in 0..4 {
+                eps.push(episode("b", 10 + s, f, base + 11 + s as u32 % 2 - 1));
+            }
+        }
+        let cfg = EvalConfig {
+            resamples: 300,
+            ..EvalConfig::default()
+        };
+        let c = compare_runs("a", "b", &eps, &cfg).expect("comparison");
+        assert_eq!(c.probability_better.estimate, 1.0);
+        assert_eq!((c.probability_better.low, c.probability_better.high), (1.0, 1.0));
+        // A's seeds average 0.333 above base, B's 0.5 above base + 10.
+        let d = c.cells_burned_diff;
+        assert!((d.estimate - (1.0 / 3.0 - 10.5)).abs() < 1e-9, "{d:?}");
+        assert!(d.low >= -11.0 && d.high <= -9.0 && d.low <= d.estimate && d.estimate <= d.high);
+        let (sa, sb): (f64, f64) = (0..20).fold((0.0, 0.0), |(x, y), f| {
+            let base = f64::from(100 + 7 * f);
+            (x + base + 1.0 / 3.0, y + base + 10.5)
+        });
+        assert!((c.relative_reduction.estimate - (1.0 - sa / sb)).abs() < 1e-9);
+    }
 }

@@ -7,6 +7,7 @@
 //! - [`policy`]: actor-critic networks (`mlp`, `compact`, `paper`);
 //! - [`train`]: the learning loop, checkpoints and exact resumption;
 //! - [`env`]: the batched-environment interface, with [`cartpole`] (the correctness gate);
+//! - [`imitation`]: learning a rule-based teacher's actions before PPO (BC, then DAgger);
 //! - [`agent`]: a trained policy as a simulator `Policy` (one environment: replays, recordings).
 
 pub mod agent;
@@ -18,6 +19,7 @@ pub mod env;
 mod error;
 pub mod evaluate;
 pub mod helitack;
+pub mod imitation;
 pub mod normalize;
 pub mod policy;
 pub mod ppo;

@@ -697,6 +697,15 @@ impl Adam {
         })
     }
 
+    /// Forgets the moments and the step count (a fresh optimiser on the same parameters).
+    pub fn reset_moments(&mut self) {
+        tch::no_grad(|| {
+            let _ = self.m.zero_();
+            let _ = self.v.zero_();
+        });
+        self.step = 0;
+    }
+
     /// One step with the gradient buffer.
     pub fn step(&mut self, lr: f64) {
         self.step += 1;

@@ -35,6 +35,13 @@ pub struct SeedSummary {
     /// Folder of the final policy (relative to the run's output).
     pub policy: String,
     pub parameters: i64,
+    /// Environment steps spent imitating a teacher before PPO (`imitation:`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub imitation_timesteps: u64,
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
 }
 
 /// `summary.json`.
@@ -82,6 +89,25 @@ impl TrainSink for SeedSink<'_> {
     }
     fn progress(&self, timesteps: u64, total: u64, fps: f64, ep_rew_mean: f64) {
         self.run.progress(self.seed, timesteps, total, fps, ep_rew_mean);
+    }
+    /// Rows at `timesteps` 0 (before PPO's first step), with the imitation's own count.
+    fn imitation(&self, imitation_timesteps: u64, metrics: &[(String, f64)]) {
+        let mut row = serde_json::Map::new();
+        row.insert("timesteps".into(), 0.into());
+        row.insert("imitation/timesteps".into(), imitation_timesteps.into());
+        for (k, v) in metrics {
+            self.run.metric(self.seed, imitation_timesteps, k, *v);
+            row.insert(
+                k.clone(),
+                serde_json::Number::from_f64(*v).map_or(serde_json::Value::Null, Into::into),
+            );
+        }
+        let _ = writeln!(self.metrics.borrow_mut(), "{}", serde_json::Value::Object(row));
+        let round = metrics.first().map_or(0.0, |(_, v)| *v);
+        self.run.message(&format!(
+            "seed {}: imitation round {round:.0} done ({imitation_timesteps} steps)",
+            self.seed
+        ));
     }
     fn checkpoint(&self, dir: &Path, timesteps: u64) {
         self.run.message(&format!(
@@ -173,6 +199,10 @@ pub fn train(
             metrics: std::cell::RefCell::new(file),
         };
         let started = std::time::Instant::now();
+        if let (Some(cfg), None) = (&spec.imitation, resumed_from) {
+            let mut teacher = crate::imitation::teacher(cfg.teacher, trainer.policy.space)?;
+            trainer.imitate(cfg, teacher.as_mut(), &seed_sink)?;
+        }
         trainer.learn_until(&seed_sink, Some((&ck, spec.checkpoint_every)), stop_after)?;
         if trainer.num_timesteps < ppo.total_timesteps {
             return Err(RlError::Interrupted);
@@ -197,6 +227,7 @@ pub fn train(
             ep_len_mean: mean(&|e| e.length as f64),
             policy: format!("seed-{seed}/policy"),
             parameters: trainer.policy.parameter_count(),
+            imitation_timesteps: trainer.imitation_timesteps,
         });
         // Seconds of this process's training (not earlier, resumed parts): registry only.
         sink.metric(

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::RlError;
 use crate::helitack::FireSet;
+use crate::imitation::ImitationConfig;
 use crate::policy::{PolicyConfig, PolicyKind};
 use crate::ppo::PpoConfig;
 use firecast_sim::RewardWeights;
@@ -60,6 +61,9 @@ pub struct TrainSpec {
     pub policy: Option<PolicyConfig>,
     #[serde(default)]
     pub ppo: PpoSpec,
+    /// Learn a teacher's actions before PPO (helitack only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub imitation: Option<ImitationConfig>,
     /// One run per seed (torch weights, environments, minibatches and actions).
     #[serde(default = "default_seeds")]
     pub seeds: Vec<u64>,
@@ -142,9 +146,24 @@ impl TrainSpec {
         if s.len() != self.seeds.len() {
             return Err(RlError::config("seeds", "seeds repeat"));
         }
-        self.ppo()?;
+        let ppo = self.ppo()?;
         crate::parse_device(&self.device)?;
         let p = self.policy();
+        if let Some(imitation) = &self.imitation {
+            if self.env == EnvSpec::Cartpole {
+                return Err(RlError::config(
+                    "imitation.teacher",
+                    "the teachers fly helicopters: imitation needs the helitack environment",
+                ));
+            }
+            if p.memory == crate::policy::Memory::Lstm {
+                return Err(RlError::config(
+                    "imitation",
+                    "imitation trains on single steps: use `memory: frames`",
+                ));
+            }
+            imitation.validate(ppo.buffer_size())?;
+        }
         match (&self.env, p.kind) {
             (EnvSpec::Cartpole, PolicyKind::Mlp)
             | (EnvSpec::Helitack { .. }, PolicyKind::Compact | PolicyKind::Paper) => {}

@@ -209,14 +209,24 @@ pub fn load_run(
 pub fn evaluate_run(
     run: &std::path::Path,
     fires: &std::path::Path,
+    against: Option<&std::path::Path>,
     out: &std::path::Path,
     cfg: &EvalConfig,
     device: tch::Device,
     progress: &dyn Fn(&str),
 ) -> Result<crate::evaluate::EvalReport, RlError> {
     let (_, policies) = crate::ensemble::load_policies(run, device)?;
+    let other = against
+        .map(|dir| crate::ensemble::load_policies(dir, device))
+        .transpose()?;
+    let against = other
+        .as_ref()
+        .map(|(summary, policies)| crate::evaluate::Against {
+            name: &summary.name,
+            policies,
+        });
     let fires = FiresSpec::load(fires)?;
-    let mut report = crate::evaluate::evaluate(&fires, &policies, cfg, progress)?;
+    let mut report = crate::evaluate::evaluate(&fires, &policies, against.as_ref(), cfg, progress)?;
     std::fs::create_dir_all(out).map_err(|e| RlError::io("creating the report folder", out, e))?;
     if cfg.recordings {
         progress("recording the best, median and worst PPO episodes");
@@ -277,6 +287,12 @@ impl StageKind for EvaluateStage {
                 many: false,
                 description: "fire file whose `evaluate` fires are used",
             },
+            Port {
+                name: "against",
+                required: false,
+                many: false,
+                description: "another rl.train run folder, evaluated beside it and compared pair by pair",
+            },
         ];
         const OUT: &[Port] = &[Port {
             name: "report",
@@ -305,10 +321,11 @@ impl StageKind for EvaluateStage {
             let p: EvaluateParams = ctx.params()?;
             let run = ctx.input("run")?.to_path_buf();
             let fires = ctx.input("fires")?.to_path_buf();
+            let against = ctx.input_list("against").first().cloned();
             let out = ctx.output("report")?.to_path_buf();
             let device = crate::parse_device(&p.device).map_err(stage_error)?;
             firecast_learn::set_threads(p.threads);
-            let report = evaluate_run(&run, &fires, &out, &p.eval, device, &|m| {
+            let report = evaluate_run(&run, &fires, against.as_deref(), &out, &p.eval, device, &|m| {
                 ctx.log(format!("evaluating {m}"))
             })
             .map_err(stage_error)?;

@@ -14,6 +14,7 @@ use tch::{Device, Kind, Tensor};
 use crate::RlError;
 use crate::buffer::{Minibatch, RolloutBuffer};
 use crate::env::{ObsBatch, ObsSpace, VecEnvironment};
+use crate::imitation::{ImitationConfig, Teacher};
 use crate::normalize::VecNormalize;
 use crate::policy::{Hidden, ObsTensors, Policy, PolicyConfig, SEQUENCE};
 use crate::ppo::{Adam, LossSettings, PpoConfig, PpoMinibatch, Sequences, log_prob_entropy, ppo_losses};
@@ -37,6 +38,8 @@ pub trait TrainSink {
     fn progress(&self, _timesteps: u64, _total: u64, _fps: f64, _ep_rew_mean: f64) {}
     /// A checkpoint was written.
     fn checkpoint(&self, _dir: &Path, _timesteps: u64) {}
+    /// Metrics of one imitation round, after `imitation_timesteps` steps of it.
+    fn imitation(&self, _imitation_timesteps: u64, _metrics: &[(String, f64)]) {}
 }
 
 /// A sink that ignores everything.
@@ -65,6 +68,13 @@ struct TrainerState {
     /// A recurrent policy's state for the next step (`Hidden::to_host`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     hidden: Option<Vec<f32>>,
+    /// Environment steps spent imitating a teacher before PPO (not in `num_timesteps`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    imitation_timesteps: u64,
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
 }
 
 const CHECKPOINT_FORMAT: u32 = 1;
@@ -98,6 +108,8 @@ pub struct Trainer {
     /// A recurrent policy's state for the next step of each environment (before the reset
     /// of those whose episode starts there).
     hidden: Option<Hidden>,
+    /// Environment steps spent imitating a teacher before PPO (not in `num_timesteps`).
+    pub imitation_timesteps: u64,
 }
 
 impl Trainer {
@@ -147,6 +159,7 @@ impl Trainer {
             all_episodes: Vec::new(),
             last_checkpoint: None,
             hidden,
+            imitation_timesteps: 0,
         };
         t.env.observe(&mut t.last_obs);
         t.normalize.observe(&mut t.last_obs.vector);
@@ -178,7 +191,7 @@ impl Trainer {
         let started = Instant::now();
         let start_steps = self.num_timesteps;
         while self.num_timesteps < stop {
-            self.collect_rollouts()?;
+            self.collect_rollouts(None)?;
             self.iterations += 1;
             let progress_remaining = 1.0 - self.num_timesteps as f64 / total as f64;
             let mut metrics = self.train(progress_remaining)?;
@@ -275,15 +288,17 @@ impl Trainer {
     /// returns the filled buffer, without training on it. For golden tests against SB3's
     /// rollout buffer; [`learn`](Self::learn) does this and then updates the policy.
     pub fn collect_rollout(&mut self) -> Result<&RolloutBuffer, RlError> {
-        self.collect_rollouts()?;
+        self.collect_rollouts(None)?;
         Ok(&self.buffer)
     }
 
-    fn collect_rollouts(&mut self) -> Result<(), RlError> {
+    /// With a teacher, its actions label every step (and replace the policy's when `flies`).
+    fn collect_rollouts(&mut self, mut teacher: Option<(&mut dyn Teacher, bool)>) -> Result<(), RlError> {
         self.buffer.reset();
         let n = self.ppo.n_envs;
         let mut new_obs = ObsBatch::new(self.env.space(), n);
         let mut dones = vec![false; n];
+        let mut labels = vec![0u8; n];
         while !self.buffer.is_full() {
             // Moved out (not cloned) while `act` borrows the trainer; the buffers rotate.
             let obs = std::mem::replace(&mut self.last_obs, ObsBatch::new(self.env.space(), 0));
@@ -291,7 +306,14 @@ impl Trainer {
             if let Some(h) = &self.hidden {
                 self.buffer.add_hidden(&h.to_host());
             }
-            let (actions, values, log_probs) = self.act(&obs, false);
+            let (mut actions, values, log_probs) = self.act(&obs, false);
+            if let Some((teacher, flies)) = teacher.as_mut() {
+                teacher.act(&obs, &mut labels);
+                self.buffer.add_labels(&labels);
+                if *flies {
+                    actions.copy_from_slice(&labels);
+                }
+            }
             if let Err(e) = self.env.step(&actions) {
                 self.last_obs = obs;
                 return Err(e);
@@ -398,6 +420,115 @@ impl Trainer {
             advantages: mb.advantages,
             returns: mb.returns,
         }
+    }
+
+    /// Learns a teacher's actions before PPO ([`crate::imitation`]): `rounds` rollouts, the
+    /// first `teacher_rounds` flown by the teacher, the rest by the policy (sampling) with the
+    /// teacher's labels. Every labelled step joins one dataset (DAgger's aggregation); after
+    /// each round, `updates` Adam steps on minibatches drawn from all of it minimise the
+    /// cross-entropy on the labels plus `vf_coef` × the squared error to each step's GAE
+    /// return. The steps count in `imitation_timesteps`, not in PPO's budget; the
+    /// normalisers keep what they saw; the optimiser's moments and the training-episode
+    /// window are cleared for PPO. Metrics (`imitation/*`) go to [`TrainSink::imitation`].
+    pub fn imitate(
+        &mut self,
+        cfg: &ImitationConfig,
+        teacher: &mut dyn Teacher,
+        sink: &dyn TrainSink,
+    ) -> Result<(), RlError> {
+        if self.policy.is_recurrent() {
+            return Err(RlError::config(
+                "imitation",
+                "imitation trains on single steps: use `memory: frames`",
+            ));
+        }
+        cfg.validate(self.buffer.len())?;
+        let ppo_timesteps = self.num_timesteps;
+        let device = self.policy.device();
+        let space = self.env.space();
+        let mut data = Demonstrations::new(space);
+        let mut order: Vec<usize> = Vec::new();
+        for round in 0..cfg.rounds {
+            let flies = round < cfg.teacher_rounds;
+            let finished = self.all_episodes.len();
+            self.collect_rollouts(Some((&mut *teacher, flies)))?;
+            self.imitation_timesteps += self.num_timesteps - ppo_timesteps;
+            self.num_timesteps = ppo_timesteps;
+            // How often the flying policy already did what the teacher would have.
+            let agreement = if flies {
+                f64::NAN
+            } else {
+                let same = (self.buffer.actions.iter())
+                    .zip(&self.buffer.labels)
+                    .filter(|(a, l)| a == l)
+                    .count();
+                same as f64 / self.buffer.len() as f64
+            };
+            data.extend(&self.buffer);
+            let (mut ce, mut vl, mut hits, mut seen) = (0.0, 0.0, 0usize, 0usize);
+            for _ in 0..cfg.updates {
+                let mut rows = Vec::with_capacity(cfg.batch_size);
+                while rows.len() < cfg.batch_size {
+                    if order.is_empty() {
+                        order = (0..data.len()).collect();
+                        rand::seq::SliceRandom::shuffle(order.as_mut_slice(), &mut self.rng);
+                    }
+                    rows.extend(order.pop());
+                }
+                let (obs, labels, returns) = data.gather(&rows);
+                let labels = Tensor::from_slice(&labels).to_kind(Kind::Int64).to_device(device);
+                let returns = Tensor::from_slice(&returns).to_device(device);
+                let (logits, values) = self.policy.forward(&ObsTensors::from_batch(&obs, device), true);
+                let cross_entropy = -logits
+                    .log_softmax(-1, Kind::Float)
+                    .gather(1, &labels.unsqueeze(1), false)
+                    .mean(Kind::Float);
+                let value_loss = (&returns - &values).square().mean(Kind::Float);
+                let loss = &cross_entropy + &value_loss * self.ppo.vf_coef;
+                if !f64::try_from(&loss).is_ok_and(f64::is_finite) {
+                    return Err(RlError::NonFinite {
+                        update: u64::from(round),
+                        what: "the imitation loss".into(),
+                        checkpoint: self.last_checkpoint.clone(),
+                    });
+                }
+                let n = rows.len();
+                ce += f64::try_from(&cross_entropy).unwrap_or(f64::NAN) * n as f64;
+                vl += f64::try_from(&value_loss).unwrap_or(f64::NAN) * n as f64;
+                let argmax = tch::no_grad(|| logits.argmax(-1, false));
+                hits += i64::try_from(argmax.eq_tensor(&labels).sum(Kind::Int64)).unwrap_or(0) as usize;
+                seen += n;
+                self.adam.gradients(&loss)?;
+                self.adam.clip_grad_norm(self.ppo.max_grad_norm);
+                self.adam.step(cfg.learning_rate);
+            }
+            let returns: Vec<f64> = self.all_episodes[finished..].iter().map(|e| e.reward).collect();
+            let ep_rew = if returns.is_empty() {
+                f64::NAN
+            } else {
+                returns.iter().sum::<f64>() / returns.len() as f64
+            };
+            let seen = seen.max(1) as f64;
+            sink.imitation(
+                self.imitation_timesteps,
+                &[
+                    ("imitation/round".into(), f64::from(round + 1)),
+                    ("imitation/teacher_flies".into(), if flies { 1.0 } else { 0.0 }),
+                    ("imitation/agreement".into(), agreement),
+                    ("imitation/cross_entropy".into(), ce / seen),
+                    ("imitation/accuracy".into(), hits as f64 / seen),
+                    ("imitation/value_loss".into(), vl / seen),
+                    ("imitation/ep_rew_mean".into(), ep_rew),
+                    ("imitation/episodes".into(), returns.len() as f64),
+                    ("imitation/dataset".into(), data.len() as f64),
+                ],
+            );
+        }
+        self.adam.reset_moments();
+        self.episodes.clear();
+        self.all_episodes.clear();
+        self.buffer.labels.clear();
+        Ok(())
     }
 
     /// One update over the buffer (SB3 `train`); returns the `train/*` metrics.
@@ -536,6 +667,7 @@ impl Trainer {
             episodes: self.episodes.clone(),
             env: self.env.snapshot(),
             hidden: self.hidden.as_ref().map(Hidden::to_host),
+            imitation_timesteps: self.imitation_timesteps,
         };
         let json = serde_json::to_vec_pretty(&state).map_err(|e| RlError::Checkpoint {
             path: dir.to_path_buf(),
@@ -655,6 +787,7 @@ impl Trainer {
             all_episodes: Vec::new(),
             last_checkpoint: Some(dir.to_path_buf()),
             hidden,
+            imitation_timesteps: state.imitation_timesteps,
         };
         t.env.observe(&mut t.last_obs);
         // The statistics already include these observations: normalise without updating.
@@ -676,6 +809,49 @@ impl Trainer {
             .collect();
         found.sort();
         found.pop()
+    }
+}
+
+/// Every labelled step of an imitation: observations, the teacher's action, the GAE return.
+struct Demonstrations {
+    space: ObsSpace,
+    images: Vec<u8>,
+    vectors: Vec<f32>,
+    labels: Vec<u8>,
+    returns: Vec<f32>,
+}
+
+impl Demonstrations {
+    fn new(space: ObsSpace) -> Self {
+        Self {
+            space,
+            images: Vec::new(),
+            vectors: Vec::new(),
+            labels: Vec::new(),
+            returns: Vec::new(),
+        }
+    }
+    fn len(&self) -> usize {
+        self.labels.len()
+    }
+    fn extend(&mut self, buffer: &RolloutBuffer) {
+        self.images.extend_from_slice(&buffer.images);
+        self.vectors.extend_from_slice(&buffer.vectors);
+        self.labels.extend_from_slice(&buffer.labels);
+        self.returns.extend_from_slice(&buffer.returns);
+    }
+    fn gather(&self, rows: &[usize]) -> (ObsBatch, Vec<u8>, Vec<f32>) {
+        let mut obs = ObsBatch::new(self.space, rows.len());
+        let (il, vl) = (self.space.image_len(), self.space.vector);
+        for (r, &k) in rows.iter().enumerate() {
+            obs.image_row_mut(r)
+                .copy_from_slice(&self.images[k * il..(k + 1) * il]);
+            obs.vector_row_mut(r)
+                .copy_from_slice(&self.vectors[k * vl..(k + 1) * vl]);
+        }
+        let labels = rows.iter().map(|&k| self.labels[k]).collect();
+        let returns = rows.iter().map(|&k| self.returns[k]).collect();
+        (obs, labels, returns)
     }
 }
 

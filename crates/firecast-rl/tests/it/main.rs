@@ -3,6 +3,7 @@
 mod cartpole;
 mod ensemble;
 mod golden;
+mod imitation;
 mod recordings;
 mod recurrent;
 mod tiny;

@@ -36,7 +36,8 @@ evaluate:
 "#;
 
 fn evaluate(run: &Path, fires: &Path, out: &Path, cfg: &EvalConfig) -> EvalReport {
-    firecast_rl::stage::evaluate_run(run, fires, out, cfg, Device::Cpu, &|_| {}).expect("the evaluation")
+    firecast_rl::stage::evaluate_run(run, fires, None, out, cfg, Device::Cpu, &|_| {})
+        .expect("the evaluation")
 }
 
 fn rerun_cli() -> PathBuf {
@@ -212,4 +213,49 @@ fn a_recurrent_agent_replays_its_evaluated_episodes() {
         assert_eq!(report.recordings.len(), 3);
         replay_all(&run, &fires, &report, &cfg);
     }
+}
+
+/// `--against` with the run itself: the second agent plays the very same episodes, and the
+/// paired comparison is an exact tie (Δ 0, P(better) ½, reduction 0).
+#[test]
+fn a_run_evaluated_against_itself_is_a_tie() {
+    firecast_learn::set_threads(1);
+    let tmp = tempfile::tempdir().expect("tmp");
+    let (run, fires) = tiny_run(tmp.path(), FIRES);
+    let cfg = EvalConfig {
+        recordings: false,
+        resamples: 500,
+        ..EvalConfig::default()
+    };
+    let report = firecast_rl::stage::evaluate_run(
+        &run,
+        &fires,
+        Some(&run),
+        &tmp.path().join("eval"),
+        &cfg,
+        Device::Cpu,
+        &|_| {},
+    )
+    .expect("the evaluation");
+    let agents: Vec<&str> = report.agents.iter().map(|a| a.agent.as_str()).collect();
+    assert_eq!(agents[..2], ["ppo", "ppo:tiny"]);
+    let key = |e: &&firecast_rl::evaluate::Episode| (e.train_seed, e.fire);
+    let mut mine: Vec<_> = report.episodes.iter().filter(|e| e.agent == "ppo").collect();
+    let mut theirs: Vec<_> = report.episodes.iter().filter(|e| e.agent == "ppo:tiny").collect();
+    mine.sort_by_key(key);
+    theirs.sort_by_key(key);
+    assert_eq!(mine.len(), theirs.len());
+    for (a, b) in mine.iter().zip(&theirs) {
+        assert_eq!(
+            (a.cells_burned, a.timesteps, a.helitacks),
+            (b.cells_burned, b.timesteps, b.helitacks)
+        );
+    }
+    let c = &report.comparisons[0];
+    assert_eq!((c.agent.as_str(), c.baseline.as_str()), ("ppo", "ppo:tiny"));
+    assert_eq!(c.cells_burned_diff.estimate, 0.0);
+    assert_eq!(c.probability_better.estimate, 0.5);
+    assert_eq!(c.relative_reduction.estimate, 0.0);
+    assert!(c.cells_burned_diff.low <= 0.0 && c.cells_burned_diff.high >= 0.0);
+    assert!(firecast_rl::evaluate::markdown(&report).contains("| ppo:tiny |"));
 }

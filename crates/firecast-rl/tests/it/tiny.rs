@@ -35,6 +35,7 @@ pub(crate) fn tiny_run_with(dir: &Path, fires: &str, policy: Option<PolicyConfig
             preset: "paper".into(),
             overrides: overrides.as_object().cloned().unwrap_or_default(),
         },
+        imitation: None,
         seeds: vec![0, 1],
         checkpoint_every: 1,
         device: "cpu".into(),
