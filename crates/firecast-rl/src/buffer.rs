@@ -39,6 +39,8 @@ pub struct Minibatch {
     pub log_probs: Vec<f32>,
     pub advantages: Vec<f32>,
     pub returns: Vec<f32>,
+    /// A teacher's actions (empty when the buffer has none).
+    pub labels: Vec<u8>,
     /// Set by [`RolloutBuffer::gather_sequences`].
     pub sequences: Option<SequenceBatch>,
 }
@@ -228,6 +230,7 @@ impl RolloutBuffer {
             log_probs: Vec::with_capacity(idx.len()),
             advantages: Vec::with_capacity(idx.len()),
             returns: Vec::with_capacity(idx.len()),
+            labels: Vec::new(),
             sequences: None,
         };
         for (r, &k) in idx.iter().enumerate() {
@@ -240,6 +243,9 @@ impl RolloutBuffer {
             mb.log_probs.push(self.log_probs[i]);
             mb.advantages.push(self.advantages[i]);
             mb.returns.push(self.returns[i]);
+            if !self.labels.is_empty() {
+                mb.labels.push(self.labels[i]);
+            }
         }
         mb.obs = obs;
         mb

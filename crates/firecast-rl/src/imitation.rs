@@ -46,6 +46,12 @@ pub struct ImitationConfig {
     pub batch_size: usize,
     #[serde(default = "default_learning_rate")]
     pub learning_rate: f64,
+    /// Kickstarting (Schmitt et al., 2018): during PPO the teacher keeps labelling the
+    /// policy's own rollouts and each minibatch's loss gains this × (1 − progress) × the
+    /// cross-entropy to its labels, so PPO starts next to the teacher and is free of it at
+    /// the end. 0: plain PPO after the imitation rounds.
+    #[serde(default)]
+    pub kickstart: f64,
 }
 
 fn default_rounds() -> u32 {
@@ -93,6 +99,12 @@ impl ImitationConfig {
             return bad(
                 "learning_rate",
                 format!("{} is not a positive number", self.learning_rate),
+            );
+        }
+        if !(self.kickstart.is_finite() && self.kickstart >= 0.0) {
+            return bad(
+                "kickstart",
+                format!("{} is not a non-negative number", self.kickstart),
             );
         }
         Ok(())

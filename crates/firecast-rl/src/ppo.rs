@@ -327,6 +327,8 @@ pub struct Losses {
     pub approx_kl: f64,
     pub clip_fraction: f64,
     pub loss_value: f64,
+    /// The policy's logits on the minibatch (part of the graph).
+    pub logits: Tensor,
 }
 
 /// Log-probabilities of `actions` and the entropies of the categorical distributions.
@@ -363,6 +365,7 @@ pub fn ppo_losses(policy: &Policy, mb: &PpoMinibatch, settings: &LossSettings) -
         approx_kl: out.approx_kl,
         clip_fraction: out.clip_fraction,
         loss_value: out.loss,
+        logits,
     }
 }
 

@@ -199,9 +199,12 @@ pub fn train(
             metrics: std::cell::RefCell::new(file),
         };
         let started = std::time::Instant::now();
-        if let (Some(cfg), None) = (&spec.imitation, resumed_from) {
+        if let Some(cfg) = &spec.imitation {
             let mut teacher = crate::imitation::teacher(cfg.teacher, trainer.policy.space)?;
-            trainer.imitate(cfg, teacher.as_mut(), &seed_sink)?;
+            if resumed_from.is_none() {
+                trainer.imitate(cfg, teacher.as_mut(), &seed_sink)?;
+            }
+            trainer.kickstart(teacher, cfg.kickstart)?;
         }
         trainer.learn_until(&seed_sink, Some((&ck, spec.checkpoint_every)), stop_after)?;
         if trainer.num_timesteps < ppo.total_timesteps {

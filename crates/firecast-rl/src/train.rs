@@ -110,6 +110,9 @@ pub struct Trainer {
     hidden: Option<Hidden>,
     /// Environment steps spent imitating a teacher before PPO (not in `num_timesteps`).
     pub imitation_timesteps: u64,
+    /// A teacher labelling PPO's rollouts and the initial weight of the cross-entropy to its
+    /// labels ([`Trainer::kickstart`]).
+    kickstart: Option<(Box<dyn Teacher>, f64)>,
 }
 
 impl Trainer {
@@ -160,6 +163,7 @@ impl Trainer {
             last_checkpoint: None,
             hidden,
             imitation_timesteps: 0,
+            kickstart: None,
         };
         t.env.observe(&mut t.last_obs);
         t.normalize.observe(&mut t.last_obs.vector);
@@ -191,7 +195,14 @@ impl Trainer {
         let started = Instant::now();
         let start_steps = self.num_timesteps;
         while self.num_timesteps < stop {
-            self.collect_rollouts(None)?;
+            let mut kickstart = self.kickstart.take();
+            let teacher: Option<(&mut dyn Teacher, bool)> = match &mut kickstart {
+                Some((t, _)) => Some((t.as_mut(), false)),
+                None => None,
+            };
+            let collected = self.collect_rollouts(teacher);
+            self.kickstart = kickstart;
+            collected?;
             self.iterations += 1;
             let progress_remaining = 1.0 - self.num_timesteps as f64 / total as f64;
             let mut metrics = self.train(progress_remaining)?;
@@ -422,6 +433,20 @@ impl Trainer {
         }
     }
 
+    /// Kickstarting: from now on `teacher` labels every rollout and each PPO minibatch's loss
+    /// gains `weight` × (1 − progress) × the cross-entropy to the labels (not part of the
+    /// checkpoint: set it again after a resume, as `run::train` does from the spec).
+    pub fn kickstart(&mut self, teacher: Box<dyn Teacher>, weight: f64) -> Result<(), RlError> {
+        if self.policy.is_recurrent() {
+            return Err(RlError::config(
+                "imitation.kickstart",
+                "kickstarting trains on single steps: use `memory: frames`",
+            ));
+        }
+        self.kickstart = (weight > 0.0).then_some((teacher, weight));
+        Ok(())
+    }
+
     /// Learns a teacher's actions before PPO ([`crate::imitation`]): `rounds` rollouts, the
     /// first `teacher_rounds` flown by the teacher, the rest by the policy (sampling) with the
     /// teacher's labels. Every labelled step joins one dataset (DAgger's aggregation); after
@@ -544,6 +569,12 @@ impl Trainer {
         };
         let (mut pg, mut vl, mut ent, mut cf) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut approx_kls = Vec::new();
+        // Kickstarting's weight now (0 without a teacher) and its cross-entropies.
+        let kick = self
+            .kickstart
+            .as_ref()
+            .map_or(0.0, |(_, w)| w * progress_remaining);
+        let mut kick_ce = Vec::new();
         let mut last_loss = f64::NAN;
         let mut continue_training = true;
         for _epoch in 0..self.ppo.n_epochs {
@@ -561,11 +592,16 @@ impl Trainer {
             };
             for chunk in &batches {
                 let mb = if self.hidden.is_some() {
-                    self.minibatch(self.buffer.gather_sequences(chunk, SEQUENCE))
+                    self.buffer.gather_sequences(chunk, SEQUENCE)
                 } else {
-                    self.minibatch(self.buffer.gather(chunk))
+                    self.buffer.gather(chunk)
                 };
-                let losses = ppo_losses(&self.policy, &mb, &settings);
+                let labels = (kick > 0.0).then(|| {
+                    Tensor::from_slice(&mb.labels)
+                        .to_kind(Kind::Int64)
+                        .to_device(self.policy.device())
+                });
+                let losses = ppo_losses(&self.policy, &self.minibatch(mb), &settings);
                 let loss_value = losses.loss_value;
                 if !loss_value.is_finite() {
                     return Err(RlError::NonFinite {
@@ -586,7 +622,18 @@ impl Trainer {
                     continue_training = false;
                     break;
                 }
-                self.adam.gradients(&losses.surrogate)?;
+                match &labels {
+                    Some(labels) => {
+                        let ce = -losses
+                            .logits
+                            .log_softmax(-1, Kind::Float)
+                            .gather(1, &labels.unsqueeze(1), false)
+                            .mean(Kind::Float);
+                        kick_ce.push(f64::try_from(&ce).unwrap_or(f64::NAN));
+                        self.adam.gradients(&(&losses.surrogate + ce * kick))?;
+                    }
+                    None => self.adam.gradients(&losses.surrogate)?,
+                }
                 let norm = self.adam.clip_grad_norm(self.ppo.max_grad_norm);
                 if !norm.is_finite() {
                     return Err(RlError::NonFinite {
@@ -609,21 +656,29 @@ impl Trainer {
                 v.iter().sum::<f64>() / v.len() as f64
             }
         };
-        Ok(vec![
-            ("train/entropy_loss".into(), mean(&ent)),
-            ("train/policy_gradient_loss".into(), mean(&pg)),
-            ("train/value_loss".into(), mean(&vl)),
-            ("train/approx_kl".into(), mean(&approx_kls)),
-            ("train/clip_fraction".into(), mean(&cf)),
-            ("train/loss".into(), last_loss),
-            (
-                "train/explained_variance".into(),
-                explained_variance(&self.buffer.values, &self.buffer.returns),
-            ),
-            ("train/n_updates".into(), self.n_updates as f64),
-            ("train/clip_range".into(), clip),
-            ("train/learning_rate".into(), lr),
-        ])
+        let mut kickstart = Vec::new();
+        if self.kickstart.is_some() {
+            kickstart.push(("train/kickstart_weight".to_string(), kick));
+            kickstart.push(("train/kickstart_cross_entropy".to_string(), mean(&kick_ce)));
+        }
+        Ok(kickstart
+            .into_iter()
+            .chain([
+                ("train/entropy_loss".into(), mean(&ent)),
+                ("train/policy_gradient_loss".into(), mean(&pg)),
+                ("train/value_loss".into(), mean(&vl)),
+                ("train/approx_kl".into(), mean(&approx_kls)),
+                ("train/clip_fraction".into(), mean(&cf)),
+                ("train/loss".into(), last_loss),
+                (
+                    "train/explained_variance".into(),
+                    explained_variance(&self.buffer.values, &self.buffer.returns),
+                ),
+                ("train/n_updates".into(), self.n_updates as f64),
+                ("train/clip_range".into(), clip),
+                ("train/learning_rate".into(), lr),
+            ])
+            .collect())
     }
 
     /// Writes a checkpoint folder atomically (a temporary sibling renamed into place).
@@ -788,6 +843,7 @@ impl Trainer {
             last_checkpoint: Some(dir.to_path_buf()),
             hidden,
             imitation_timesteps: state.imitation_timesteps,
+            kickstart: None,
         };
         t.env.observe(&mut t.last_obs);
         // The statistics already include these observations: normalise without updating.

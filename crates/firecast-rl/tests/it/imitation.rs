@@ -128,6 +128,7 @@ fn imitation_makes_the_policy_fly_like_its_teacher_on_unseen_fires() {
         updates: 80,
         batch_size: 32,
         learning_rate: 1e-3,
+        kickstart: 0.0,
     };
     let mut teacher = ChaserTeacher::new(t.policy.space).expect("teacher");
     t.imitate(&cfg, &mut teacher, &NoSink).expect("imitation");
@@ -196,6 +197,7 @@ fn imitation() -> ImitationConfig {
         updates: 5,
         batch_size: 8,
         learning_rate: 1e-3,
+        kickstart: 0.5,
     }
 }
 
@@ -231,7 +233,8 @@ fn a_run_with_imitation_is_reproducible_and_resumes_exactly() {
         train(b.path(), &with, None).expect("again"),
         "same seed, other bytes"
     );
-    // Interrupted after 32 PPO steps, then resumed: no second imitation, the same weights.
+    // Interrupted after 32 PPO steps, then resumed: no second imitation, the teacher back for
+    // kickstarting, the same weights.
     assert!(matches!(
         train(c.path(), &with, Some(32)),
         Err(RlError::Interrupted)
@@ -251,6 +254,21 @@ fn a_run_with_imitation_is_reproducible_and_resumes_exactly() {
             .count(),
         3
     );
+    assert_eq!(
+        metrics
+            .lines()
+            .filter(|l| l.contains("train/kickstart_cross_entropy"))
+            .count(),
+        2,
+        "one kickstarted update per 32-step rollout"
+    );
+    // Kickstarting changed the run too.
+    let plain = spec(Some(ImitationConfig {
+        kickstart: 0.0,
+        ..imitation()
+    }));
+    let e = tempfile::tempdir().expect("tmp");
+    assert_ne!(straight, train(e.path(), &plain, None).expect("no kickstart"));
 }
 
 #[test]
@@ -274,6 +292,11 @@ fn bad_imitation_settings_name_their_key() {
         ..imitation()
     });
     assert_eq!(key(&s), "imitation.learning_rate");
+    s.imitation = Some(ImitationConfig {
+        kickstart: -1.0,
+        ..imitation()
+    });
+    assert_eq!(key(&s), "imitation.kickstart");
     s.imitation = Some(imitation());
     s.policy = Some(PolicyConfig {
         memory: firecast_rl::policy::Memory::Lstm,
