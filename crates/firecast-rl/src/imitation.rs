@@ -156,6 +156,21 @@ impl Teacher for ChaserTeacher {
     }
 }
 
+/// The mean cross-entropy of `logits` (n × actions) to a teacher's actions, and the rows
+/// whose most likely action is the teacher's.
+pub fn cross_entropy(logits: &tch::Tensor, labels: &[u8]) -> (tch::Tensor, usize) {
+    use tch::Kind;
+    let labels = tch::Tensor::from_slice(labels)
+        .to_kind(Kind::Int64)
+        .to_device(logits.device());
+    let ce = -logits
+        .log_softmax(-1, Kind::Float)
+        .gather(1, &labels.unsqueeze(1), false)
+        .mean(Kind::Float);
+    let hits = tch::no_grad(|| logits.argmax(-1, false).eq_tensor(&labels).sum(Kind::Int64));
+    (ce, i64::try_from(hits).unwrap_or(0) as usize)
+}
+
 /// The teacher a spec names, for an environment with observations `space`.
 pub fn teacher(kind: TeacherKind, space: ObsSpace) -> Result<Box<dyn Teacher>, RlError> {
     match kind {

@@ -501,13 +501,9 @@ impl Trainer {
                     rows.extend(order.pop());
                 }
                 let (obs, labels, returns) = data.gather(&rows);
-                let labels = Tensor::from_slice(&labels).to_kind(Kind::Int64).to_device(device);
                 let returns = Tensor::from_slice(&returns).to_device(device);
                 let (logits, values) = self.policy.forward(&ObsTensors::from_batch(&obs, device), true);
-                let cross_entropy = -logits
-                    .log_softmax(-1, Kind::Float)
-                    .gather(1, &labels.unsqueeze(1), false)
-                    .mean(Kind::Float);
+                let (cross_entropy, agree) = crate::imitation::cross_entropy(&logits, &labels);
                 let value_loss = (&returns - &values).square().mean(Kind::Float);
                 let loss = &cross_entropy + &value_loss * self.ppo.vf_coef;
                 if !f64::try_from(&loss).is_ok_and(f64::is_finite) {
@@ -520,8 +516,7 @@ impl Trainer {
                 let n = rows.len();
                 ce += f64::try_from(&cross_entropy).unwrap_or(f64::NAN) * n as f64;
                 vl += f64::try_from(&value_loss).unwrap_or(f64::NAN) * n as f64;
-                let argmax = tch::no_grad(|| logits.argmax(-1, false));
-                hits += i64::try_from(argmax.eq_tensor(&labels).sum(Kind::Int64)).unwrap_or(0) as usize;
+                hits += agree;
                 seen += n;
                 self.adam.gradients(&loss)?;
                 self.adam.clip_grad_norm(self.ppo.max_grad_norm);
@@ -596,11 +591,7 @@ impl Trainer {
                 } else {
                     self.buffer.gather(chunk)
                 };
-                let labels = (kick > 0.0).then(|| {
-                    Tensor::from_slice(&mb.labels)
-                        .to_kind(Kind::Int64)
-                        .to_device(self.policy.device())
-                });
+                let labels = (kick > 0.0).then(|| mb.labels.clone());
                 let losses = ppo_losses(&self.policy, &self.minibatch(mb), &settings);
                 let loss_value = losses.loss_value;
                 if !loss_value.is_finite() {
@@ -624,11 +615,7 @@ impl Trainer {
                 }
                 match &labels {
                     Some(labels) => {
-                        let ce = -losses
-                            .logits
-                            .log_softmax(-1, Kind::Float)
-                            .gather(1, &labels.unsqueeze(1), false)
-                            .mean(Kind::Float);
+                        let (ce, _) = crate::imitation::cross_entropy(&losses.logits, labels);
                         kick_ce.push(f64::try_from(&ce).unwrap_or(f64::NAN));
                         self.adam.gradients(&(&losses.surrogate + ce * kick))?;
                     }
