@@ -273,9 +273,6 @@ impl PpoConfig {
         if self.adam_eps.is_nan() || self.adam_eps <= 0.0 {
             return bad("adam_eps", "must be positive".into());
         }
-        if self.total_timesteps == 0 {
-            return bad("total_timesteps", "must be at least 1".into());
-        }
         Ok(())
     }
 }

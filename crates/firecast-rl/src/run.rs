@@ -210,6 +210,10 @@ pub fn train(
         if trainer.num_timesteps < ppo.total_timesteps {
             return Err(RlError::Interrupted);
         }
+        // No PPO step (a policy that only imitates): the policy as imitation left it.
+        if Trainer::latest_checkpoint(&ck).is_none() {
+            trainer.save(&ck.join(format!("step-{:09}", trainer.num_timesteps)))?;
+        }
         let last = Trainer::latest_checkpoint(&ck).ok_or_else(|| RlError::Checkpoint {
             path: ck.clone(),
             message: "no checkpoint after training".into(),

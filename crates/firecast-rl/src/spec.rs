@@ -147,6 +147,12 @@ impl TrainSpec {
             return Err(RlError::config("seeds", "seeds repeat"));
         }
         let ppo = self.ppo()?;
+        if ppo.total_timesteps == 0 && self.imitation.is_none() {
+            return Err(RlError::config(
+                "ppo.total_timesteps",
+                "0 trains nothing (0 is for a policy that only imitates: add `imitation:`)",
+            ));
+        }
         crate::parse_device(&self.device)?;
         let p = self.policy();
         if let Some(imitation) = &self.imitation {

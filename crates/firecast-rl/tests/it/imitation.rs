@@ -269,6 +269,18 @@ fn a_run_with_imitation_is_reproducible_and_resumes_exactly() {
     }));
     let e = tempfile::tempdir().expect("tmp");
     assert_ne!(straight, train(e.path(), &plain, None).expect("no kickstart"));
+    // A policy that only imitates: no PPO step, the imitated policy is the run's.
+    let mut only = spec(Some(imitation()));
+    only.ppo.overrides.insert("total_timesteps".into(), 0.into());
+    only.validate().expect("0 PPO steps with imitation");
+    let f = tempfile::tempdir().expect("tmp");
+    let imitated = train(f.path(), &only, None).expect("imitation only");
+    assert_ne!(imitated, straight);
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(f.path().join("run/summary.json")).expect("summary"))
+            .expect("json");
+    assert_eq!(summary["seeds"][0]["timesteps"], 0);
+    assert_eq!(summary["seeds"][0]["imitation_timesteps"], 3 * 32);
 }
 
 #[test]
@@ -306,6 +318,9 @@ fn bad_imitation_settings_name_their_key() {
     s.policy = None;
     s.env = EnvSpec::Cartpole;
     assert_eq!(key(&s), "imitation.teacher");
+    let mut s = spec(None);
+    s.ppo.overrides.insert("total_timesteps".into(), 0.into());
+    assert_eq!(key(&s), "ppo.total_timesteps");
     // Unknown keys are refused when the spec is read.
     let dir = tempfile::tempdir().expect("tmp");
     let file = dir.path().join("spec.yaml");
