@@ -565,10 +565,8 @@ impl Trainer {
         let (mut pg, mut vl, mut ent, mut cf) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut approx_kls = Vec::new();
         // Kickstarting's weight now (0 without a teacher) and its cross-entropies.
-        let kick = self
-            .kickstart
-            .as_ref()
-            .map_or(0.0, |(_, w)| w * progress_remaining);
+        // (SB3's progress goes slightly below 0 on a last rollout that overshoots the budget.)
+        let kick = (self.kickstart.as_ref()).map_or(0.0, |(_, w)| w * progress_remaining.max(0.0));
         let mut kick_ce = Vec::new();
         let mut last_loss = f64::NAN;
         let mut continue_training = true;
