@@ -156,6 +156,17 @@ impl Teacher for ChaserTeacher {
     }
 }
 
+/// Imitation and kickstarting train on single steps: a recurrent policy is refused.
+pub fn single_steps(recurrent: bool) -> Result<(), RlError> {
+    if recurrent {
+        return Err(RlError::config(
+            "imitation",
+            "imitation trains on single steps: use `memory: frames`",
+        ));
+    }
+    Ok(())
+}
+
 /// The mean cross-entropy of `logits` (n × actions) to a teacher's actions, and the rows
 /// whose most likely action is the teacher's.
 pub fn cross_entropy(logits: &tch::Tensor, labels: &[u8]) -> (tch::Tensor, usize) {

@@ -36,12 +36,8 @@ pub struct SeedSummary {
     pub policy: String,
     pub parameters: i64,
     /// Environment steps spent imitating a teacher before PPO (`imitation:`).
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(default, skip_serializing_if = "crate::train::is_zero")]
     pub imitation_timesteps: u64,
-}
-
-fn is_zero(v: &u64) -> bool {
-    *v == 0
 }
 
 /// `summary.json`.
@@ -69,40 +65,41 @@ struct SeedSink<'a> {
     metrics: std::cell::RefCell<std::fs::File>,
 }
 
-impl TrainSink for SeedSink<'_> {
-    fn update(&self, timesteps: u64, metrics: &[(String, f64)]) {
+impl SeedSink<'_> {
+    /// One `metrics.jsonl` row. Wall-clock speed goes to the registry only, so the run's
+    /// files are the same bytes for the same config and seed.
+    fn write_row(&self, timesteps: u64, imitation_timesteps: Option<u64>, metrics: &[(String, f64)]) {
         let mut row = serde_json::Map::new();
         row.insert("timesteps".into(), timesteps.into());
-        for (k, v) in metrics {
-            self.run.metric(self.seed, timesteps, k, *v);
-            // Wall-clock speed goes to the registry only, so the run's files are the same
-            // bytes for the same config and seed.
-            if k == "time/fps" {
-                continue;
-            }
+        if let Some(n) = imitation_timesteps {
+            row.insert("imitation/timesteps".into(), n.into());
+        }
+        for (k, v) in metrics.iter().filter(|(k, _)| k != "time/fps") {
             row.insert(
                 k.clone(),
                 serde_json::Number::from_f64(*v).map_or(serde_json::Value::Null, Into::into),
             );
         }
         let _ = writeln!(self.metrics.borrow_mut(), "{}", serde_json::Value::Object(row));
+    }
+}
+
+impl TrainSink for SeedSink<'_> {
+    fn update(&self, timesteps: u64, metrics: &[(String, f64)]) {
+        for (k, v) in metrics {
+            self.run.metric(self.seed, timesteps, k, *v);
+        }
+        self.write_row(timesteps, None, metrics);
     }
     fn progress(&self, timesteps: u64, total: u64, fps: f64, ep_rew_mean: f64) {
         self.run.progress(self.seed, timesteps, total, fps, ep_rew_mean);
     }
     /// Rows at `timesteps` 0 (before PPO's first step), with the imitation's own count.
     fn imitation(&self, imitation_timesteps: u64, metrics: &[(String, f64)]) {
-        let mut row = serde_json::Map::new();
-        row.insert("timesteps".into(), 0.into());
-        row.insert("imitation/timesteps".into(), imitation_timesteps.into());
         for (k, v) in metrics {
             self.run.metric(self.seed, imitation_timesteps, k, *v);
-            row.insert(
-                k.clone(),
-                serde_json::Number::from_f64(*v).map_or(serde_json::Value::Null, Into::into),
-            );
         }
-        let _ = writeln!(self.metrics.borrow_mut(), "{}", serde_json::Value::Object(row));
+        self.write_row(0, Some(imitation_timesteps), metrics);
         let round = metrics.first().map_or(0.0, |(_, v)| *v);
         self.run.message(&format!(
             "seed {}: imitation round {round:.0} done ({imitation_timesteps} steps)",

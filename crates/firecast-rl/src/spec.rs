@@ -162,12 +162,7 @@ impl TrainSpec {
                     "the teachers fly helicopters: imitation needs the helitack environment",
                 ));
             }
-            if p.memory == crate::policy::Memory::Lstm {
-                return Err(RlError::config(
-                    "imitation",
-                    "imitation trains on single steps: use `memory: frames`",
-                ));
-            }
+            crate::imitation::single_steps(p.memory == crate::policy::Memory::Lstm)?;
             imitation.validate(ppo.buffer_size())?;
         }
         match (&self.env, p.kind) {

@@ -73,7 +73,7 @@ struct TrainerState {
     imitation_timesteps: u64,
 }
 
-fn is_zero(v: &u64) -> bool {
+pub(crate) fn is_zero(v: &u64) -> bool {
     *v == 0
 }
 
@@ -437,12 +437,7 @@ impl Trainer {
     /// gains `weight` × (1 − progress) × the cross-entropy to the labels (not part of the
     /// checkpoint: set it again after a resume, as `run::train` does from the spec).
     pub fn kickstart(&mut self, teacher: Box<dyn Teacher>, weight: f64) -> Result<(), RlError> {
-        if self.policy.is_recurrent() {
-            return Err(RlError::config(
-                "imitation.kickstart",
-                "kickstarting trains on single steps: use `memory: frames`",
-            ));
-        }
+        crate::imitation::single_steps(self.policy.is_recurrent())?;
         self.kickstart = (weight > 0.0).then_some((teacher, weight));
         Ok(())
     }
@@ -461,12 +456,7 @@ impl Trainer {
         teacher: &mut dyn Teacher,
         sink: &dyn TrainSink,
     ) -> Result<(), RlError> {
-        if self.policy.is_recurrent() {
-            return Err(RlError::config(
-                "imitation",
-                "imitation trains on single steps: use `memory: frames`",
-            ));
-        }
+        crate::imitation::single_steps(self.policy.is_recurrent())?;
         cfg.validate(self.buffer.len())?;
         let ppo_timesteps = self.num_timesteps;
         let device = self.policy.device();
