@@ -326,11 +326,17 @@ fn metric(groups: &[Vec<f64>], cfg: &EvalConfig, salt: u64) -> Result<MetricSumm
     })
 }
 
-fn summarize(agent: &str, eps: &[&Episode], cfg: &EvalConfig) -> Result<AgentSummary, RlError> {
-    // Strata: training seeds (one stratum for a baseline); values: fires.
-    let mut seeds: Vec<Option<u64>> = eps.iter().map(|e| e.train_seed).collect();
+/// The training seeds of some episodes, sorted, once each (`[None]` for a baseline).
+fn train_seeds<'a>(eps: impl IntoIterator<Item = &'a Episode>) -> Vec<Option<u64>> {
+    let mut seeds: Vec<Option<u64>> = eps.into_iter().map(|e| e.train_seed).collect();
     seeds.sort_unstable();
     seeds.dedup();
+    seeds
+}
+
+fn summarize(agent: &str, eps: &[&Episode], cfg: &EvalConfig) -> Result<AgentSummary, RlError> {
+    // Strata: training seeds (one stratum for a baseline); values: fires.
+    let seeds = train_seeds(eps.iter().copied());
     let groups = |f: &dyn Fn(&Episode) -> f64| -> Vec<Vec<f64>> {
         seeds
             .iter()
@@ -362,13 +368,7 @@ fn compare(
         .filter(|e| e.agent == baseline)
         .map(|e| (e.fire, f64::from(e.cells_burned)))
         .collect();
-    let mut seeds: Vec<Option<u64>> = episodes
-        .iter()
-        .filter(|e| e.agent == agent)
-        .map(|e| e.train_seed)
-        .collect();
-    seeds.sort_unstable();
-    seeds.dedup();
+    let seeds = train_seeds(episodes.iter().filter(|e| e.agent == agent));
     // Per stratum: (agent, baseline) pairs over fires, encoded as 2 values per fire.
     let pairs: Vec<Vec<(f64, f64)>> = seeds
         .iter()
@@ -446,19 +446,12 @@ pub fn compare_runs(
 ) -> Result<PairedComparison, RlError> {
     // Cells burned as [seed][fire], over the fires both agents played with every seed.
     let table = |name: &str| -> Vec<std::collections::BTreeMap<usize, f64>> {
-        let mut seeds: Vec<u64> = episodes
-            .iter()
-            .filter(|e| e.agent == name)
-            .filter_map(|e| e.train_seed)
-            .collect();
-        seeds.sort_unstable();
-        seeds.dedup();
-        seeds
-            .iter()
-            .map(|&s| {
+        train_seeds(episodes.iter().filter(|e| e.agent == name))
+            .into_iter()
+            .map(|s| {
                 episodes
                     .iter()
-                    .filter(|e| e.agent == name && e.train_seed == Some(s))
+                    .filter(|e| e.agent == name && e.train_seed == s)
                     .map(|e| (e.fire, f64::from(e.cells_burned)))
                     .collect()
             })

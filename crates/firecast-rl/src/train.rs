@@ -247,11 +247,7 @@ impl Trainer {
 
     fn ep_mean(&self, f: impl Fn(&EpisodeRecord) -> f64) -> f64 {
         let vals: Vec<f64> = self.episodes.iter().map(f).filter(|v| v.is_finite()).collect();
-        if vals.is_empty() {
-            f64::NAN
-        } else {
-            vals.iter().sum::<f64>() / vals.len() as f64
-        }
+        mean_or_nan(&vals)
     }
 
     /// Actions for a batch of (already normalised) observations: sampled from the policy
@@ -513,11 +509,7 @@ impl Trainer {
                 self.adam.step(cfg.learning_rate);
             }
             let returns: Vec<f64> = self.all_episodes[finished..].iter().map(|e| e.reward).collect();
-            let ep_rew = if returns.is_empty() {
-                f64::NAN
-            } else {
-                returns.iter().sum::<f64>() / returns.len() as f64
-            };
+            let ep_rew = mean_or_nan(&returns);
             let seen = seen.max(1) as f64;
             sink.imitation(
                 self.imitation_timesteps,
@@ -624,13 +616,7 @@ impl Trainer {
                 break;
             }
         }
-        let mean = |v: &[f64]| {
-            if v.is_empty() {
-                f64::NAN
-            } else {
-                v.iter().sum::<f64>() / v.len() as f64
-            }
-        };
+        let mean = mean_or_nan;
         let mut kickstart = Vec::new();
         if self.kickstart.is_some() {
             kickstart.push(("train/kickstart_weight".to_string(), kick));
@@ -843,11 +829,19 @@ impl Trainer {
     }
 }
 
-/// Every labelled step of an imitation: observations, the teacher's action, the GAE return.
+/// The mean, NaN for no values.
+fn mean_or_nan(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        v.iter().sum::<f64>() / v.len() as f64
+    }
+}
+
+/// Every labelled step of an imitation: observations (one growing batch), the teacher's
+/// action, the GAE return.
 struct Demonstrations {
-    space: ObsSpace,
-    images: Vec<u8>,
-    vectors: Vec<f32>,
+    obs: ObsBatch,
     labels: Vec<u8>,
     returns: Vec<f32>,
 }
@@ -855,9 +849,7 @@ struct Demonstrations {
 impl Demonstrations {
     fn new(space: ObsSpace) -> Self {
         Self {
-            space,
-            images: Vec::new(),
-            vectors: Vec::new(),
+            obs: ObsBatch::new(space, 0),
             labels: Vec::new(),
             returns: Vec::new(),
         }
@@ -866,19 +858,16 @@ impl Demonstrations {
         self.labels.len()
     }
     fn extend(&mut self, buffer: &RolloutBuffer) {
-        self.images.extend_from_slice(&buffer.images);
-        self.vectors.extend_from_slice(&buffer.vectors);
+        self.obs.image.extend_from_slice(&buffer.images);
+        self.obs.vector.extend_from_slice(&buffer.vectors);
+        self.obs.n += buffer.len();
         self.labels.extend_from_slice(&buffer.labels);
         self.returns.extend_from_slice(&buffer.returns);
     }
     fn gather(&self, rows: &[usize]) -> (ObsBatch, Vec<u8>, Vec<f32>) {
-        let mut obs = ObsBatch::new(self.space, rows.len());
-        let (il, vl) = (self.space.image_len(), self.space.vector);
+        let mut obs = ObsBatch::new(self.obs.space, rows.len());
         for (r, &k) in rows.iter().enumerate() {
-            obs.image_row_mut(r)
-                .copy_from_slice(&self.images[k * il..(k + 1) * il]);
-            obs.vector_row_mut(r)
-                .copy_from_slice(&self.vectors[k * vl..(k + 1) * vl]);
+            obs.copy_row(r, &self.obs, k);
         }
         let labels = rows.iter().map(|&k| self.labels[k]).collect();
         let returns = rows.iter().map(|&k| self.returns[k]).collect();

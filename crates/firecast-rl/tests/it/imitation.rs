@@ -5,13 +5,10 @@
 
 use std::path::Path;
 
-use firecast_rl::bench::HelitackPool;
 use firecast_rl::env::{ObsBatch, VecEnvironment};
-use firecast_rl::helitack::HelitackVec;
 use firecast_rl::imitation::{ChaserTeacher, ImitationConfig, Teacher, TeacherKind};
 use firecast_rl::policy::{PolicyConfig, PolicyKind, View};
 use firecast_rl::ppo::PpoConfig;
-use firecast_rl::run::RunSink;
 use firecast_rl::spec::{EnvSpec, PpoSpec, TrainSpec};
 use firecast_rl::train::{NoSink, Trainer, policy_actions};
 use firecast_rl::{Device, RlError};
@@ -20,10 +17,10 @@ use firecast_sim::env::{FRAME_STACK, Observation};
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
 
+use crate::tiny::{Quiet, small_env};
+
 fn env(n: usize, seed: u64) -> Box<dyn VecEnvironment> {
-    let mut pool = HelitackPool::sized(32, 24).expect("pool");
-    pool.config["max_steps"] = serde_json::json!(60);
-    Box::new(HelitackVec::new(pool.fires().expect("fires"), n, seed).expect("env"))
+    Box::new(small_env(n, seed, 60))
 }
 
 fn compact() -> PolicyConfig {
@@ -37,9 +34,7 @@ fn compact() -> PolicyConfig {
 #[test]
 fn the_teacher_reads_the_observation_as_the_chaser_reads_the_environment() {
     let n = 4;
-    let mut pool = HelitackPool::sized(32, 24).expect("pool");
-    pool.config["max_steps"] = serde_json::json!(60);
-    let mut vec = HelitackVec::new(pool.fires().expect("fires"), n, 7).expect("env");
+    let mut vec = small_env(n, 7, 60);
     vec.reset(7);
     let mut teacher = ChaserTeacher::new(vec.space()).expect("teacher");
     let mut chaser = FireChaser::default();
@@ -163,9 +158,6 @@ evaluate:
   dead_1h_frac: [0.09, 0.12]
   ignition_margin_cells: 6
 "#;
-
-struct Quiet;
-impl RunSink for Quiet {}
 
 fn spec(imitation: Option<ImitationConfig>) -> TrainSpec {
     let overrides = serde_json::json!({

@@ -2,9 +2,7 @@
 //! own log-probabilities (stored states, resets at episode starts inside a sequence), the
 //! state matters, a resumed run equals a straight one, and bad settings are refused.
 
-use firecast_rl::bench::HelitackPool;
 use firecast_rl::env::VecEnvironment;
-use firecast_rl::helitack::HelitackVec;
 use firecast_rl::policy::{Hidden, Memory, ObsTensors, PolicyConfig, PolicyKind, SEQUENCE, View};
 use firecast_rl::ppo::PpoConfig;
 use firecast_rl::train::{NoSink, Trainer};
@@ -23,9 +21,7 @@ fn lstm_policy() -> PolicyConfig {
 
 /// Small fires with 12-step episodes, so episodes start inside 16-step sequences.
 fn env(n: usize, seed: u64) -> Box<dyn VecEnvironment> {
-    let mut pool = HelitackPool::sized(32, 24).expect("pool");
-    pool.config["max_steps"] = serde_json::json!(12);
-    Box::new(HelitackVec::new(pool.fires().expect("fires"), n, seed).expect("env"))
+    Box::new(crate::tiny::small_env(n, seed, 12))
 }
 
 fn ppo() -> PpoConfig {

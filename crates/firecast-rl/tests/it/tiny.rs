@@ -4,6 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
+use firecast_rl::bench::HelitackPool;
+use firecast_rl::helitack::HelitackVec;
 use firecast_rl::policy::PolicyConfig;
 use firecast_rl::run::RunSink;
 use firecast_rl::spec::{EnvSpec, PpoSpec, TrainSpec};
@@ -11,6 +13,13 @@ use tch::Device;
 
 pub(crate) struct Quiet;
 impl RunSink for Quiet {}
+
+/// Helitack environments on small (32 × 24) demo fires, episodes cut at `max_steps`.
+pub(crate) fn small_env(n: usize, seed: u64, max_steps: u32) -> HelitackVec {
+    let mut pool = HelitackPool::sized(32, 24).expect("pool");
+    pool.config["max_steps"] = serde_json::json!(max_steps);
+    HelitackVec::new(pool.fires().expect("fires"), n, seed).expect("env")
+}
 
 /// Writes `fires` (a fire file) into `dir`, trains the tiny run on it; returns the run
 /// folder and the fire file.
