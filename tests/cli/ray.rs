@@ -581,11 +581,13 @@ fn ray_runs_match_local_and_survive_faults() {
     );
 
     // Queued behind this run's own jobs is waiting, not stuck: three 1-CPU stages on the
-    // two 1-CPU nodes, the third pending for longer than the timeout, all finish.
+    // two 1-CPU nodes, the third pending for longer than the timeout, all finish. The
+    // timeout stays well above a job's own start-up (a job supervisor takes seconds to
+    // start on a loaded 2-core machine: 2 s was too tight once in CI).
     let queued: String = (0..3)
         .map(|i| {
             format!(
-                "  wait{i}:\n    uses: cmd\n    params: {{command: \"sleep 4; echo {i} > ${{outputs.out}}\"}}\n    outputs: {{out: wait{i}.txt}}\n"
+                "  wait{i}:\n    uses: cmd\n    params: {{command: \"sleep 12; echo {i} > ${{outputs.out}}\"}}\n    outputs: {{out: wait{i}.txt}}\n"
             )
         })
         .collect();
@@ -594,7 +596,7 @@ fn ray_runs_match_local_and_survive_faults() {
         &faults,
         &moto,
         "pipelines/queued.yaml",
-        &["--ray-address", &address, "--ray-pending-timeout", "2", "-j", "3"],
+        &["--ray-address", &address, "--ray-pending-timeout", "8", "-j", "3"],
     );
     assert_eq!(out.status.code(), Some(0), "{}", describe(&out));
 
