@@ -197,6 +197,7 @@ fn bad_training_specs_name_the_key() {
         ("-S", "policy.kind=mlp", "policy.kind"),
         ("-S", "seeds=[]", "seeds"),
         ("-S", "policy.view=sideways", "policy.view"),
+        ("-S", "policy.focus=4", "needs `view: helicopter`"),
         ("-S", "threads=0", "threads"),
     ];
     for (flag, value, expect) in cases {

@@ -48,6 +48,12 @@ pub struct PolicyConfig {
     /// wherever the helicopter is.
     #[serde(skip_serializing_if = "View::is_map")]
     pub view: View,
+    /// Radius in cells of a full-resolution window around the helicopter (`view:
+    /// helicopter` only; 0 = none): the newest frame's fire states there (unburnt, burning,
+    /// burnt, one-hot) feed the fusion layer directly, because the pooled branches blur
+    /// where the nearest flames are to a few cells' precision, which is what a drop needs.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub focus: u32,
     /// How the `compact` policy remembers: the environment's frame stack (`frames`), or an
     /// LSTM over the newest frame (`lstm`: recurrent PPO, trained on sequences of
     /// [`SEQUENCE`] steps from the states the rollout stored).
@@ -150,6 +156,7 @@ impl Default for PolicyConfig {
             ortho_init: true,
             batch_norm: false,
             view: View::Map,
+            focus: 0,
             memory: Memory::Frames,
         }
     }
@@ -400,6 +407,8 @@ enum Extractor {
         reduce: nn::Conv2D,
         pooled: [i64; 2],
         vector_net: nn::Linear,
+        /// `focus > 0`: the window's one-hot fire states → [`FOCUS_FEATURES`].
+        focus_net: Option<nn::Linear>,
         fuse: nn::Linear,
         /// `memory: lstm`: the LSTM after `fuse` (the image is then the newest frame and the
         /// helicopter channel).
@@ -419,6 +428,13 @@ const IMAGE_SCALE: f64 = 9.0;
 
 /// Features of the compact extractor.
 const COMPACT_FEATURES: i64 = 256;
+
+/// Features of the compact extractor's focus window.
+const FOCUS_FEATURES: i64 = 64;
+
+fn is_zero(v: &u32) -> bool {
+    *v == 0
+}
 
 /// An actor-critic network.
 #[derive(Debug)]
@@ -445,6 +461,12 @@ impl Policy {
             return Err(RlError::config(
                 "policy.view",
                 "`helicopter` is a view of the `compact` extractor",
+            ));
+        }
+        if config.focus > 0 && config.view != View::Helicopter {
+            return Err(RlError::config(
+                "policy.focus",
+                "the focus window is centred on the helicopter: it needs `view: helicopter`",
             ));
         }
         if config.memory == Memory::Lstm && config.kind != PolicyKind::Compact {
@@ -492,9 +514,22 @@ impl Policy {
                     let reduce = conv(&fx / "reduce", ch, 16, 1, 1, 0, g(sqrt2));
                     let pooled = [trunk.size[0].min(10), trunk.size[1].min(15)];
                     let vector_net = linear(&fx / "vector_net", space.vector as i64, 64, g(sqrt2));
+                    let side = 2 * i64::from(config.focus) + 1;
+                    if config.focus > 0 && side > hw[0].min(hw[1]) {
+                        return Err(RlError::config(
+                            "policy.focus",
+                            format!(
+                                "a window of radius {} ({side} cells a side) does not fit the {} × {} map",
+                                config.focus, hw[1], hw[0]
+                            ),
+                        ));
+                    }
+                    let focus_net = (config.focus > 0)
+                        .then(|| linear(&fx / "focus_net", 3 * side * side, FOCUS_FEATURES, g(sqrt2)));
+                    let focused = if focus_net.is_some() { FOCUS_FEATURES } else { 0 };
                     let fuse = linear(
                         &fx / "fuse",
-                        16 * pooled[0] * pooled[1] + 64,
+                        16 * pooled[0] * pooled[1] + 64 + focused,
                         COMPACT_FEATURES,
                         g(sqrt2),
                     );
@@ -516,6 +551,7 @@ impl Policy {
                             reduce,
                             pooled,
                             vector_net,
+                            focus_net,
                             fuse,
                             lstm,
                         },
@@ -598,6 +634,7 @@ impl Policy {
                 reduce,
                 pooled,
                 vector_net,
+                focus_net,
                 fuse,
                 lstm,
             } => {
@@ -621,7 +658,12 @@ impl Policy {
                     .adaptive_avg_pool2d([pooled[0], pooled[1]]);
                 let f = f.flatten(1, -1);
                 let v = vector_net.forward(&obs.vector).relu();
-                fuse.forward(&Tensor::cat(&[f, v], 1)).relu()
+                let mut parts = vec![f, v];
+                if let Some(net) = focus_net {
+                    let window = focus_window(&img, i64::from(self.config.focus));
+                    parts.push(net.forward(&window.flatten(1, -1)).relu());
+                }
+                fuse.forward(&Tensor::cat(&parts, 1)).relu()
             }
             Extractor::Paper {
                 trunk,
@@ -772,6 +814,30 @@ fn centred_on_helicopter(img: &Tensor) -> Tensor {
     Tensor::stack(&rows, 0)
 }
 
+/// The `(2r + 1)²` cells around the centre of helicopter-centred images `[N, C, H, W]` (codes
+/// / 9; the newest frame is channel C − 2), as one-hot fire states `[N, 3, 2r + 1, 2r + 1]`:
+/// unburnt (codes 1–3), burning (4–6), burnt (7–9); non-burnable cells (0) are all zero.
+fn focus_window(img: &Tensor, r: i64) -> Tensor {
+    let size = img.size();
+    let (c, h, w) = (size[1], size[2], size[3]);
+    let codes = (img
+        .select(1, c - 2)
+        .narrow(1, h / 2 - r, 2 * r + 1)
+        .narrow(2, w / 2 - r, 2 * r + 1)
+        * IMAGE_SCALE)
+        .round();
+    let states: Vec<Tensor> = (0..3)
+        .map(|s| {
+            let low = 3.0 * f64::from(s) + 0.5;
+            codes
+                .ge(low)
+                .logical_and(&codes.le(low + 3.0))
+                .to_kind(Kind::Float)
+        })
+        .collect();
+    Tensor::stack(&states, 1)
+}
+
 fn image_float(obs: &ObsTensors) -> Tensor {
     match &obs.image {
         Some(img) => img.to_kind(Kind::Float) / IMAGE_SCALE,
@@ -782,6 +848,76 @@ fn image_float(obs: &ObsTensors) -> Tensor {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The focus window is the centre's (2r + 1)² cells of the newest frame, each cell's
+    /// fire state one-hot; older frames and non-burnable cells do not show.
+    #[test]
+    fn focus_window_is_the_newest_frames_fire_states_around_the_centre() {
+        let (h, w, r) = (7_i64, 9_i64, 2_i64);
+        let code_at = |y: i64, x: i64| ((y * w + x) % 10) as f64;
+        let newest = Tensor::from_slice(
+            &(0..h * w)
+                .map(|i| code_at(i / w, i % w) as f32)
+                .collect::<Vec<_>>(),
+        )
+        .view([1, 1, h, w]);
+        let older = Tensor::full([1, 1, h, w], 5.0, (Kind::Float, Device::Cpu));
+        let heli = Tensor::zeros([1, 1, h, w], (Kind::Float, Device::Cpu));
+        let img = Tensor::cat(&[older, newest, heli], 1) / IMAGE_SCALE;
+        let out = focus_window(&img, r);
+        assert_eq!(out.size(), [1, 3, 2 * r + 1, 2 * r + 1]);
+        for y in 0..2 * r + 1 {
+            for x in 0..2 * r + 1 {
+                let code = code_at(y + h / 2 - r, x + w / 2 - r);
+                for state in 0..3 {
+                    let hot = code >= 1.0 && ((code - 1.0) / 3.0).floor() == state as f64;
+                    assert_eq!(
+                        out.double_value(&[0, state, y, x]),
+                        if hot { 1.0 } else { 0.0 },
+                        "cell ({x}, {y}) code {code} state {state}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// A window needs the helicopter view and must fit the map.
+    #[test]
+    fn focus_settings_are_checked() {
+        let space = ObsSpace {
+            image: Some([5, 16, 24]),
+            vector: 3,
+        };
+        let compact = PolicyConfig {
+            kind: PolicyKind::Compact,
+            focus: 4,
+            ..PolicyConfig::default()
+        };
+        let err = Policy::new(&compact, space, 5, Device::Cpu)
+            .err()
+            .expect("refused");
+        assert!(err.to_string().contains("policy.focus"), "{err}");
+        let too_big = PolicyConfig {
+            view: View::Helicopter,
+            focus: 8,
+            ..compact.clone()
+        };
+        let err = Policy::new(&too_big, space, 5, Device::Cpu)
+            .err()
+            .expect("refused");
+        assert!(
+            err.to_string().contains("policy.focus") && err.to_string().contains("17 cells"),
+            "{err}"
+        );
+        let fits = PolicyConfig { focus: 7, ..too_big };
+        let policy = Policy::new(&fits, space, 5, Device::Cpu).expect("fits");
+        let obs = ObsTensors {
+            image: Some(Tensor::zeros([2, 5, 16, 24], (Kind::Uint8, Device::Cpu))),
+            vector: Tensor::zeros([2, 3], (Kind::Float, Device::Cpu)),
+        };
+        let (logits, values) = policy.forward(&obs, false);
+        assert_eq!((logits.size(), values.size()), (vec![2, 5], vec![2]));
+    }
 
     /// The helicopter lands on (H/2, W/2), its neighbours keep their offsets, and cells
     /// beyond the map read 0.
