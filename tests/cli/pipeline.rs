@@ -427,13 +427,15 @@ fn demo_pipeline_runs_then_skips_everything() {
         .replace("fires: 20", "fires: 3")
         .replace("max_steps: 400", "max_steps: 100");
     p.write("experiments/rl/demo-fires.yaml", &fires);
-    // The forecasting experiment with two cheap models and the helitack agent with one PPO
-    // update: the full ones take minutes and are covered by the experiment and rl tests.
+    // The forecasting experiment with two cheap models and the helitack agent with two
+    // imitation rounds and one PPO update: the full ones take minutes and are covered by the experiment and rl tests.
     let quick = [
         "-S",
         "forecast_table3.models=[{kind: majority}, {kind: logistic_regression}]",
         "-S",
         "forecast_table3.evaluation={bootstrap: 50}",
+        "-S",
+        "helitack_agent_imitation_rounds=2",
         "-S",
         "helitack_agent_steps=1024",
         "-S",
