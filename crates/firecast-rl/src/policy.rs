@@ -52,7 +52,7 @@ pub struct PolicyConfig {
     /// helicopter` only; 0 = none): the newest frame's fire states there (unburnt, burning,
     /// burnt, one-hot) feed the fusion layer directly, because the pooled branches blur
     /// where the nearest flames are to a few cells' precision, which is what a drop needs.
-    #[serde(skip_serializing_if = "is_zero")]
+    #[serde(skip_serializing_if = "crate::train::is_zero")]
     pub focus: u32,
     /// How the `compact` policy remembers: the environment's frame stack (`frames`), or an
     /// LSTM over the newest frame (`lstm`: recurrent PPO, trained on sequences of
@@ -431,10 +431,6 @@ const COMPACT_FEATURES: i64 = 256;
 
 /// Features of the compact extractor's focus window.
 const FOCUS_FEATURES: i64 = 64;
-
-fn is_zero(v: &u32) -> bool {
-    *v == 0
-}
 
 /// An actor-critic network.
 #[derive(Debug)]
@@ -893,18 +889,14 @@ mod tests {
             focus: 4,
             ..PolicyConfig::default()
         };
-        let err = Policy::new(&compact, space, 5, Device::Cpu)
-            .err()
-            .expect("refused");
+        let err = Policy::new(&compact, space, 5, Device::Cpu).expect_err("refused");
         assert!(err.to_string().contains("policy.focus"), "{err}");
         let too_big = PolicyConfig {
             view: View::Helicopter,
             focus: 8,
             ..compact.clone()
         };
-        let err = Policy::new(&too_big, space, 5, Device::Cpu)
-            .err()
-            .expect("refused");
+        let err = Policy::new(&too_big, space, 5, Device::Cpu).expect_err("refused");
         assert!(
             err.to_string().contains("policy.focus") && err.to_string().contains("17 cells"),
             "{err}"

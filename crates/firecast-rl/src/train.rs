@@ -73,8 +73,10 @@ struct TrainerState {
     imitation_timesteps: u64,
 }
 
-pub(crate) fn is_zero(v: &u64) -> bool {
-    *v == 0
+/// For `skip_serializing_if`: a count that is zero is left out, so keys and files written
+/// before the field existed stay the same.
+pub(crate) fn is_zero<T: Default + PartialEq>(v: &T) -> bool {
+    *v == T::default()
 }
 
 const CHECKPOINT_FORMAT: u32 = 1;
