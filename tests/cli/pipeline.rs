@@ -428,7 +428,8 @@ fn demo_pipeline_runs_then_skips_everything() {
         .replace("max_steps: 400", "max_steps: 100");
     p.write("experiments/rl/demo-fires.yaml", &fires);
     // The forecasting experiment with two cheap models and the helitack agent with two
-    // imitation rounds and one PPO update: the full ones take minutes and are covered by the experiment and rl tests.
+    // imitation rounds and one PPO update: the full ones take minutes and are covered by the
+    // experiment and rl tests.
     let quick = [
         "-S",
         "forecast_table3.models=[{kind: majority}, {kind: logistic_regression}]",
