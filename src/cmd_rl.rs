@@ -344,6 +344,10 @@ pub struct BenchPpoArgs {
     pub set: Vec<String>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Times each side runs, FireCast and SB3 alternating so that a slow spell of the machine
+    /// falls on both; the tables show each phase's median.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    pub repeats: u32,
     /// Python with stable-baselines3 (and, for (b), the firecast package)
     /// [default: $FIRECAST_VENV, ./.venv, python3].
     #[arg(long, value_name = "PATH")]
@@ -365,9 +369,13 @@ struct BenchPartReport {
     task: String,
     steps: u64,
     threads: usize,
+    /// Each phase's median over the repeats.
     firecast: firecast_rl::bench::BenchRun,
+    /// SB3's report with each phase's median over the repeats.
     sb3: serde_json::Value,
     ratios: serde_json::Value,
+    /// Training FireCast / SB3 of each repeat (FireCast's i-th run against SB3's i-th).
+    train_ratios: Vec<f64>,
     /// Goal on training steps per second, FireCast / SB3.
     goal: f64,
 }
@@ -420,6 +428,53 @@ fn progress_line(run: &firecast_rl::bench::BenchRun) {
         "    FireCast: environment {:.0}, rollout {:.0}, training {:.0} steps/s ({} parameters)",
         s.env_sps, s.rollout_sps, s.train_sps, run.parameters
     );
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
+/// Runs FireCast's side and SB3's side `repeats` times, alternating, so that a slow spell of
+/// the shared machine lands on both; returns each side's per-phase medians and the training
+/// ratio of each repeat.
+fn interleaved(
+    repeats: u32,
+    mut firecast: impl FnMut() -> anyhow::Result<firecast_rl::bench::BenchRun>,
+    mut sb3: impl FnMut() -> anyhow::Result<serde_json::Value>,
+) -> anyhow::Result<(firecast_rl::bench::BenchRun, serde_json::Value, Vec<f64>)> {
+    let (mut ours, mut theirs) = (Vec::new(), Vec::new());
+    for r in 1..=repeats {
+        if repeats > 1 {
+            eprintln!("    repeat {r}/{repeats}");
+        }
+        let run = firecast()?;
+        progress_line(&run);
+        ours.push(run);
+        theirs.push(sb3()?);
+    }
+    let sps =
+        |v: &serde_json::Value, k: &str| v.get(k).and_then(serde_json::Value::as_f64).unwrap_or(f64::NAN);
+    let train_ratios = ours
+        .iter()
+        .zip(&theirs)
+        .map(|(o, t)| o.speeds.train_sps / sps(t, "train_sps"))
+        .collect();
+    let mut run = ours[0];
+    run.speeds = firecast_rl::bench::PhaseSpeeds {
+        env_sps: median(ours.iter().map(|o| o.speeds.env_sps).collect()),
+        rollout_sps: median(ours.iter().map(|o| o.speeds.rollout_sps).collect()),
+        train_sps: median(ours.iter().map(|o| o.speeds.train_sps).collect()),
+    };
+    let mut sb3 = theirs[0].clone();
+    for k in ["env_sps", "rollout_sps", "train_sps"] {
+        sb3[k] = serde_json::json!(median(theirs.iter().map(|t| sps(t, k)).collect()));
+    }
+    Ok((run, sb3, train_ratios))
 }
 
 fn ratios(firecast: &firecast_rl::bench::PhaseSpeeds, sb3: &serde_json::Value) -> serde_json::Value {
@@ -584,6 +639,12 @@ fn print_part(p: &BenchPartReport) {
         p.firecast.parameters,
         plain(&p.sb3["parameters"]),
     );
+    let each: Vec<String> = p.train_ratios.iter().map(|r| format!("{r:.1}x")).collect();
+    println!(
+        "medians of {} alternating runs a side; training FireCast / {sb3_name} in each: {}",
+        p.train_ratios.len(),
+        each.join(", ")
+    );
     println!(
         "goal: training >= {}x {sb3_name}: {} ({train:.1}x)",
         p.goal,
@@ -598,10 +659,8 @@ fn bench_cartpole(args: &BenchPpoArgs, python: &Path) -> anyhow::Result<BenchPar
         "(a) FireCast PPO on CartPole-v1 ({} steps per phase, 1 thread) ...",
         args.steps
     );
-    let firecast = firecast_rl::bench::cartpole(&ppo, args.steps, args.seed)?;
-    progress_line(&firecast);
     eprintln!(
-        "(a) SB3 PPO on CartPole-v1 with the same settings ({}) ...",
+        "(a) SB3 PPO on CartPole-v1 with the same settings ({}), alternating ...",
         python.display()
     );
     let cfg = serde_json::json!({
@@ -610,7 +669,11 @@ fn bench_cartpole(args: &BenchPpoArgs, python: &Path) -> anyhow::Result<BenchPar
         "gae_lambda": ppo.gae_lambda, "ent_coef": ppo.ent_coef,
         "learning_rate": ppo.learning_rate.at(1.0), "clip_range": ppo.clip_range.at(1.0),
     });
-    let sb3 = run_sb3(python, firecast_rl::bench::SB3_SCRIPT, &cfg, 1)?;
+    let (firecast, sb3, train_ratios) = interleaved(
+        args.repeats,
+        || Ok(firecast_rl::bench::cartpole(&ppo, args.steps, args.seed)?),
+        || run_sb3(python, firecast_rl::bench::SB3_SCRIPT, &cfg, 1),
+    )?;
     check_parameters("(a)", firecast.parameters, &sb3)?;
     Ok(BenchPartReport {
         part: BenchPart::A,
@@ -618,6 +681,7 @@ fn bench_cartpole(args: &BenchPpoArgs, python: &Path) -> anyhow::Result<BenchPar
         steps: args.steps,
         threads: 1,
         ratios: ratios(&firecast.speeds, &sb3),
+        train_ratios,
         firecast,
         sb3,
         goal: 5.0,
@@ -640,22 +704,26 @@ fn bench_helitack(
         fires.len(),
         args.helitack_steps
     );
-    let firecast = firecast_rl::bench::helitack(
-        &fires,
-        ppo,
-        policy,
-        args.helitack_steps,
-        args.seed,
-        firecast_rl::Device::Cpu,
-    )?;
-    progress_line(&firecast);
     eprintln!(
-        "(b) SB3 PPO on firecast.HelitackVecEnv with the same network and settings ({}) ...",
+        "(b) SB3 PPO on firecast.HelitackVecEnv with the same network and settings ({}), alternating ...",
         python.display()
     );
     let env = serde_json::json!({"kind": "firecast", "kwargs": pool.python_kwargs()});
     let cfg = helitack_sb3_config(ppo, policy, env, args.helitack_steps, args.seed, threads)?;
-    let sb3 = run_sb3(python, firecast_rl::bench::SB3_HELITACK_SCRIPT, &cfg, threads)?;
+    let (firecast, sb3, train_ratios) = interleaved(
+        args.repeats,
+        || {
+            Ok(firecast_rl::bench::helitack(
+                &fires,
+                ppo,
+                policy,
+                args.helitack_steps,
+                args.seed,
+                firecast_rl::Device::Cpu,
+            )?)
+        },
+        || run_sb3(python, firecast_rl::bench::SB3_HELITACK_SCRIPT, &cfg, threads),
+    )?;
     check_parameters("(b)", firecast.parameters, &sb3)?;
     Ok(BenchPartReport {
         part: BenchPart::B,
@@ -673,6 +741,7 @@ fn bench_helitack(
         steps: args.helitack_steps,
         threads,
         ratios: ratios(&firecast.speeds, &sb3),
+        train_ratios,
         firecast,
         sb3,
         goal: 3.0,
@@ -703,25 +772,29 @@ fn bench_firecastrl(
         "(c) FireCast PPO on the FireCastRL training map ({} x {}, compact policy, {} steps per phase, {threads} threads) ...",
         landscape.width, landscape.height, args.reference_steps
     );
-    let firecast = firecast_rl::bench::helitack(
-        &fires,
-        ppo,
-        policy,
-        args.reference_steps,
-        args.seed,
-        firecast_rl::Device::Cpu,
-    )?;
-    progress_line(&firecast);
     let python = args.reference_python.as_deref().unwrap_or(python);
     eprintln!(
-        "(c) SB3 PPO on the FireCastRL environment ({}) with the same network and settings ({}) ...",
+        "(c) SB3 PPO on the FireCastRL environment ({}) with the same network and settings ({}), alternating ...",
         env_dir.display(),
         python.display()
     );
     let dir = std::fs::canonicalize(env_dir).with_context(|| format!("{}", env_dir.display()))?;
     let env = serde_json::json!({"kind": "firecastrl", "dir": dir});
     let cfg = helitack_sb3_config(ppo, policy, env, args.reference_steps, args.seed, threads)?;
-    let sb3 = run_sb3(python, firecast_rl::bench::SB3_HELITACK_SCRIPT, &cfg, threads)?;
+    let (firecast, sb3, train_ratios) = interleaved(
+        args.repeats,
+        || {
+            Ok(firecast_rl::bench::helitack(
+                &fires,
+                ppo,
+                policy,
+                args.reference_steps,
+                args.seed,
+                firecast_rl::Device::Cpu,
+            )?)
+        },
+        || run_sb3(python, firecast_rl::bench::SB3_HELITACK_SCRIPT, &cfg, threads),
+    )?;
     check_parameters("(c)", firecast.parameters, &sb3)?;
     Ok(BenchPartReport {
         part: BenchPart::C,
@@ -738,6 +811,7 @@ fn bench_firecastrl(
         steps: args.reference_steps,
         threads,
         ratios: ratios(&firecast.speeds, &sb3),
+        train_ratios,
         firecast,
         sb3,
         goal: 50.0,

@@ -255,7 +255,7 @@ fn bad_training_specs_name_the_key() {
 }
 
 /// `bench ppo` part (b) on a tiny budget: FireCast's compact policy and SB3's re-statement
-/// (driving `firecast.HelitackVecEnv`) have equal parameter counts and both sides ran. Needs
+/// (driving `firecast.HelitackVecEnv`) have equal parameter counts and both sides ran, twice. Needs
 /// the project venv (`cargo xtask setup`): without it the test fails.
 #[test]
 fn bench_ppo_helitack_runs_both_sides_with_equal_networks() {
@@ -277,6 +277,8 @@ fn bench_ppo_helitack_runs_both_sides_with_equal_networks() {
         "n_epochs=1",
         "--threads",
         "1",
+        "--repeats",
+        "2",
         "--python",
         python,
     ]);
@@ -292,6 +294,10 @@ fn bench_ppo_helitack_runs_both_sides_with_equal_networks() {
         assert!(ratio.is_finite() && ratio > 0.0, "{k}: {b}");
         assert!(b["firecast"][format!("{k}_sps")].as_f64().unwrap() > 0.0, "{b}");
     }
+    // Both sides ran twice, alternating; the tables hold medians.
+    let each = b["train_ratios"].as_array().unwrap();
+    assert_eq!(each.len(), 2, "{b}");
+    assert!(each.iter().all(|r| r.as_f64().unwrap() > 0.0), "{b}");
     // (c) needs a FireCastRL checkout: it says how to run it.
     let skipped = r["skipped"].as_array().unwrap();
     assert!(skipped[0].as_str().unwrap().contains("--reference-env"), "{r}");
