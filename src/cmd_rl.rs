@@ -425,8 +425,8 @@ fn run_sb3(
 fn progress_line(run: &firecast_rl::bench::BenchRun) {
     let s = &run.speeds;
     eprintln!(
-        "    FireCast: environment {:.0}, rollout {:.0}, training {:.0} steps/s ({} parameters)",
-        s.env_sps, s.rollout_sps, s.train_sps, run.parameters
+        "    FireCast: environment {:.0}, rollout {:.0}, updates {:.0}, training {:.0} steps/s ({} parameters)",
+        s.env_sps, s.rollout_sps, s.update_sps, s.train_sps, run.parameters
     );
 }
 
@@ -468,10 +468,11 @@ fn interleaved(
     run.speeds = firecast_rl::bench::PhaseSpeeds {
         env_sps: median(ours.iter().map(|o| o.speeds.env_sps).collect()),
         rollout_sps: median(ours.iter().map(|o| o.speeds.rollout_sps).collect()),
+        update_sps: median(ours.iter().map(|o| o.speeds.update_sps).collect()),
         train_sps: median(ours.iter().map(|o| o.speeds.train_sps).collect()),
     };
     let mut sb3 = theirs[0].clone();
-    for k in ["env_sps", "rollout_sps", "train_sps"] {
+    for k in ["env_sps", "rollout_sps", "update_sps", "train_sps"] {
         sb3[k] = serde_json::json!(median(theirs.iter().map(|t| sps(t, k)).collect()));
     }
     Ok((run, sb3, train_ratios))
@@ -482,6 +483,9 @@ fn ratios(firecast: &firecast_rl::bench::PhaseSpeeds, sb3: &serde_json::Value) -
     serde_json::json!({
         "env": firecast.env_sps / get("env_sps"),
         "rollout": firecast.rollout_sps / get("rollout_sps"),
+        "update": firecast.update_sps / get("update_sps"),
+        // FireCast's training if its rollouts cost nothing: its updates alone bound the ratio.
+        "train_ceiling": firecast.update_sps / get("train_sps"),
         "train": firecast.train_sps / get("train_sps"),
     })
 }
@@ -611,6 +615,7 @@ fn print_part(p: &BenchPartReport) {
     for (name, ours, k) in [
         ("environment only", f.env_sps, "env"),
         ("rollout (env + inference)", f.rollout_sps, "rollout"),
+        ("updates only (network)", f.update_sps, "update"),
         ("training (rollouts + updates)", f.train_sps, "train"),
     ] {
         let theirs = get(&format!("{k}_sps"));
@@ -644,6 +649,10 @@ fn print_part(p: &BenchPartReport) {
         "medians of {} alternating runs a side; training FireCast / {sb3_name} in each: {}",
         p.train_ratios.len(),
         each.join(", ")
+    );
+    println!(
+        "ceiling: FireCast's updates alone run at {:.1}x {sb3_name}'s whole training, so no faster rollout takes training past that",
+        p.ratios["train_ceiling"].as_f64().unwrap_or(f64::NAN)
     );
     println!(
         "goal: training >= {}x {sb3_name}: {} ({train:.1}x)",

@@ -289,7 +289,7 @@ fn bench_ppo_helitack_runs_both_sides_with_equal_networks() {
     let ours = b["firecast"]["parameters"].as_i64().unwrap();
     assert!(ours > 0, "{b}");
     assert_eq!(b["sb3"]["parameters"].as_i64(), Some(ours), "{b}");
-    for k in ["env", "rollout", "train"] {
+    for k in ["env", "rollout", "update", "train"] {
         let ratio = b["ratios"][k].as_f64().unwrap();
         assert!(ratio.is_finite() && ratio > 0.0, "{k}: {b}");
         assert!(b["firecast"][format!("{k}_sps")].as_f64().unwrap() > 0.0, "{b}");

@@ -1,6 +1,7 @@
 """SB3's side of `firecast bench ppo`: CartPole-v1 with the same PPO settings and one torch
-thread, timed in three phases (environment only, rollout = environment + inference,
-training = SB3's learn including updates). Prints one JSON object."""
+thread, timed in four phases (environment only, rollout = environment + inference, updates
+only = PPO's epochs over a collected rollout, training = SB3's learn including updates).
+Prints one JSON object."""
 import json
 import sys
 import time
@@ -50,6 +51,13 @@ def main():
     for _ in range(n_rollouts):
         m.collect_rollouts(m.env, callback, m.rollout_buffer, n_rollout_steps=m.n_steps)
     out["rollout_sps"] = n_rollouts * n_envs * cfg["n_steps"] / (time.perf_counter() - t)
+    # Updates only: PPO's epochs over the last rollout, as many as training runs, without
+    # the approx-KL early stop (the network's forward, backward and Adam steps).
+    m.target_kl = None
+    t = time.perf_counter()
+    for _ in range(n_rollouts):
+        m.train()
+    out["update_sps"] = n_rollouts * n_envs * cfg["n_steps"] / (time.perf_counter() - t)
     # Training, as `learn` reports fps.
     m = model()
     t = time.perf_counter()

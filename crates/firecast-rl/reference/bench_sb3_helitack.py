@@ -1,8 +1,8 @@
 """SB3's side of `firecast bench ppo` parts (b) and (c): Stable-Baselines3's PPO with FireCast's
 compact policy re-stated as an SB3 features extractor (crates/firecast-rl/src/policy.rs,
-`Extractor::Compact`), the same hyper-parameters and the same torch threads, timed in three
-phases (environment only, rollout = environment + inference, training = SB3's learn
-including updates). Prints one JSON object with the speeds and the parameter count.
+`Extractor::Compact`), the same hyper-parameters and the same torch threads, timed in four
+phases (environment only, rollout = environment + inference, updates only = PPO's epochs over
+a collected rollout, training = SB3's learn including updates). Prints one JSON object with the speeds and the parameter count.
 
 (b) `env.kind = "firecast"`: FireCast's helitack environment through the Python package
     (`firecast.HelitackVecEnv`, the Rust VecEnv stepping on all cores).
@@ -244,6 +244,13 @@ def main():
         m.collect_rollouts(m.env, callback, m.rollout_buffer, n_rollout_steps=m.n_steps)
     out["rollout_sps"] = n_rollouts * n_envs * m.n_steps / (time.perf_counter() - t)
     m.env.close()
+    # Updates only: PPO's epochs over the last rollout, as many as training runs, without
+    # the approx-KL early stop (the network's forward, backward and Adam steps).
+    m.target_kl = None
+    t = time.perf_counter()
+    for _ in range(n_rollouts):
+        m.train()
+    out["update_sps"] = n_rollouts * n_envs * m.n_steps / (time.perf_counter() - t)
     # Training, as `learn` reports fps.
     m = model()
     t = time.perf_counter()

@@ -1,6 +1,6 @@
-//! `firecast bench ppo`, FireCast's side: PPO timed in three phases — environment only
-//! (step + observation), rollout (environment + inference + buffer) and training (rollouts
-//! and updates, as SB3's `fps`) — on (a) CartPole-v1 with the MLP policy, (b) a small
+//! `firecast bench ppo`, FireCast's side: PPO timed in four phases — environment only
+//! (step + observation), rollout (environment + inference + buffer), updates only (PPO's
+//! epochs over a collected rollout) and training (rollouts and updates, as SB3's `fps`) — on (a) CartPole-v1 with the MLP policy, (b) a small
 //! helitack fire pool with the compact policy, and (c) the FireCastRL training map with the
 //! compact policy. SB3's sides are `reference/bench_sb3.py` (a) and
 //! `reference/bench_sb3_helitack.py` (b, c), run by the CLI in the same command with the same
@@ -34,6 +34,9 @@ pub const SB3_HELITACK_SCRIPT: &str = include_str!("../reference/bench_sb3_helit
 pub struct PhaseSpeeds {
     pub env_sps: f64,
     pub rollout_sps: f64,
+    /// PPO's epochs over a collected rollout alone (no early stop): the network's forward,
+    /// backward and Adam steps, with no environment in the loop.
+    pub update_sps: f64,
     pub train_sps: f64,
 }
 
@@ -84,6 +87,14 @@ pub fn phases(
         trainer.collect_rollout()?;
     }
     let rollout_sps = (rollouts * ppo.buffer_size() as u64) as f64 / t.elapsed().as_secs_f64();
+    // Updates only, over the last rollout, as many as training runs; the approx-KL early stop
+    // is off so both sides do every epoch.
+    trainer.ppo.target_kl = None;
+    let t = Instant::now();
+    for _ in 0..rollouts {
+        trainer.train(1.0)?;
+    }
+    let update_sps = (rollouts * ppo.buffer_size() as u64) as f64 / t.elapsed().as_secs_f64();
     drop(trainer);
 
     let mut trainer = Trainer::new(cfg, policy, make_env()?, seed, device)?;
@@ -94,6 +105,7 @@ pub fn phases(
         speeds: PhaseSpeeds {
             env_sps,
             rollout_sps,
+            update_sps,
             train_sps,
         },
         parameters,

@@ -536,7 +536,7 @@ impl Trainer {
     }
 
     /// One update over the buffer (SB3 `train`); returns the `train/*` metrics.
-    fn train(&mut self, progress_remaining: f64) -> Result<Vec<(String, f64)>, RlError> {
+    pub(crate) fn train(&mut self, progress_remaining: f64) -> Result<Vec<(String, f64)>, RlError> {
         let lr = self.ppo.learning_rate.at(progress_remaining);
         let clip = self.ppo.clip_range.at(progress_remaining);
         let settings = LossSettings {
