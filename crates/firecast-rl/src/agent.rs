@@ -42,7 +42,7 @@ impl<'a> PpoAgent<'a> {
         action_seed: u64,
     ) -> Result<Self, RlError> {
         let space = helitack::space(width, height);
-        if policy.space != space {
+        if !policy.accepts(space) {
             return Err(RlError::config(
                 "policy",
                 format!(

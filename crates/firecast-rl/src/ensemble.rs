@@ -100,7 +100,7 @@ pub fn run_policies(
     let (w, h) = (setup.landscape.width, setup.landscape.height);
     let space = helitack::space(w, h);
     for p in policies {
-        if p.policy.space != space {
+        if !p.policy.accepts(space) {
             return Err(RlError::config(
                 "run",
                 format!(
@@ -313,10 +313,10 @@ impl StageKind for EnsembleStage {
             let (summary, policies) = load_policies(&run, device)?;
             let (w, h) = (setup.landscape.width, setup.landscape.height);
             let space = helitack::space(w, h);
-            if let Some(p) = policies.iter().find(|p| p.policy.space != space) {
+            if let Some(p) = policies.iter().find(|p| !p.policy.accepts(space)) {
                 return Err(StageError::msg(format!(
                     "training run {}: the policy of training seed {} was trained on observations of {}, \
-                 but this {w}×{h} landscape gives {} (train on a landscape of the same size)",
+                 but this {w}×{h} landscape gives {} (train on a landscape of the same size; the compact policy also plays larger ones)",
                     run.display(),
                     p.seed,
                     space_text(p.policy.space),

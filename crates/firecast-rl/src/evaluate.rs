@@ -232,7 +232,7 @@ fn run_ppo(cores: &[EnvCore], agent: &EnsemblePolicy, cfg: &EvalConfig) -> Resul
     }
     let (w, h) = envs[0].grid_size();
     let space = helitack::space(w, h);
-    if policy.space != space {
+    if !policy.accepts(space) {
         return Err(RlError::config(
             "policy",
             format!(

@@ -384,9 +384,19 @@ impl Trunk {
         let a = self.a[1]
             .forward(&a, train)
             .max_pool2d([2, 2], [2, 2], [0, 0], [1, 1], false);
+        // Branch a's size is `self.size` on the training grid and follows the input on any
+        // other (the compact policy pools to a fixed grid, so it plays larger maps).
+        let (ah, aw) = (a.size()[2], a.size()[3]);
         let b = self.b[1].forward(&self.b[0].forward(&x, train), train);
+        // Where a side is not a multiple of 4, the strided convolutions round up and the max
+        // pools down: b keeps a's cells.
+        let b = if b.size()[2..] == [ah, aw] {
+            b
+        } else {
+            b.narrow(2, 0, ah).narrow(3, 0, aw)
+        };
         let c = self.c[1].forward(&self.c[0].forward(&x, train), train);
-        let c = c.upsample_bilinear2d(self.size, false, None::<f64>, None::<f64>);
+        let c = c.upsample_bilinear2d([ah, aw], false, None::<f64>, None::<f64>);
         let f = Tensor::cat(&[a, b, c], 1);
         let h = self.att1.forward(&f);
         let h = match &self.att_bn {
@@ -783,6 +793,21 @@ impl Policy {
         (logits, values, Hidden { h, c })
     }
 
+    /// Whether this policy can read observations of `space`: the space it was trained on,
+    /// or — for the compact policy, whose features are pooled to a fixed grid — the same
+    /// channels and numbers on a grid at least as large in both directions.
+    pub fn accepts(&self, space: ObsSpace) -> bool {
+        if space == self.space {
+            return true;
+        }
+        match (self.config.kind, self.space.image, space.image) {
+            (PolicyKind::Compact, Some([c, h, w]), Some([c2, h2, w2])) => {
+                c == c2 && h2 >= h && w2 >= w && space.vector == self.space.vector
+            }
+            _ => false,
+        }
+    }
+
     pub fn parameter_count(&self) -> i64 {
         self.vs
             .trainable_variables()
@@ -909,6 +934,44 @@ mod tests {
         };
         let (logits, values) = policy.forward(&obs, false);
         assert_eq!((logits.size(), values.size()), (vec![2, 5], vec![2]));
+    }
+
+    /// The compact policy pools its features to a fixed grid, so it plays any map at least as
+    /// large as its training map (the threat report's landscape with a 96 × 64 agent); smaller
+    /// maps, other channels and the paper policy (whose LSTM input is the map's size) are refused.
+    #[test]
+    fn the_compact_policy_plays_larger_maps() {
+        let space = |h: usize, w: usize| ObsSpace {
+            image: Some([5, h, w]),
+            vector: 3,
+        };
+        let compact = PolicyConfig {
+            kind: PolicyKind::Compact,
+            view: View::Helicopter,
+            focus: 8,
+            ..PolicyConfig::default()
+        };
+        let policy = Policy::new(&compact, space(64, 96), 5, Device::Cpu).expect("policy");
+        assert!(policy.accepts(space(64, 96)) && policy.accepts(space(160, 240)));
+        assert!(!policy.accepts(space(32, 48)) && !policy.accepts(space(160, 48)));
+        assert!(!policy.accepts(ObsSpace {
+            image: Some([4, 160, 240]),
+            vector: 3
+        }));
+        let obs = |h: i64, w: i64| ObsTensors {
+            image: Some(Tensor::ones([2, 5, h, w], (Kind::Uint8, Device::Cpu))),
+            vector: Tensor::zeros([2, 3], (Kind::Float, Device::Cpu)),
+        };
+        for (h, w) in [(64, 96), (160, 240), (71, 113)] {
+            let (logits, values) = policy.forward(&obs(h, w), false);
+            assert_eq!((logits.size(), values.size()), (vec![2, 5], vec![2]), "{h}×{w}");
+        }
+        let paper = PolicyConfig {
+            kind: PolicyKind::Paper,
+            ..PolicyConfig::default()
+        };
+        let policy = Policy::new(&paper, space(16, 24), 5, Device::Cpu).expect("policy");
+        assert!(policy.accepts(space(16, 24)) && !policy.accepts(space(32, 48)));
     }
 
     /// The helicopter lands on (H/2, W/2), its neighbours keep their offsets, and cells

@@ -103,7 +103,12 @@ fn a_runs_policies_play_an_ensemble_reproducibly() {
     assert_eq!(serde_json::to_vec(&e).ok(), serde_json::to_vec(&again).ok());
     assert_eq!(e, again);
 
-    // A landscape of another size than the policies were trained on is refused.
+    // The compact policy plays a larger landscape than it was trained on (its features are
+    // pooled to the training grid); a smaller one is refused.
+    let larger = ensemble(&setup(80, 56), &policies, 2, 11);
+    assert_eq!(larger.runs(), 2);
+    assert_eq!(larger.burn_count.len(), 80 * 56);
+    assert!(larger.episodes.iter().all(|ep| ep.cells_burned > 0));
     let err = run_policies(&setup(40, 32), &policies, 1, 0, &|| {})
         .err()
         .map(|e| e.to_string())
