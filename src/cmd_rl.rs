@@ -430,6 +430,14 @@ fn progress_line(run: &firecast_rl::bench::BenchRun) {
     );
 }
 
+/// A number of the SB3 report (`env_sps`, …); NaN where it is missing.
+fn sb3_number(report: &serde_json::Value, key: &str) -> f64 {
+    report
+        .get(key)
+        .and_then(serde_json::Value::as_f64)
+        .unwrap_or(f64::NAN)
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     match v.len() {
@@ -448,6 +456,7 @@ fn interleaved(
     mut sb3: impl FnMut() -> anyhow::Result<serde_json::Value>,
 ) -> anyhow::Result<(firecast_rl::bench::BenchRun, serde_json::Value, Vec<f64>)> {
     let (mut ours, mut theirs) = (Vec::new(), Vec::new());
+    let repeats = repeats.max(1);
     for r in 1..=repeats {
         if repeats > 1 {
             eprintln!("    repeat {r}/{repeats}");
@@ -457,12 +466,10 @@ fn interleaved(
         ours.push(run);
         theirs.push(sb3()?);
     }
-    let sps =
-        |v: &serde_json::Value, k: &str| v.get(k).and_then(serde_json::Value::as_f64).unwrap_or(f64::NAN);
     let train_ratios = ours
         .iter()
         .zip(&theirs)
-        .map(|(o, t)| o.speeds.train_sps / sps(t, "train_sps"))
+        .map(|(o, t)| o.speeds.train_sps / sb3_number(t, "train_sps"))
         .collect();
     let mut run = ours[0];
     run.speeds = firecast_rl::bench::PhaseSpeeds {
@@ -473,13 +480,13 @@ fn interleaved(
     };
     let mut sb3 = theirs[0].clone();
     for k in ["env_sps", "rollout_sps", "update_sps", "train_sps"] {
-        sb3[k] = serde_json::json!(median(theirs.iter().map(|t| sps(t, k)).collect()));
+        sb3[k] = serde_json::json!(median(theirs.iter().map(|t| sb3_number(t, k)).collect()));
     }
     Ok((run, sb3, train_ratios))
 }
 
 fn ratios(firecast: &firecast_rl::bench::PhaseSpeeds, sb3: &serde_json::Value) -> serde_json::Value {
-    let get = |k: &str| sb3.get(k).and_then(serde_json::Value::as_f64).unwrap_or(f64::NAN);
+    let get = |k: &str| sb3_number(sb3, k);
     serde_json::json!({
         "env": firecast.env_sps / get("env_sps"),
         "rollout": firecast.rollout_sps / get("rollout_sps"),
@@ -599,12 +606,7 @@ fn print_part(p: &BenchPartReport) {
     } else {
         "SB3"
     };
-    let get = |k: &str| {
-        p.sb3
-            .get(k)
-            .and_then(serde_json::Value::as_f64)
-            .unwrap_or(f64::NAN)
-    };
+    let get = |k: &str| sb3_number(&p.sb3, k);
     let mut table = output::table(&[
         "phase (steps/s)",
         "FireCast",
