@@ -13,6 +13,7 @@ torch.set_num_threads(1)
 import gymnasium as gym  # noqa: E402
 from stable_baselines3 import PPO  # noqa: E402
 from stable_baselines3.common.env_util import make_vec_env  # noqa: E402
+from stable_baselines3.common.logger import Logger  # noqa: E402
 
 
 def main():
@@ -22,12 +23,15 @@ def main():
 
     def model():
         env = make_vec_env("CartPole-v1", n_envs=n_envs, seed=seed)
-        return PPO(
+        m = PPO(
             "MlpPolicy", env, n_steps=cfg["n_steps"], batch_size=cfg["batch_size"],
             n_epochs=cfg["n_epochs"], gamma=cfg["gamma"], gae_lambda=cfg["gae_lambda"],
             ent_coef=cfg["ent_coef"], learning_rate=lin(cfg["learning_rate"]),
             clip_range=lin(cfg["clip_range"]), seed=seed, device="cpu", verbose=0,
         )
+        # A logger without outputs: SB3's default makes a /tmp/SB3-<time> folder per model.
+        m.set_logger(Logger(folder=None, output_formats=[]))
+        return m
 
     out = {"sb3": __import__("stable_baselines3").__version__, "torch": torch.__version__,
            "gymnasium": gym.__version__}

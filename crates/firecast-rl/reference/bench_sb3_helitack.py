@@ -25,6 +25,7 @@ import gymnasium as gym  # noqa: E402
 import torch.nn.functional as F  # noqa: E402
 from gymnasium import spaces  # noqa: E402
 from stable_baselines3 import PPO  # noqa: E402
+from stable_baselines3.common.logger import Logger  # noqa: E402
 from stable_baselines3.common.monitor import Monitor  # noqa: E402
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize  # noqa: E402
@@ -209,7 +210,10 @@ def main():
             ortho_init=policy["ortho_init"],
             optimizer_kwargs=dict(eps=eps),
         )
-        return PPO("MultiInputPolicy", v, policy_kwargs=policy_kwargs, seed=seed, device="cpu", verbose=0, **kwargs)
+        m = PPO("MultiInputPolicy", v, policy_kwargs=policy_kwargs, seed=seed, device="cpu", verbose=0, **kwargs)
+        # A logger without outputs: SB3's default makes a /tmp/SB3-<time> folder per model.
+        m.set_logger(Logger(folder=None, output_formats=[]))
+        return m
 
     import stable_baselines3
 

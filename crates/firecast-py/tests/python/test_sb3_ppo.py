@@ -10,6 +10,7 @@ import torch
 from conftest import small
 from stable_baselines3 import PPO
 from stable_baselines3.common.evaluation import evaluate_policy
+from stable_baselines3.common.logger import Logger
 
 from firecast import HelitackVecEnv
 
@@ -28,6 +29,8 @@ def test_ppo_multi_input_policy_trains_on_the_vec_env():
         device="cpu",
         verbose=0,
     )
+    # A logger without outputs: SB3's default makes a /tmp/SB3-<time> folder per model.
+    model.set_logger(Logger(folder=None, output_formats=[]))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         model.learn(total_timesteps=2048)

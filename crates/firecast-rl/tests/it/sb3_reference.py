@@ -275,6 +275,7 @@ def timeout_case(name):
     env = DummyVecEnv(fns)
     th.manual_seed(21)
     model = PPO("MlpPolicy", env, n_steps=n_steps, batch_size=8, gamma=gamma, gae_lambda=lam, seed=21, device="cpu")
+    model.set_logger(Logger(folder=None, output_formats=[]))
     policy = model.policy
     with th.no_grad():
         # Action 0 always (a logit gap of 100): both sides then take the same actions without
