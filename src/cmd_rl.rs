@@ -720,22 +720,20 @@ fn bench_helitack(
         python.display()
     );
     let env = serde_json::json!({"kind": "firecast", "kwargs": pool.python_kwargs()});
-    let cfg = helitack_sb3_config(ppo, policy, env, args.helitack_steps, args.seed, threads)?;
-    let (firecast, sb3, train_ratios) = interleaved(
-        args.repeats,
-        || {
-            Ok(firecast_rl::bench::helitack(
-                &fires,
-                ppo,
-                policy,
-                args.helitack_steps,
-                args.seed,
-                firecast_rl::Device::Cpu,
-            )?)
+    let (firecast, sb3, train_ratios) = helitack_sides(
+        "(b)",
+        &fires,
+        HelitackSettings {
+            ppo,
+            policy,
+            steps: args.helitack_steps,
+            seed: args.seed,
+            repeats: args.repeats,
+            threads,
         },
-        || run_sb3(python, firecast_rl::bench::SB3_HELITACK_SCRIPT, &cfg, threads),
+        env,
+        python,
     )?;
-    check_parameters("(b)", firecast.parameters, &sb3)?;
     Ok(BenchPartReport {
         part: BenchPart::B,
         task: format!(
@@ -757,6 +755,44 @@ fn bench_helitack(
         sb3,
         goal: 3.0,
     })
+}
+
+/// What both sides of (b) and (c) share.
+struct HelitackSettings<'a> {
+    ppo: &'a firecast_rl::ppo::PpoConfig,
+    policy: &'a firecast_rl::policy::PolicyConfig,
+    steps: u64,
+    seed: u64,
+    repeats: u32,
+    threads: usize,
+}
+
+/// (b) and (c): FireCast's PPO on `fires` and SB3's on `env` (the reference script's
+/// environment), alternating; the networks must have the same parameter count.
+fn helitack_sides(
+    part: &str,
+    fires: &[firecast_sim::env::EnvCore],
+    s: HelitackSettings<'_>,
+    env: serde_json::Value,
+    python: &Path,
+) -> anyhow::Result<(firecast_rl::bench::BenchRun, serde_json::Value, Vec<f64>)> {
+    let cfg = helitack_sb3_config(s.ppo, s.policy, env, s.steps, s.seed, s.threads)?;
+    let (firecast, sb3, train_ratios) = interleaved(
+        s.repeats,
+        || {
+            Ok(firecast_rl::bench::helitack(
+                fires,
+                s.ppo,
+                s.policy,
+                s.steps,
+                s.seed,
+                firecast_rl::Device::Cpu,
+            )?)
+        },
+        || run_sb3(python, firecast_rl::bench::SB3_HELITACK_SCRIPT, &cfg, s.threads),
+    )?;
+    check_parameters(part, firecast.parameters, &sb3)?;
+    Ok((firecast, sb3, train_ratios))
 }
 
 fn bench_firecastrl(
@@ -791,22 +827,20 @@ fn bench_firecastrl(
     );
     let dir = std::fs::canonicalize(env_dir).with_context(|| format!("{}", env_dir.display()))?;
     let env = serde_json::json!({"kind": "firecastrl", "dir": dir});
-    let cfg = helitack_sb3_config(ppo, policy, env, args.reference_steps, args.seed, threads)?;
-    let (firecast, sb3, train_ratios) = interleaved(
-        args.repeats,
-        || {
-            Ok(firecast_rl::bench::helitack(
-                &fires,
-                ppo,
-                policy,
-                args.reference_steps,
-                args.seed,
-                firecast_rl::Device::Cpu,
-            )?)
+    let (firecast, sb3, train_ratios) = helitack_sides(
+        "(c)",
+        &fires,
+        HelitackSettings {
+            ppo,
+            policy,
+            steps: args.reference_steps,
+            seed: args.seed,
+            repeats: args.repeats,
+            threads,
         },
-        || run_sb3(python, firecast_rl::bench::SB3_HELITACK_SCRIPT, &cfg, threads),
+        env,
+        python,
     )?;
-    check_parameters("(c)", firecast.parameters, &sb3)?;
     Ok(BenchPartReport {
         part: BenchPart::C,
         task: format!(
