@@ -54,6 +54,18 @@ pub struct PolicyConfig {
     /// where the nearest flames are to a few cells' precision, which is what a drop needs.
     #[serde(skip_serializing_if = "crate::train::is_zero")]
     pub focus: u32,
+    /// `[rows, columns]` of the helicopter view (`view: helicopter` only; none = the map's
+    /// size): the extractor sees this many cells around the helicopter whatever the map, and
+    /// not the helicopter's map coordinates, so a policy trained on one map size plays any
+    /// other at the same scale, and its network costs the same on a 240 × 160 map as on a
+    /// 96 × 64 one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub window: Option<[u32; 2]>,
+    /// With a `window`: k > 0 adds a coarse view of k × k times the window's area around the
+    /// helicopter, the newest frame's burning and burnt cells as fractions of each k × k block,
+    /// on the window's grid, so flames beyond the window still show where they are.
+    #[serde(skip_serializing_if = "crate::train::is_zero")]
+    pub context: u32,
     /// How the `compact` policy remembers: the environment's frame stack (`frames`), or an
     /// LSTM over the newest frame (`lstm`: recurrent PPO, trained on sequences of
     /// [`SEQUENCE`] steps from the states the rollout stored).
@@ -157,6 +169,8 @@ impl Default for PolicyConfig {
             batch_norm: false,
             view: View::Map,
             focus: 0,
+            window: None,
+            context: 0,
             memory: Memory::Frames,
         }
     }
@@ -475,6 +489,27 @@ impl Policy {
                 "the focus window is centred on the helicopter: it needs `view: helicopter`",
             ));
         }
+        if config.window.is_some() && config.view != View::Helicopter {
+            return Err(RlError::config(
+                "policy.window",
+                "the window is centred on the helicopter: it needs `view: helicopter`",
+            ));
+        }
+        if config
+            .window
+            .is_some_and(|[r, c]| r < 8 || c < 8 || r % 2 == 1 || c % 2 == 1)
+        {
+            return Err(RlError::config(
+                "policy.window",
+                "rows and columns must be even and at least 8",
+            ));
+        }
+        if config.context > 0 && config.window.is_none() {
+            return Err(RlError::config(
+                "policy.context",
+                "the coarse view is drawn on the window's grid: it needs `window`",
+            ));
+        }
         if config.memory == Memory::Lstm && config.kind != PolicyKind::Compact {
             return Err(RlError::config(
                 "policy.memory",
@@ -507,10 +542,14 @@ impl Policy {
                 let (c, hw) = (c as i64, [h as i64, w as i64]);
                 if config.kind == PolicyKind::Compact {
                     let lstm = config.memory == Memory::Lstm;
-                    // With an LSTM the image is the newest frame and the helicopter channel.
+                    let hw = config.window.map_or(hw, |[r, c]| [i64::from(r), i64::from(c)]);
+                    // With an LSTM the image is the newest frame and the helicopter channel;
+                    // the coarse view adds its burning and burnt channels.
+                    let image_channels = if lstm { c.min(2) } else { c };
+                    let context_channels = if config.context > 0 { 2 } else { 0 };
                     let (trunk, ch) = Trunk::new(
                         &fx / "cnn",
-                        if lstm { c.min(2) } else { c },
+                        image_channels + context_channels,
                         hw,
                         [16, 32, 8, 16, 8, 16],
                         config.batch_norm,
@@ -519,7 +558,9 @@ impl Policy {
                     );
                     let reduce = conv(&fx / "reduce", ch, 16, 1, 1, 0, g(sqrt2));
                     let pooled = [trunk.size[0].min(10), trunk.size[1].min(15)];
-                    let vector_net = linear(&fx / "vector_net", space.vector as i64, 64, g(sqrt2));
+                    // With a window the helicopter's map coordinates are left out.
+                    let vector = space.vector as i64 - if config.window.is_some() { 2 } else { 0 };
+                    let vector_net = linear(&fx / "vector_net", vector, 64, g(sqrt2));
                     let side = 2 * i64::from(config.focus) + 1;
                     if config.focus > 0 && side > hw[0].min(hw[1]) {
                         return Err(RlError::config(
@@ -644,26 +685,50 @@ impl Policy {
                 fuse,
                 lstm,
             } => {
-                let img = image_float(obs);
-                let img = match lstm {
+                let Some(raw) = &obs.image else {
+                    unreachable!("the compact extractor is built for image observations")
+                };
+                let raw = match lstm {
                     // The newest frame and the helicopter channel.
                     Some(_) => {
-                        let c = img.size()[1];
-                        img.narrow(1, c - 2, 2)
+                        let c = raw.size()[1];
+                        raw.narrow(1, c - 2, 2)
                     }
-                    None => img,
+                    None => raw.shallow_clone(),
                 };
-                let img = match self.config.view {
-                    View::Map => img,
-                    View::Helicopter => centred_on_helicopter(&img),
+                let size = raw.size();
+                let window = self
+                    .config
+                    .window
+                    .map_or([size[2], size[3]], |[r, c]| [i64::from(r), i64::from(c)]);
+                // Cut before converting: a 64 × 96 window of a 240 × 160 map is a sixth of it.
+                let (img, input) = match self.config.view {
+                    View::Map => {
+                        let img = raw.to_kind(Kind::Float) / IMAGE_SCALE;
+                        (img.shallow_clone(), img)
+                    }
+                    View::Helicopter => {
+                        let cells = helicopter_cells(&raw);
+                        let img = centred(&raw, &cells, window).to_kind(Kind::Float) / IMAGE_SCALE;
+                        let input = match self.config.context {
+                            0 => img.shallow_clone(),
+                            k => Tensor::cat(&[&img, &coarse_view(&raw, &cells, window, i64::from(k))], 1),
+                        };
+                        (img, input)
+                    }
                 };
-                let f = trunk.forward(&img, train);
+                let f = trunk.forward(&input, train);
                 let f = reduce
                     .forward(&f)
                     .relu()
                     .adaptive_avg_pool2d([pooled[0], pooled[1]]);
                 let f = f.flatten(1, -1);
-                let v = vector_net.forward(&obs.vector).relu();
+                let vector = match self.config.window {
+                    // [x, y, on_fire, …]: the coordinates are the first two.
+                    Some(_) => obs.vector.narrow(1, 2, obs.vector.size()[1] - 2),
+                    None => obs.vector.shallow_clone(),
+                };
+                let v = vector_net.forward(&vector).relu();
                 let mut parts = vec![f, v];
                 if let Some(net) = focus_net {
                     let window = focus_window(&img, i64::from(self.config.focus));
@@ -795,14 +860,16 @@ impl Policy {
 
     /// Whether this policy can read observations of `space`: the space it was trained on,
     /// or — for the compact policy, whose features are pooled to a fixed grid — the same
-    /// channels and numbers on a grid at least as large in both directions.
+    /// channels and numbers on a grid at least as large in both directions (any grid with a
+    /// `window`, which is cut from the map whatever its size).
     pub fn accepts(&self, space: ObsSpace) -> bool {
         if space == self.space {
             return true;
         }
         match (self.config.kind, self.space.image, space.image) {
             (PolicyKind::Compact, Some([c, h, w]), Some([c2, h2, w2])) => {
-                c == c2 && h2 >= h && w2 >= w && space.vector == self.space.vector
+                let fits = self.config.window.is_some() || (h2 >= h && w2 >= w);
+                c == c2 && fits && space.vector == self.space.vector
             }
             _ => false,
         }
@@ -817,22 +884,71 @@ impl Policy {
     }
 }
 
-/// `[N, C, H, W]` images shifted so that the helicopter (the cell of the last channel's
-/// maximum, its own channel) is at (H/2, W/2); outside the map is 0.
-fn centred_on_helicopter(img: &Tensor) -> Tensor {
+/// Flat cell index of each image's helicopter (the maximum of the last channel, its own).
+fn helicopter_cells(img: &Tensor) -> Vec<i64> {
+    let c = img.size()[1];
+    Vec::<i64>::try_from(img.select(1, c - 1).flatten(1, -1).argmax(1, false))
+        .expect("argmax of a CPU or CUDA tensor")
+}
+
+/// `[rows, cols]` of each image `[N, C, H, W]` with map cell `cells[i]` at (rows/2, cols/2);
+/// outside the map is 0. Only the part inside the map is copied.
+fn centred(img: &Tensor, cells: &[i64], [rows, cols]: [i64; 2]) -> Tensor {
     let size = img.size();
     let (n, c, h, w) = (size[0], size[1], size[2], size[3]);
-    let cells = Vec::<i64>::try_from(img.select(1, c - 1).flatten(1, -1).argmax(1, false))
-        .expect("argmax of a CPU or CUDA tensor");
-    let padded = img.constant_pad_nd([w / 2, w - w / 2, h / 2, h - h / 2]);
-    let rows: Vec<Tensor> = (0..n)
-        .map(|i| {
-            let cell = cells[i as usize];
-            // Padded row r is map row r − H/2: rows hy .. hy + H put map row hy at H/2.
-            padded.get(i).narrow(1, cell / w, h).narrow(2, cell % w, w)
-        })
-        .collect();
-    Tensor::stack(&rows, 0)
+    let out = Tensor::zeros([n, c, rows, cols], (img.kind(), img.device()));
+    for (i, &cell) in cells.iter().enumerate().take(n as usize) {
+        // Output row r shows map row hy − rows/2 + r; the same for columns.
+        let (top, left) = (cell / w - rows / 2, cell % w - cols / 2);
+        let (r0, r1) = (top.max(0), (top + rows).min(h));
+        let (c0, c1) = (left.max(0), (left + cols).min(w));
+        if r1 <= r0 || c1 <= c0 {
+            continue;
+        }
+        let src = img.get(i as i64).narrow(1, r0, r1 - r0).narrow(2, c0, c1 - c0);
+        let _ = out
+            .get(i as i64)
+            .narrow(1, r0 - top, r1 - r0)
+            .narrow(2, c0 - left, c1 - c0)
+            .copy_(&src);
+    }
+    out
+}
+
+/// The coarse view of images of cell codes `[N, C, H, W]` (the newest frame is channel
+/// C − 2): its burning (codes 4–6) and burnt (7–9) cells in the `[k·rows, k·cols]` cells
+/// around the helicopter (at (k·rows/2, k·cols/2), as in [`centred`]), as fractions of each
+/// k × k block: `[N, 2, rows, cols]`. Counted on the host over the map's cells only: the same
+/// in tensor operations is dominated by the padding (measured: 20 % of an imitation round in
+/// average pooling alone on 240 × 160).
+fn coarse_view(codes: &Tensor, cells: &[i64], [rows, cols]: [i64; 2], k: i64) -> Tensor {
+    let size = codes.size();
+    let (n, c, h, w) = (size[0], size[1], size[2], size[3]);
+    let newest = codes.select(1, c - 2).to_device(Device::Cpu).contiguous();
+    let frames = Vec::<u8>::try_from(newest.flatten(0, -1)).expect("cell codes are u8");
+    let (plane, block) = ((rows * cols) as usize, (h * w) as usize);
+    let mut counts = vec![0u16; n as usize * 2 * plane];
+    for (i, &cell) in cells.iter().enumerate().take(n as usize) {
+        let (top, left) = (cell / w - k * rows / 2, cell % w - k * cols / 2);
+        let frame = &frames[i * block..(i + 1) * block];
+        let out = &mut counts[i * 2 * plane..(i + 1) * 2 * plane];
+        for y in top.max(0)..(top + k * rows).min(h) {
+            let row = ((y - top) / k * cols) as usize;
+            for x in left.max(0)..(left + k * cols).min(w) {
+                let slot = row + ((x - left) / k) as usize;
+                match frame[(y * w + x) as usize] {
+                    4..=6 => out[slot] += 1,
+                    7.. => out[plane + slot] += 1,
+                    _ => {}
+                }
+            }
+        }
+    }
+    let scale = 1.0 / (k * k) as f32;
+    let fractions: Vec<f32> = counts.iter().map(|&m| f32::from(m) * scale).collect();
+    Tensor::from_slice(&fractions)
+        .view([n, 2, rows, cols])
+        .to_device(codes.device())
 }
 
 /// The `(2r + 1)²` cells around the centre of helicopter-centred images `[N, C, H, W]` (codes
@@ -974,6 +1090,108 @@ mod tests {
         assert!(policy.accepts(space(16, 24)) && !policy.accepts(space(32, 48)));
     }
 
+    /// With a window the compact policy plays any map size with the same channels, and reads
+    /// neither the helicopter's map coordinates nor anything beyond its views.
+    #[test]
+    fn a_windowed_policy_plays_any_map_and_ignores_coordinates() {
+        let space = |h: usize, w: usize| ObsSpace {
+            image: Some([5, h, w]),
+            vector: 3,
+        };
+        let windowed = PolicyConfig {
+            kind: PolicyKind::Compact,
+            view: View::Helicopter,
+            focus: 4,
+            window: Some([16, 24]),
+            context: 3,
+            ..PolicyConfig::default()
+        };
+        let policy = Policy::new(&windowed, space(32, 48), 5, Device::Cpu).expect("policy");
+        assert!(policy.accepts(space(8, 12)) && policy.accepts(space(160, 240)));
+        assert!(!policy.accepts(ObsSpace {
+            image: Some([4, 160, 240]),
+            vector: 3
+        }));
+        // A fire 30 cells east of the helicopter: beyond the 24-column window, inside the
+        // 72-column coarse view; another 60 cells west, beyond both.
+        let obs = |h: i64, w: i64, x: f32, far: bool| {
+            let img = Tensor::ones([1, 5, h, w], (Kind::Uint8, Device::Cpu));
+            let (hy, hx) = (h / 2, w / 2);
+            let _ = img.get(0).get(4).get(hy).get(hx).fill_(9);
+            let _ = img.get(0).get(3).get(hy).get(hx + 30).fill_(5);
+            if far {
+                let _ = img.get(0).get(3).get(hy).get(hx - 60).fill_(5);
+            }
+            ObsTensors {
+                image: Some(img),
+                vector: Tensor::from_slice(&[x, 7.0, 0.0]).view([1, 3]),
+            }
+        };
+        let (near, _) = policy.forward(&obs(64, 160, 0.0, false), false);
+        for (h, w, x, far) in [
+            (64, 160, 50.0, false),
+            (64, 160, 0.0, true),
+            (128, 200, 3.0, false),
+        ] {
+            let (logits, _) = policy.forward(&obs(h, w, x, far), false);
+            assert!(
+                logits.allclose(&near, 1e-6, 1e-6, false),
+                "{h}×{w}, x {x}, far {far}"
+            );
+        }
+        let no_context = PolicyConfig {
+            context: 0,
+            ..windowed.clone()
+        };
+        let err = Policy::new(
+            &PolicyConfig {
+                view: View::Map,
+                focus: 0,
+                ..no_context.clone()
+            },
+            space(32, 48),
+            5,
+            Device::Cpu,
+        )
+        .expect_err("refused");
+        assert!(err.to_string().contains("policy.window"), "{err}");
+        let odd = PolicyConfig {
+            window: Some([15, 24]),
+            ..no_context.clone()
+        };
+        let err = Policy::new(&odd, space(32, 48), 5, Device::Cpu).expect_err("refused");
+        assert!(err.to_string().contains("policy.window"), "{err}");
+        let context_only = PolicyConfig {
+            window: None,
+            ..windowed
+        };
+        let err = Policy::new(&context_only, space(32, 48), 5, Device::Cpu).expect_err("refused");
+        assert!(err.to_string().contains("policy.context"), "{err}");
+    }
+
+    /// The coarse view puts a burning cell in the block of its offset from the helicopter and a
+    /// burnt one in the second channel, as fractions of k × k blocks; beyond it nothing shows.
+    #[test]
+    fn the_coarse_view_shows_flames_beyond_the_window() {
+        let (h, w, k) = (40_i64, 60_i64, 3_i64);
+        let frame = Tensor::ones([1, 1, h, w], (Kind::Uint8, Device::Cpu));
+        let heli = Tensor::zeros([1, 1, h, w], (Kind::Uint8, Device::Cpu));
+        let (hx, hy) = (10_i64, 20_i64);
+        let _ = heli.get(0).get(0).get(hy).get(hx).fill_(9);
+        let _ = frame.get(0).get(0).get(hy).get(hx + 15).fill_(5); // burning, 15 east
+        let _ = frame.get(0).get(0).get(hy - 7).get(hx).fill_(8); // burnt, 7 north
+        let _ = frame.get(0).get(0).get(hy).get(hx + 40).fill_(5); // beyond the view
+        let img = Tensor::cat(&[frame, heli], 1);
+        let view = coarse_view(&img, &helicopter_cells(&img), [8, 12], k);
+        assert_eq!(view.size(), [1, 2, 8, 12]);
+        // The view spans 24 × 36 cells with the helicopter at (12, 18): 15 east is column 33
+        // (block 11) of row 12 (block 4); 7 north is row 5 (block 1) of column 18 (block 6).
+        let total = view.sum(Kind::Double).double_value(&[]);
+        assert!((total - 2.0 / 9.0).abs() < 1e-6, "{total}");
+        assert!((view.double_value(&[0, 0, 4, 11]) - 1.0 / 9.0).abs() < 1e-6);
+        assert!((view.double_value(&[0, 1, 1, 6]) - 1.0 / 9.0).abs() < 1e-6);
+    }
+
     /// The helicopter lands on (H/2, W/2), its neighbours keep their offsets, and cells
     /// beyond the map read 0.
     #[test]
@@ -984,24 +1202,27 @@ mod tests {
             let heli = Tensor::zeros([1, 1, h, w], (Kind::Float, Device::Cpu));
             let _ = heli.get(0).get(0).get(hy).get(hx).fill_(1.0);
             let img = Tensor::cat(&[map, heli], 1);
-            let out = centred_on_helicopter(&img);
-            assert_eq!(out.size(), [1, 2, h, w]);
-            for y in 0..h {
-                for x in 0..w {
-                    let (mx, my) = (x + hx - w / 2, y + hy - h / 2);
-                    let want = if (0..w).contains(&mx) && (0..h).contains(&my) {
-                        (my * w + mx + 1) as f64
-                    } else {
-                        0.0
-                    };
-                    assert_eq!(
-                        out.double_value(&[0, 0, y, x]),
-                        want,
-                        "({x}, {y}) from ({hx}, {hy})"
-                    );
+            // The map's own size, a larger window and a smaller one.
+            for [rows, cols] in [[h, w], [10, 8], [2, 4]] {
+                let out = centred(&img, &helicopter_cells(&img), [rows, cols]);
+                assert_eq!(out.size(), [1, 2, rows, cols]);
+                for y in 0..rows {
+                    for x in 0..cols {
+                        let (mx, my) = (x + hx - cols / 2, y + hy - rows / 2);
+                        let want = if (0..w).contains(&mx) && (0..h).contains(&my) {
+                            (my * w + mx + 1) as f64
+                        } else {
+                            0.0
+                        };
+                        assert_eq!(
+                            out.double_value(&[0, 0, y, x]),
+                            want,
+                            "({x}, {y}) from ({hx}, {hy}) in {rows} × {cols}"
+                        );
+                    }
                 }
+                assert_eq!(out.double_value(&[0, 1, rows / 2, cols / 2]), 1.0);
             }
-            assert_eq!(out.double_value(&[0, 1, h / 2, w / 2]), 1.0);
         }
     }
 }
