@@ -906,8 +906,7 @@ fn centred(img: &Tensor, cells: &[i64], [rows, cols]: [i64; 2]) -> Tensor {
             continue;
         }
         let src = img.get(i as i64).narrow(1, r0, r1 - r0).narrow(2, c0, c1 - c0);
-        let _ = out
-            .get(i as i64)
+        out.get(i as i64)
             .narrow(1, r0 - top, r1 - r0)
             .narrow(2, c0 - left, c1 - c0)
             .copy_(&src);
