@@ -6,10 +6,11 @@ use std::path::Path;
 use firecast_episodes::ensemble::{Ensemble, Setup, assemble};
 use firecast_episodes::{LandscapeSpec, Scenario};
 use firecast_rl::ensemble::{EnsemblePolicy, load_policies, run_policies};
+use firecast_rl::policy::{PolicyConfig, PolicyKind, View};
 use firecast_sim::EnvConfig;
 use tch::Device;
 
-use crate::tiny::tiny_run;
+use crate::tiny::{tiny_run, tiny_run_with};
 
 const FIRES: &str = r#"
 train:
@@ -114,4 +115,27 @@ fn a_runs_policies_play_an_ensemble_reproducibly() {
         .map(|e| e.to_string())
         .unwrap_or_default();
     assert!(err.contains("trained on observations"), "{err}");
+}
+
+/// A policy with a window around the helicopter plays landscapes of any size, smaller ones
+/// than its training map included, and reproducibly.
+#[test]
+fn a_windowed_policy_plays_any_landscape() {
+    let tmp = tempfile::tempdir().expect("a temporary folder");
+    let windowed = PolicyConfig {
+        kind: PolicyKind::Compact,
+        view: View::Helicopter,
+        focus: 4,
+        window: Some([16, 24]),
+        context: 3,
+        ..PolicyConfig::default()
+    };
+    let (run, _) = tiny_run_with(tmp.path(), FIRES, Some(windowed));
+    let (_, policies) = load_policies(&run, Device::Cpu).expect("loading the run");
+    for (w, h) in [(40, 32), (24, 16), (80, 56)] {
+        let e = ensemble(&setup(w, h), &policies, 2, 11);
+        assert_eq!((e.runs(), e.burn_count.len()), (2, w * h), "{w}×{h}");
+        assert!(e.episodes.iter().all(|ep| ep.cells_burned > 0), "{w}×{h}");
+        assert_eq!(e, ensemble(&setup(w, h), &policies, 2, 11), "{w}×{h}");
+    }
 }
