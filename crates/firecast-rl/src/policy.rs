@@ -559,6 +559,12 @@ impl Policy {
                     let reduce = conv(&fx / "reduce", ch, 16, 1, 1, 0, g(sqrt2));
                     let pooled = [trunk.size[0].min(10), trunk.size[1].min(15)];
                     // With a window the helicopter's map coordinates are left out.
+                    if config.window.is_some() && space.vector < 3 {
+                        return Err(RlError::config(
+                            "policy.window",
+                            "a window needs the helicopter cell and the on-fire flag in the vector observation",
+                        ));
+                    }
                     let vector = space.vector as i64 - if config.window.is_some() { 2 } else { 0 };
                     let vector_net = linear(&fx / "vector_net", vector, 64, g(sqrt2));
                     let side = 2 * i64::from(config.focus) + 1;
