@@ -842,7 +842,12 @@ pub fn plot(report: &EvalReport, out: &Path) -> Result<(), RlError> {
         let c = OKABE_ITO[k % OKABE_ITO.len()];
         let m = &a.cells_burned.mean;
         chart = chart
-            .series(Series::segment((x, m.low), (x, m.high)).color(c).width(3.0))
+            .series(
+                Series::segment((x, m.low), (x, m.high))
+                    .color(c)
+                    .width(3.0)
+                    .dashed(false),
+            )
             .series(
                 Series::scatter([(x, m.estimate)])
                     .color(c)
@@ -855,7 +860,17 @@ pub fn plot(report: &EvalReport, out: &Path) -> Result<(), RlError> {
                     .marker(Marker::Diamond, 8.0),
             );
     }
-    chart = chart.x_range(0.0, report.agents.len() as f64 + 1.0);
+    // Room above the highest interval for the legend (one row per agent), which would
+    // otherwise hide the last agents' points.
+    let top = report
+        .agents
+        .iter()
+        .map(|a| a.cells_burned.mean.high.max(a.cells_burned.iqm.high))
+        .fold(1.0, f64::max);
+    let legend_share = (0.1 * report.agents.len() as f64 + 0.1).min(0.7);
+    chart = chart
+        .x_range(0.0, report.agents.len() as f64 + 1.0)
+        .y_range(0.0, top / (1.0 - legend_share));
     chart.save_png(out.join("table4.png"))?;
     // PPO (mean over seeds) vs rule, per fire.
     let per_fire = |agent: &str| -> std::collections::BTreeMap<usize, f64> {
