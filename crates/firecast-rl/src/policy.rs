@@ -1144,6 +1144,13 @@ mod tests {
                 "{h}×{w}, x {x}, far {far}"
             );
         }
+        // …while the fire the coarse view shows does count.
+        let unseen = obs(64, 160, 0.0, false);
+        if let Some(img) = &unseen.image {
+            let _ = img.get(0).get(3).fill_(1);
+        }
+        let (without, _) = policy.forward(&unseen, false);
+        assert!(!without.equal(&near), "the coarse view's fire changes nothing");
         let no_context = PolicyConfig {
             context: 0,
             ..windowed.clone()
