@@ -1057,15 +1057,20 @@ mod tests {
         assert_eq!((logits.size(), values.size()), (vec![2, 5], vec![2]));
     }
 
+    /// The helitack observation space of an h × w map: 4 frames and the helicopter channel,
+    /// [x, y, on_fire].
+    fn space(h: usize, w: usize) -> ObsSpace {
+        ObsSpace {
+            image: Some([5, h, w]),
+            vector: 3,
+        }
+    }
+
     /// The compact policy pools its features to a fixed grid, so it plays any map at least as
     /// large as its training map (the threat report's landscape with a 96 × 64 agent); smaller
     /// maps, other channels and the paper policy (whose LSTM input is the map's size) are refused.
     #[test]
     fn the_compact_policy_plays_larger_maps() {
-        let space = |h: usize, w: usize| ObsSpace {
-            image: Some([5, h, w]),
-            vector: 3,
-        };
         let compact = PolicyConfig {
             kind: PolicyKind::Compact,
             view: View::Helicopter,
@@ -1099,10 +1104,6 @@ mod tests {
     /// neither the helicopter's map coordinates nor anything beyond its views.
     #[test]
     fn a_windowed_policy_plays_any_map_and_ignores_coordinates() {
-        let space = |h: usize, w: usize| ObsSpace {
-            image: Some([5, h, w]),
-            vector: 3,
-        };
         let windowed = PolicyConfig {
             kind: PolicyKind::Compact,
             view: View::Helicopter,
