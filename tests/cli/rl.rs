@@ -218,6 +218,20 @@ fn bad_training_specs_name_the_key() {
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("c.yaml:3") && err.contains("learning_rate"), "{err}");
+    // Each cause once: the key's message, and a missing file's path and OS error.
+    assert_eq!(err.matches("unknown field").count(), 1, "{err}");
+    p.write(
+        "m.yaml",
+        &spec("heli-m").replace("fires.yaml", "absent-fires.yaml"),
+    );
+    let out = p
+        .firecast()
+        .args(["rl", "train", "--config", "m.yaml"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("absent-fires.yaml"), "{err}");
+    assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");
 
     // Reward weights: the profile's, replaced by the top-level `reward`; not under `env`.
     for (fires, expect) in [
