@@ -106,28 +106,12 @@ fn main() -> ExitCode {
             }) {
                 return ExitCode::SUCCESS;
             }
-            eprintln!("error: {}", error_chain(&error));
+            // Each cause once: many library errors carry their source's text in their own message,
+            // which anyhow's `{:#}` would print a second time.
+            eprintln!("error: {}", firecast_pipeline::chain_text(error.as_ref()));
             ExitCode::from(2)
         }
     }
-}
-
-/// The error and its causes joined by `: `, each cause once: many library errors already
-/// carry their source's text in their own message (`reading the fire file: PATH: No such
-/// file…`), and anyhow's `{:#}` would print it a second time.
-fn error_chain(error: &anyhow::Error) -> String {
-    let mut out = String::new();
-    for cause in error.chain() {
-        let text = cause.to_string();
-        if out.contains(&text) {
-            continue;
-        }
-        if !out.is_empty() {
-            out.push_str(": ");
-        }
-        out.push_str(&text);
-    }
-    out
 }
 
 fn run(cli: Cli) -> anyhow::Result<ExitCode> {

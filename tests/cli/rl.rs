@@ -200,23 +200,26 @@ fn bad_training_specs_name_the_key() {
         ("-S", "policy.focus=4", "needs `view: helicopter`"),
         ("-S", "threads=0", "threads"),
     ];
-    for (flag, value, expect) in cases {
+    // `rl train` with these arguments: whether it succeeded, and its stderr.
+    let train = |args: &[&str]| {
         let out = p
             .firecast()
-            .args(["rl", "train", "--config", "a.yaml", flag, value])
+            .args(["rl", "train", "--config"])
+            .args(args)
             .output()
             .unwrap();
-        assert!(!out.status.success(), "{value}");
-        let err = String::from_utf8_lossy(&out.stderr);
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    for (flag, value, expect) in cases {
+        let (ok, err) = train(&["a.yaml", flag, value]);
+        assert!(!ok, "{value}");
         assert!(err.contains(expect), "{value}: expected `{expect}` in\n{err}");
     }
     p.write("c.yaml", "name: c\nenv: {kind: cartpole}\nlearning_rate: 1\n");
-    let out = p
-        .firecast()
-        .args(["rl", "train", "--config", "c.yaml"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
+    let (_, err) = train(&["c.yaml"]);
     assert!(err.contains("c.yaml:3") && err.contains("learning_rate"), "{err}");
     // Each cause once: the key's message, and a missing file's path and OS error.
     assert_eq!(err.matches("unknown field").count(), 1, "{err}");
@@ -224,12 +227,7 @@ fn bad_training_specs_name_the_key() {
         "m.yaml",
         &spec("heli-m").replace("fires.yaml", "absent-fires.yaml"),
     );
-    let out = p
-        .firecast()
-        .args(["rl", "train", "--config", "m.yaml"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
+    let (_, err) = train(&["m.yaml"]);
     assert!(err.contains("absent-fires.yaml"), "{err}");
     assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");
 
@@ -257,13 +255,8 @@ fn bad_training_specs_name_the_key() {
     ] {
         p.write("bad-fires.yaml", &fires);
         p.write("d.yaml", &spec("heli-d").replace("fires.yaml", "bad-fires.yaml"));
-        let out = p
-            .firecast()
-            .args(["rl", "train", "--config", "d.yaml"])
-            .output()
-            .unwrap();
-        assert!(!out.status.success(), "{fires}");
-        let err = String::from_utf8_lossy(&out.stderr);
+        let (ok, err) = train(&["d.yaml"]);
+        assert!(!ok, "{fires}");
         assert!(err.contains(expect), "expected `{expect}` in\n{err}");
     }
 }

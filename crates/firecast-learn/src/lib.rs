@@ -102,8 +102,8 @@ pub fn set_threads(n: usize) {
 /// `mmap` that it unmaps on free, so each minibatch page-faults its activations in anew —
 /// about 10 million page faults in 2,048 training steps on 240 × 160, a quarter of the CPU
 /// time (`perf`). With no `mmap`, no trimming of the heap's top and a 64 MiB pad, freed
-/// blocks are reused; the process keeps its peak heap until it exits. Results do not change (libtorch aligns its
-/// blocks itself). Called once; later calls do nothing.
+/// blocks are reused; the process keeps its peak heap until it exits. Results do not change
+/// (libtorch aligns its blocks itself). Called once; later calls do nothing.
 pub fn keep_freed_memory() {
     static DONE: OnceLock<()> = OnceLock::new();
     DONE.get_or_init(tune_malloc);

@@ -107,20 +107,25 @@ impl StageError {
 
 impl fmt::Display for StageError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        // Many errors already print their source inline (`{context}: {source}`); a cause
-        // whose text ends what is written so far is not repeated.
-        let mut text = self.0.to_string();
-        let mut source = self.0.source();
-        while let Some(cause) = source {
-            let cause_text = cause.to_string();
-            if !text.ends_with(&cause_text) {
-                text.push_str(": ");
-                text.push_str(&cause_text);
-            }
-            source = cause.source();
-        }
-        f.write_str(&text)
+        f.write_str(&chain_text(&*self.0))
     }
+}
+
+/// An error and its causes joined by `: `, each once. Many errors already print their source
+/// inline (`{context}: {source}`); a cause whose text ends what is written so far is not
+/// repeated. Stage errors and the CLI's top-level error both print this way.
+pub fn chain_text(error: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = error.to_string();
+    let mut source = error.source();
+    while let Some(cause) = source {
+        let cause_text = cause.to_string();
+        if !text.ends_with(&cause_text) {
+            text.push_str(": ");
+            text.push_str(&cause_text);
+        }
+        source = cause.source();
+    }
+    text
 }
 
 impl<E: std::error::Error + Send + Sync + 'static> From<E> for StageError {

@@ -31,7 +31,7 @@ pub mod runner;
 pub mod spec;
 pub mod stage;
 
-pub use error::{PipelineError, SpecError, StageError};
+pub use error::{PipelineError, SpecError, StageError, chain_text};
 pub use executor::{JobFailure, JobOutcome, StageExecutor, StageJob};
 pub use observer::{DatasetRecord, NoObserver, RunObserver, RunStatus};
 pub use plan::{Plan, load_plan};
