@@ -378,6 +378,36 @@ struct BenchPartReport {
     train_ratios: Vec<f64>,
     /// Goal on training steps per second, FireCast / SB3.
     goal: f64,
+    arithmetic: Arithmetic,
+}
+
+/// The network's arithmetic against the machine's: what the goal asks of the CPU.
+#[derive(Debug, serde::Serialize)]
+struct Arithmetic {
+    /// Convolution and matrix-product FLOPs per environment step of training (one forward
+    /// pass in the rollout, n_epochs forward + backward passes in the updates), torch's count.
+    flops_per_step: f64,
+    /// GFLOP/s those steps amount to at each side's training speed.
+    firecast_gflops: f64,
+    sb3_gflops: f64,
+    /// GFLOP/s FireCast's training would need to meet the goal.
+    goal_gflops: f64,
+    /// This machine's float32 matrix-product rate at the part's torch threads.
+    sgemm_gflops: f64,
+}
+
+impl Arithmetic {
+    fn new(firecast: &firecast_rl::bench::PhaseSpeeds, sb3: &serde_json::Value, goal: f64) -> Self {
+        let flops = sb3_number(sb3, "flops_per_step");
+        let sb3_train = sb3_number(sb3, "train_sps");
+        Self {
+            flops_per_step: flops,
+            firecast_gflops: firecast.train_sps * flops / 1e9,
+            sb3_gflops: sb3_train * flops / 1e9,
+            goal_gflops: goal * sb3_train * flops / 1e9,
+            sgemm_gflops: sb3_number(sb3, "sgemm_gflops"),
+        }
+    }
 }
 
 #[derive(Debug, serde::Serialize)]
@@ -395,7 +425,7 @@ fn run_sb3(
 ) -> anyhow::Result<serde_json::Value> {
     let out = std::process::Command::new(python)
         .arg("-c")
-        .arg(script)
+        .arg(format!("{}\n{script}", firecast_rl::bench::NETWORK_WORK))
         .arg(cfg.to_string())
         .env("OMP_NUM_THREADS", threads.to_string())
         .env("MKL_NUM_THREADS", threads.to_string())
@@ -479,7 +509,13 @@ fn interleaved(
         train_sps: median(ours.iter().map(|o| o.speeds.train_sps).collect()),
     };
     let mut sb3 = theirs[0].clone();
-    for k in ["env_sps", "rollout_sps", "update_sps", "train_sps"] {
+    for k in [
+        "env_sps",
+        "rollout_sps",
+        "update_sps",
+        "train_sps",
+        "sgemm_gflops",
+    ] {
         sb3[k] = serde_json::json!(median(theirs.iter().map(|t| sb3_number(t, k)).collect()));
     }
     Ok((run, sb3, train_ratios))
@@ -661,6 +697,20 @@ fn print_part(p: &BenchPartReport) {
         p.goal,
         if train >= p.goal { "met" } else { "not met" }
     );
+    let w = &p.arithmetic;
+    println!(
+        "arithmetic: {:.2} MFLOP of convolutions and matrix products per training step (torch's count); \
+         training runs at {:.1} GFLOP/s in FireCast, {:.1} in {sb3_name}; the goal needs {:.1} GFLOP/s, \
+         {:.0} % of this machine's float32 matrix product ({:.0} GFLOP/s on {} thread{})",
+        w.flops_per_step / 1e6,
+        w.firecast_gflops,
+        w.sb3_gflops,
+        w.goal_gflops,
+        100.0 * w.goal_gflops / w.sgemm_gflops,
+        w.sgemm_gflops,
+        p.threads,
+        if p.threads == 1 { "" } else { "s" },
+    );
 }
 
 fn bench_cartpole(args: &BenchPpoArgs, python: &Path) -> anyhow::Result<BenchPartReport> {
@@ -692,6 +742,7 @@ fn bench_cartpole(args: &BenchPpoArgs, python: &Path) -> anyhow::Result<BenchPar
         steps: args.steps,
         threads: 1,
         ratios: ratios(&firecast.speeds, &sb3),
+        arithmetic: Arithmetic::new(&firecast.speeds, &sb3, 5.0),
         train_ratios,
         firecast,
         sb3,
@@ -750,6 +801,7 @@ fn bench_helitack(
         steps: args.helitack_steps,
         threads,
         ratios: ratios(&firecast.speeds, &sb3),
+        arithmetic: Arithmetic::new(&firecast.speeds, &sb3, 3.0),
         train_ratios,
         firecast,
         sb3,
@@ -856,6 +908,7 @@ fn bench_firecastrl(
         steps: args.reference_steps,
         threads,
         ratios: ratios(&firecast.speeds, &sb3),
+        arithmetic: Arithmetic::new(&firecast.speeds, &sb3, 50.0),
         train_ratios,
         firecast,
         sb3,

@@ -301,6 +301,16 @@ fn bench_ppo_helitack_runs_both_sides_with_equal_networks() {
         assert!(ratio.is_finite() && ratio > 0.0, "{k}: {b}");
         assert!(b["firecast"][format!("{k}_sps")].as_f64().unwrap() > 0.0, "{b}");
     }
+    // The arithmetic yardstick: torch's FLOP count per step and the machine's sgemm rate; the
+    // goal's GFLOP/s is the goal times SB3's.
+    let w = &b["arithmetic"];
+    let num = |k: &str| w[k].as_f64().unwrap_or(f64::NAN);
+    assert!(num("flops_per_step") > 1e5, "{w}");
+    assert!(num("sgemm_gflops") > 0.0 && num("firecast_gflops") > 0.0, "{w}");
+    assert!(
+        (num("goal_gflops") - 3.0 * num("sb3_gflops")).abs() < 1e-9 * num("goal_gflops"),
+        "{w}"
+    );
     // Both sides ran twice, alternating; the tables hold medians.
     let each = b["train_ratios"].as_array().unwrap();
     assert_eq!(each.len(), 2, "{b}");

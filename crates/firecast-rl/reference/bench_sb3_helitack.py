@@ -255,6 +255,9 @@ def main():
     for _ in range(n_rollouts):
         m.train()
     out["update_sps"] = n_rollouts * n_envs * m.n_steps / (time.perf_counter() - t)
+    # Arithmetic per step and the machine's sgemm rate (network_work.py, run ahead of this
+    # script), outside the timed phases.
+    out.update(network_work(m))  # noqa: F821
     # Training, as `learn` reports fps.
     m = model()
     t = time.perf_counter()

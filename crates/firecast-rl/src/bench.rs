@@ -28,6 +28,9 @@ use crate::train::{NoSink, Trainer};
 pub const SB3_SCRIPT: &str = include_str!("../reference/bench_sb3.py");
 /// SB3's side of (b) and (c): the compact extractor re-stated as an SB3 features extractor.
 pub const SB3_HELITACK_SCRIPT: &str = include_str!("../reference/bench_sb3_helitack.py");
+/// Run ahead of either SB3 script: FLOPs per environment step of the network (torch's
+/// counter) and the machine's float32 sgemm rate, the yardstick for the goals.
+pub const NETWORK_WORK: &str = include_str!("../reference/network_work.py");
 
 /// Steps per second of each phase.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
