@@ -319,6 +319,17 @@ pub enum BenchPart {
     C,
 }
 
+impl BenchPart {
+    /// The goal on training steps per second, FireCast / SB3 (issue 11).
+    fn goal(self) -> f64 {
+        match self {
+            Self::A => 5.0,
+            Self::B => 3.0,
+            Self::C => 50.0,
+        }
+    }
+}
+
 #[derive(Debug, Args)]
 pub struct BenchPpoArgs {
     /// Parts to run (comma-separated): a (CartPole), b (helitack through the Python package),
@@ -394,6 +405,31 @@ struct Arithmetic {
     goal_gflops: f64,
     /// This machine's float32 matrix-product rate at the part's torch threads.
     sgemm_gflops: f64,
+}
+
+impl BenchPartReport {
+    /// The report of `part` from both sides' medians and each repeat's training ratio; the
+    /// ratios, the goal and the arithmetic follow from them.
+    fn new(
+        part: BenchPart,
+        task: String,
+        steps: u64,
+        threads: usize,
+        (firecast, sb3, train_ratios): (firecast_rl::bench::BenchRun, serde_json::Value, Vec<f64>),
+    ) -> Self {
+        Self {
+            part,
+            task,
+            steps,
+            threads,
+            ratios: ratios(&firecast.speeds, &sb3),
+            arithmetic: Arithmetic::new(&firecast.speeds, &sb3, part.goal()),
+            goal: part.goal(),
+            train_ratios,
+            firecast,
+            sb3,
+        }
+    }
 }
 
 impl Arithmetic {
@@ -736,18 +772,13 @@ fn bench_cartpole(args: &BenchPpoArgs, python: &Path) -> anyhow::Result<BenchPar
         || run_sb3(python, firecast_rl::bench::SB3_SCRIPT, &cfg, 1),
     )?;
     check_parameters("(a)", firecast.parameters, &sb3)?;
-    Ok(BenchPartReport {
-        part: BenchPart::A,
-        task: "(a) CartPole-v1, MLP policy, RL-Zoo settings (8 envs x 32 steps, batch 256, 20 epochs)".into(),
-        steps: args.steps,
-        threads: 1,
-        ratios: ratios(&firecast.speeds, &sb3),
-        arithmetic: Arithmetic::new(&firecast.speeds, &sb3, 5.0),
-        train_ratios,
-        firecast,
-        sb3,
-        goal: 5.0,
-    })
+    Ok(BenchPartReport::new(
+        BenchPart::A,
+        "(a) CartPole-v1, MLP policy, RL-Zoo settings (8 envs x 32 steps, batch 256, 20 epochs)".into(),
+        args.steps,
+        1,
+        (firecast, sb3, train_ratios),
+    ))
 }
 
 fn bench_helitack(
@@ -771,7 +802,7 @@ fn bench_helitack(
         python.display()
     );
     let env = serde_json::json!({"kind": "firecast", "kwargs": pool.python_kwargs()});
-    let (firecast, sb3, train_ratios) = helitack_sides(
+    let sides = helitack_sides(
         "(b)",
         &fires,
         HelitackSettings {
@@ -785,9 +816,9 @@ fn bench_helitack(
         env,
         python,
     )?;
-    Ok(BenchPartReport {
-        part: BenchPart::B,
-        task: format!(
+    Ok(BenchPartReport::new(
+        BenchPart::B,
+        format!(
             "(b) helitack, compact policy, {} x {} procedural landscapes {:?} x ignitions {:?}, paper preset ({} envs x {} steps, batch {}, {} epochs); SB3 through firecast.HelitackVecEnv",
             pool.width,
             pool.height,
@@ -798,15 +829,10 @@ fn bench_helitack(
             ppo.batch_size,
             ppo.n_epochs
         ),
-        steps: args.helitack_steps,
+        args.helitack_steps,
         threads,
-        ratios: ratios(&firecast.speeds, &sb3),
-        arithmetic: Arithmetic::new(&firecast.speeds, &sb3, 3.0),
-        train_ratios,
-        firecast,
-        sb3,
-        goal: 3.0,
-    })
+        sides,
+    ))
 }
 
 /// What both sides of (b) and (c) share.
@@ -879,7 +905,7 @@ fn bench_firecastrl(
     );
     let dir = std::fs::canonicalize(env_dir).with_context(|| format!("{}", env_dir.display()))?;
     let env = serde_json::json!({"kind": "firecastrl", "dir": dir});
-    let (firecast, sb3, train_ratios) = helitack_sides(
+    let sides = helitack_sides(
         "(c)",
         &fires,
         HelitackSettings {
@@ -893,25 +919,15 @@ fn bench_firecastrl(
         env,
         python,
     )?;
-    Ok(BenchPartReport {
-        part: BenchPart::C,
-        task: format!(
+    let vec_env = sides.1["vec_env"].as_str().unwrap_or("?").to_string();
+    Ok(BenchPartReport::new(
+        BenchPart::C,
+        format!(
             "(c) FireCastRL training map ({} x {}), P2 engine, compact policy, paper preset ({} envs x {} steps, batch {}, {} epochs); SB3 on the FireCastRL Python environment ({}), FireCast on its own engine",
-            landscape.width,
-            landscape.height,
-            ppo.n_envs,
-            ppo.n_steps,
-            ppo.batch_size,
-            ppo.n_epochs,
-            sb3["vec_env"].as_str().unwrap_or("?"),
+            landscape.width, landscape.height, ppo.n_envs, ppo.n_steps, ppo.batch_size, ppo.n_epochs, vec_env,
         ),
-        steps: args.reference_steps,
+        args.reference_steps,
         threads,
-        ratios: ratios(&firecast.speeds, &sb3),
-        arithmetic: Arithmetic::new(&firecast.speeds, &sb3, 50.0),
-        train_ratios,
-        firecast,
-        sb3,
-        goal: 50.0,
-    })
+        sides,
+    ))
 }
