@@ -1,6 +1,6 @@
 //! The DuckDB run registry through the CLI: runs, parents, lineage, metrics, datasets, SQL.
 
-use crate::Project;
+use crate::{Project, describe, outcomes};
 
 const TRAIN: &str = r#"
 vars:
@@ -179,4 +179,88 @@ fn registry_path_is_configurable_and_query_errors_are_clear() {
         stderr.starts_with("error: firecast.yaml:1:1: registyr: unknown field `registyr`, expected one of `registry`, `store`, `jobs`"),
         "{stderr}"
     );
+}
+
+/// A slow two-stage pipeline: each stage logs metrics and sleeps, so two of them started
+/// together interleave their registry writes for a few seconds.
+fn slow_pipeline(name: &str) -> String {
+    format!(
+        r#"
+stages:
+  first:
+    uses: cmd
+    params:
+      command: |
+        for i in 1 2 3 4 5 6; do echo "tick $i $i" >> "$FIRECAST_METRICS"; sleep 0.2; done
+        echo {name} > ${{outputs.o}}
+    outputs: {{o: out/{name}-first.txt}}
+  second:
+    uses: cmd
+    params:
+      command: |
+        sleep 1
+        cat ${{inputs.i}} ${{inputs.i}} > ${{outputs.o}}
+    inputs: {{i: {{from: first.o}}}}
+    outputs: {{o: out/{name}-second.txt}}
+"#
+    )
+}
+
+#[test]
+fn two_pipeline_runs_and_a_reader_share_one_registry_at_once() {
+    let p = Project::new();
+    p.write("pipelines/left.yaml", &slow_pipeline("left"));
+    p.write("pipelines/right.yaml", &slow_pipeline("right"));
+    // Each process holds the registry only per operation; neither is shut out while the
+    // other runs, and a third reads meanwhile.
+    let spawn = |file: &str| {
+        p.firecast()
+            .args(["--json", "pipeline", "run", file])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let left = spawn("pipelines/left.yaml");
+    let right = spawn("pipelines/right.yaml");
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    let during = p.json(&["runs", "list"]);
+    assert!(during.as_array().is_some(), "{during}");
+
+    for (name, child) in [("left", left), ("right", right)] {
+        let out = child.wait_with_output().unwrap();
+        assert!(out.status.success(), "{name}:\n{}", describe(&out));
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let stages = outcomes(&report);
+        assert!(stages.values().all(|o| o == "ran"), "{name}: {stages:?}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        // A registry write that gave up would be a warning, not a failure.
+        assert!(
+            !stderr.contains("registry") && !stderr.contains("not registered"),
+            "{name}: {stderr}"
+        );
+        assert_eq!(
+            p.read(&format!("out/{name}-second.txt")),
+            format!("{name}\n{name}\n")
+        );
+    }
+
+    let runs = p.json(&["runs", "list"]);
+    let runs = runs.as_array().unwrap();
+    assert_eq!(runs.len(), 6, "2 pipeline runs + 4 stage runs: {runs:#?}");
+    assert!(runs.iter().all(|r| r["status"] == "succeeded"), "{runs:#?}");
+    for name in ["left", "right"] {
+        let pipeline = runs
+            .iter()
+            .find(|r| r["kind"] == "pipeline" && r["pipeline"] == name)
+            .unwrap_or_else(|| panic!("no pipeline run of {name}: {runs:#?}"));
+        let first = runs
+            .iter()
+            .find(|r| r["pipeline"] == name && r["stage"] == "first")
+            .unwrap();
+        assert_eq!(first["pipeline_run_id"], pipeline["run_id"]);
+        let shown = p.json(&["runs", "show", first["run_id"].as_str().unwrap()]);
+        assert_eq!(shown["metrics"][0]["key"], "tick");
+        assert_eq!(shown["metrics"][0]["count"], 6);
+    }
 }
