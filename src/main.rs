@@ -8,6 +8,7 @@ mod cmd_pipeline;
 mod cmd_report;
 mod cmd_rl;
 mod cmd_runs;
+mod cmd_serve;
 mod cmd_sim;
 mod output;
 mod settings;
@@ -65,6 +66,9 @@ enum Command {
     /// Fire simulation: spread rates, suppression episodes with helitack agents.
     #[command(subcommand)]
     Sim(cmd_sim::SimCommand),
+    /// The web app: forecast, live fires and threat reports for a place and day, and a
+    /// browser for runs (http://127.0.0.1:8080 by default).
+    Serve(cmd_serve::ServeArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -92,6 +96,10 @@ enum BenchCommand {
     /// PyTorch eager, the CNN-BiLSTM's training throughput against PyTorch eager (same net,
     /// threads), and the full-size run projected. Exit status 1 when out of bounds.
     Forecast(cmd_forecast::BenchForecastArgs),
+    /// The web app under load on loopback: a registry of many runs, live fires at 30 frames
+    /// a second, many fires at once beside clients hammering the runs table; latencies,
+    /// frame rates, requests a second, errors and the server's peak memory against the goals.
+    Serve(cmd_serve::BenchServeArgs),
 }
 
 fn main() -> ExitCode {
@@ -131,10 +139,12 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Rl(command) => cmd_rl::run(&settings, command),
         Command::Report(args) => cmd_report::run(&settings, &args),
         Command::Sim(command) => cmd_sim::run(&settings, command),
+        Command::Serve(args) => cmd_serve::run(&settings, &args),
         Command::Bench(BenchCommand::Sim(args)) => cmd_sim::bench(&settings, &args),
         Command::Bench(BenchCommand::Gridmet(args)) => cmd_dataset::bench_gridmet(&settings, &args),
         Command::Bench(BenchCommand::Ppo(args)) => cmd_rl::bench_ppo(&settings, &args),
         Command::Bench(BenchCommand::Forecast(args)) => cmd_forecast::bench_forecast(&settings, &args),
+        Command::Bench(BenchCommand::Serve(args)) => cmd_serve::bench(&settings, &args),
         Command::Doctor => doctor(&settings),
     }
 }

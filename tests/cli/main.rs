@@ -11,6 +11,7 @@ mod recordings;
 mod registry;
 mod report;
 mod rl;
+mod serve;
 mod sim;
 mod store;
 

@@ -9,7 +9,7 @@ use crate::{Project, describe};
 const LAT: f64 = 39.3;
 const LON: f64 = -107.4;
 
-fn pipeline(lat: f64, lon: f64) -> String {
+pub(crate) fn pipeline(lat: f64, lon: f64) -> String {
     format!(
         r#"
 vars:
@@ -103,7 +103,7 @@ stages:
     )
 }
 
-const FIRES: &str = r#"
+pub(crate) const FIRES: &str = r#"
 profile: p2
 train:
   landscape_seeds: [1]
@@ -127,7 +127,7 @@ evaluate:
   env: {max_steps: 30}
 "#;
 
-fn forecast(lat: f64, lon: f64) -> String {
+pub(crate) fn forecast(lat: f64, lon: f64) -> String {
     serde_json::json!({
         "version": 1, "lat": lat, "lon": lon, "date": "2019-08-01", "cell_lat": lat, "cell_lon": lon,
         "model": "xgboost", "kind": "xgboost", "protocol": "leak_free", "dataset": "fixture",

@@ -311,7 +311,7 @@ impl AgentKind {
         }
     }
 
-    pub fn policy(self) -> Box<dyn Policy> {
+    pub fn policy(self) -> Box<dyn Policy + Send> {
         match self {
             Self::None => Box::new(NoSuppression),
             Self::Rule => Box::new(RuleBasedAgent::single_circle()),

@@ -39,13 +39,43 @@ pub struct Prediction {
     pub input_days: (i32, i32),
 }
 
-/// Scores `queries` with `bundle`, reading weather from the GRIDMET folder `gridmet`.
+/// Scores `queries` with `bundle`, reading weather from the GRIDMET folder `gridmet`; a query
+/// without a complete window is an error naming it.
 pub fn predict(
     bundle: &Bundle,
     gridmet: &Path,
     queries: &[Query],
     device: tch::Device,
 ) -> Result<Vec<Prediction>, ForecastError> {
+    let (answers, dropped) = predict_available(bundle, gridmet, queries, device)?;
+    let missing: Vec<String> = queries
+        .iter()
+        .zip(&answers)
+        .filter(|(_, a)| a.is_none())
+        .map(|(q, _)| format!("({}, {}) on {}", q.lat, q.lon, q.date))
+        .collect();
+    if !missing.is_empty() {
+        return Err(ForecastError::Data {
+            path: gridmet.to_path_buf(),
+            message: format!(
+                "no complete {}-day window for {} ({dropped}): outside the files' grid or years, or on a masked cell",
+                bundle.info.days.1 - bundle.info.days.0 + 1,
+                missing.join(", "),
+            ),
+        });
+    }
+    Ok(answers.into_iter().flatten().collect())
+}
+
+/// Scores the queries that have a complete window (a map of many cells, some masked): one
+/// answer per query in order, `None` where the window is incomplete, and what was dropped
+/// in words.
+pub fn predict_available(
+    bundle: &Bundle,
+    gridmet: &Path,
+    queries: &[Query],
+    device: tch::Device,
+) -> Result<(Vec<Option<Prediction>>, String), ForecastError> {
     let mut samples = Vec::with_capacity(queries.len());
     for (i, q) in queries.iter().enumerate() {
         let day = firecast_dataset::time::parse_date(&q.date).ok_or_else(|| ForecastError::Config {
@@ -76,25 +106,7 @@ pub fn predict(
     };
     let (table, report) = firecast_dataset::windows::extract(&samples, gridmet, &cfg, false, &|_, _| {})
         .map_err(|e| ForecastError::dataset(gridmet, e))?;
-    if table.samples.len() != queries.len() {
-        let kept: std::collections::BTreeSet<u32> = table.samples.iter().map(|s| s.sample_id).collect();
-        let missing: Vec<String> = (0..queries.len() as u32)
-            .filter(|i| !kept.contains(i))
-            .map(|i| {
-                let q = &queries[i as usize];
-                format!("({}, {}) on {}", q.lat, q.lon, q.date)
-            })
-            .collect();
-        return Err(ForecastError::Data {
-            path: gridmet.to_path_buf(),
-            message: format!(
-                "no complete {}-day window for {} ({:?}): outside the files' grid or years, or on a masked cell",
-                cfg.last_offset - cfg.first_offset + 1,
-                missing.join(", "),
-                report.dropped
-            ),
-        });
-    }
+    let dropped = format!("{:?}", report.dropped);
     if let Some(at) = table.values.iter().position(|v| !v.is_finite()) {
         let s = at / (table.n_days * table.n_features());
         let q = &queries[table.samples[s].sample_id as usize];
@@ -120,12 +132,14 @@ pub fn predict(
         block: &block,
         meta: meta.iter().collect(),
     };
-    let p = bundle.model.predict(&inputs, device)?;
-    Ok(table
-        .samples
-        .iter()
-        .zip(p)
-        .map(|(s, prob)| {
+    let p = if meta.is_empty() {
+        Vec::new()
+    } else {
+        bundle.model.predict(&inputs, device)?
+    };
+    let mut answers: Vec<Option<Prediction>> = vec![None; queries.len()];
+    for (s, prob) in table.samples.iter().zip(p) {
+        answers[s.sample_id as usize] = Some({
             let q = &queries[s.sample_id as usize];
             Prediction {
                 lat: q.lat,
@@ -143,6 +157,7 @@ pub fn predict(
                 dataset_version: bundle.info.dataset_version.clone(),
                 input_days: bundle.info.days,
             }
-        })
-        .collect())
+        });
+    }
+    Ok((answers, dropped))
 }

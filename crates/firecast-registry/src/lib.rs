@@ -635,6 +635,48 @@ impl Registry {
         })
     }
 
+    /// Inserts finished runs as listed (`runs list --json` rows) in one operation and one
+    /// transaction: a registry filled from another one, or with many runs for a benchmark,
+    /// without one open per run. Times are `YYYY-MM-DD HH:MM:SS[.ffffff]` (UTC).
+    pub fn import_runs(&self, runs: &[RunRow]) -> Result<(), RegistryError> {
+        self.write("import runs", |conn| {
+            conn.execute_batch("BEGIN TRANSACTION")?;
+            let inserted = (|| -> Result<(), RegistryError> {
+                let mut stmt = conn.prepare(
+                    "INSERT INTO runs (run_id, pipeline_run_id, parent_run_id, pipeline, stage, kind, kind_version,
+                                       params, status, started_at, ended_at, git_commit, cache_key, error)
+                     VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?::TIMESTAMP, ?::TIMESTAMP, ?, ?, ?)",
+                )?;
+                for r in runs {
+                    stmt.execute(params![
+                        r.run_id,
+                        r.pipeline_run_id,
+                        r.parent_run_id,
+                        r.pipeline,
+                        r.stage,
+                        r.kind,
+                        r.kind_version,
+                        r.params.to_string(),
+                        r.status,
+                        r.started_at,
+                        r.ended_at,
+                        r.git_commit,
+                        r.cache_key,
+                        r.error
+                    ])?;
+                }
+                Ok(())
+            })();
+            match inserted {
+                Ok(()) => conn.execute_batch("COMMIT").map_err(RegistryError::from),
+                Err(e) => {
+                    let _ = conn.execute_batch("ROLLBACK");
+                    Err(e)
+                }
+            }
+        })
+    }
+
     /// Record how a run ended (status, end time, error). Params are left untouched.
     pub fn finish_run(
         &self,

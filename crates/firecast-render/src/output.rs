@@ -39,10 +39,13 @@ fn commit(file: BufWriter<File>, tmp: &Path, path: &Path) -> Result<(), RenderEr
     std::fs::rename(tmp, path).map_err(io_err(path))
 }
 
-/// Write `image` as an 8-bit RGB PNG at `path`, atomically: the bytes go to `.<name>.tmp` in
-/// the same folder, which is renamed onto `path` once complete (and removed on failure).
-pub fn write_png(image: &RgbImage, path: impl AsRef<Path>) -> Result<(), RenderError> {
-    let path = path.as_ref();
+/// `image` as 8-bit RGB PNG bytes (the web app serves them without a file).
+pub fn encode_png(image: &RgbImage) -> Result<Vec<u8>, RenderError> {
+    encode_png_for(image, Path::new("(in memory)"))
+}
+
+/// The PNG bytes of `image`; errors name `path`.
+fn encode_png_for(image: &RgbImage, path: &Path) -> Result<Vec<u8>, RenderError> {
     let size_err = |message: String| RenderError::Size {
         message,
         path: path.to_path_buf(),
@@ -73,6 +76,14 @@ pub fn write_png(image: &RgbImage, path: impl AsRef<Path>) -> Result<(), RenderE
         writer.write_image_data(&image.data).map_err(png_err)?;
         writer.finish().map_err(png_err)?;
     }
+    Ok(bytes)
+}
+
+/// Write `image` as an 8-bit RGB PNG at `path`, atomically: the bytes go to `.<name>.tmp` in
+/// the same folder, which is renamed onto `path` once complete (and removed on failure).
+pub fn write_png(image: &RgbImage, path: impl AsRef<Path>) -> Result<(), RenderError> {
+    let path = path.as_ref();
+    let bytes = encode_png_for(image, path)?;
     let tmp = temp_path(path);
     let result = File::create(&tmp).map_err(io_err(&tmp)).and_then(|file| {
         let mut file = BufWriter::new(file);

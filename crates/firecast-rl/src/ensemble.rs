@@ -72,6 +72,76 @@ pub fn load_policies(
     Ok((summary, out))
 }
 
+/// One trained policy playing one fire step by step, greedy, as `rl.ensemble` plays it (the
+/// web app's live fires): a [`firecast_sim::Policy`] like the rule-based agents.
+pub struct LivePolicy {
+    policy: EnsemblePolicy,
+    space: ObsSpace,
+    width: usize,
+    height: usize,
+    hidden: Option<crate::policy::Hidden>,
+    obs: ObsBatch,
+    /// Greedy actions draw nothing; the stream exists for `pick_action`'s signature.
+    rng: ChaCha8Rng,
+}
+
+impl LivePolicy {
+    /// Refuses a landscape whose observations the policy was not trained on.
+    pub fn new(policy: EnsemblePolicy, width: usize, height: usize) -> Result<Self, RlError> {
+        let space = helitack::space(width, height);
+        if !policy.policy.accepts(space) {
+            return Err(RlError::config(
+                "run",
+                format!(
+                    "the policy of training seed {} was trained on observations of {}, this {width}×{height} landscape gives {}",
+                    policy.seed,
+                    space_text(policy.policy.space),
+                    space_text(space)
+                ),
+            ));
+        }
+        Ok(Self {
+            hidden: policy.policy.initial_hidden(1),
+            policy,
+            space,
+            width,
+            height,
+            obs: ObsBatch::new(space, 1),
+            rng: ChaCha8Rng::seed_from_u64(0),
+        })
+    }
+
+    /// The training seed of the policy playing.
+    pub fn seed(&self) -> u64 {
+        self.policy.seed
+    }
+}
+
+impl firecast_sim::Policy for LivePolicy {
+    fn reset(&mut self, _ctx: &firecast_sim::EpisodeContext) {
+        self.hidden = self.policy.policy.initial_hidden(1);
+    }
+
+    fn act(&mut self, obs: &firecast_sim::Observation<'_>) -> firecast_sim::Decision {
+        let il = self.space.image_len();
+        helitack::encode(
+            obs.frames,
+            obs.agent,
+            obs.on_fire,
+            self.width,
+            self.height,
+            &mut self.obs.image[..il],
+            &mut self.obs.vector[..3],
+        );
+        if let Some(n) = &self.policy.normalize {
+            n.normalize_obs(&mut self.obs.vector);
+        }
+        let logp = policy_log_probs_of(&self.policy.policy, &self.obs, self.hidden.as_mut(), &[0]);
+        let a = pick_action(&logp, true, &mut self.rng);
+        Action::try_from(a).unwrap_or(Action::Down).into()
+    }
+}
+
 /// One run in flight.
 struct Live {
     core: EnvCore,
