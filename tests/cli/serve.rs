@@ -104,6 +104,15 @@ stages:
       run: build/app/agent
 "#;
 
+/// The threat pipeline's `forecast` stage on the forecaster of `APP_PIPELINE`.
+const FORECAST_STAGE: &str = r#"stages:
+  forecast:
+    uses: forecast.predict
+    params: {lat: "${lat}", lon: "${lon}", date: "${date}", model: logistic_regression}
+    inputs: {experiment: build/app/forecaster, gridmet: build/app/sources/gridmet}
+    outputs: {forecast: build/forecast.json}
+"#;
+
 /// A report pipeline that only waits: for the queue's bound.
 const SLOW_PIPELINE: &str = r#"
 vars:
@@ -263,12 +272,20 @@ fn fixture() -> Project {
     let p = Project::new();
     p.write("pipelines/app.yaml", APP_PIPELINE);
     p.write("fires.yaml", crate::report::FIRES);
-    // The report pipeline of the report tests, with the live fires' settings in its vars.
-    let threat = crate::report::pipeline(39.3, -107.4).replacen(
-        "vars:\n",
-        "vars:\n  landscape_seed: 2\n  env: {max_steps: 150}\n",
-        1,
-    );
+    // The report pipeline of the report tests, with the live fires' settings in its vars and
+    // the forecast of the place and day asked for (by the forecaster trained here).
+    let threat = crate::report::pipeline(39.3, -107.4)
+        .replacen(
+            "vars:\n",
+            "vars:\n  landscape_seed: 2\n  env: {max_steps: 150}\n",
+            1,
+        )
+        .replacen(
+            "      forecast: forecast.json\n",
+            "      forecast: {from: forecast.forecast}\n",
+            1,
+        )
+        .replacen("stages:\n", FORECAST_STAGE, 1);
     p.write("pipelines/threat.yaml", &threat);
     p.write("forecast.json", &crate::report::forecast(39.3, -107.4));
     p.write("pipelines/slow.yaml", SLOW_PIPELINE);
@@ -629,9 +646,19 @@ fn browser_flow(p: &Project, s: &Server) {
             .flatten()
             .flatten()
             .filter(|e| e.path().extension().is_some_and(|x| x == "log"))
-            .map(|e| format!("{}:\n{}", e.path().display(), std::fs::read_to_string(e.path()).unwrap_or_default()))
+            .map(|e| {
+                format!(
+                    "{}:\n{}",
+                    e.path().display(),
+                    std::fs::read_to_string(e.path()).unwrap_or_default()
+                )
+            })
             .collect();
-        panic!("browser tests failed:\n{}\njob logs:\n{}", describe(&out), logs.join("\n"));
+        panic!(
+            "browser tests failed:\n{}\njob logs:\n{}",
+            describe(&out),
+            logs.join("\n")
+        );
     }
 }
 

@@ -425,7 +425,9 @@ async fn coverage(State(state): State<Shared>) -> Result<Json<serde_json::Value>
     let overview = overview(&state).await?;
     let f = state.forecaster();
     let forecaster = match f.check() {
-        Ok(()) => serde_json::json!({"experiment": f.experiment, "model": f.model, "available": true, "reason": null}),
+        Ok(()) => {
+            serde_json::json!({"experiment": f.experiment, "model": f.model, "available": true, "reason": null})
+        }
         Err(e) => {
             serde_json::json!({"experiment": f.experiment, "model": f.model, "available": false, "reason": e.message})
         }
