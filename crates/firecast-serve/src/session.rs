@@ -61,11 +61,20 @@ pub enum Control {
 
 /// Parses one text message of the page, or says why it is not the protocol.
 pub fn parse_control(text: &str) -> Result<Control, String> {
-    let control: Control = serde_json::from_str(text).map_err(|e| {
+    let not_protocol = |why: String| {
         format!(
-            "not the live-fire protocol ({e}); send {{\"type\": \"play\"|\"pause\"|\"step\"|\"speed\", …}}"
+            "not the live-fire protocol ({why}); send {{\"type\": \"play\"|\"pause\"|\"step\"|\"speed\", …}}"
         )
-    })?;
+    };
+    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| not_protocol(e.to_string()))?;
+    // serde ignores extra keys beside a tag with no fields: only `type` and `fps` may appear.
+    if let Some(key) = value
+        .as_object()
+        .and_then(|o| o.keys().find(|k| !matches!(k.as_str(), "type" | "fps")))
+    {
+        return Err(not_protocol(format!("unknown key `{key}`")));
+    }
+    let control: Control = serde_json::from_value(value).map_err(|e| not_protocol(e.to_string()))?;
     if let Control::Speed { fps } = control
         && fps > MAX_FPS
     {
@@ -258,6 +267,7 @@ mod tests {
         assert!(parse_control(r#"{"type":"speed","fps":1000}"#).is_err());
         assert!(parse_control(r#"{"type":"jump"}"#).is_err());
         assert!(parse_control(r#"{"type":"play","extra":1}"#).is_err());
+        assert!(parse_control(r#"{"type":"speed"}"#).is_err());
         assert!(parse_control("hello").is_err());
     }
 }
