@@ -15,10 +15,37 @@ use crate::normalize::VecNormalize;
 use crate::policy::{Hidden, Policy};
 use crate::train::policy_actions;
 
+/// Where an agent's trained policy and frozen observation normaliser live: borrowed from a
+/// loaded run, or owned (a live fire on its own thread).
+pub trait PolicySource {
+    fn policy(&self) -> &Policy;
+    fn normalize(&self) -> Option<&VecNormalize>;
+}
+
+/// A policy and normaliser borrowed from elsewhere.
+pub struct Borrowed<'a>(pub &'a Policy, pub Option<&'a VecNormalize>);
+
+impl PolicySource for Borrowed<'_> {
+    fn policy(&self) -> &Policy {
+        self.0
+    }
+    fn normalize(&self) -> Option<&VecNormalize> {
+        self.1
+    }
+}
+
+impl PolicySource for crate::ensemble::EnsemblePolicy {
+    fn policy(&self) -> &Policy {
+        &self.policy
+    }
+    fn normalize(&self) -> Option<&VecNormalize> {
+        self.normalize.as_ref()
+    }
+}
+
 /// A trained policy playing one helitack environment.
-pub struct PpoAgent<'a> {
-    policy: &'a Policy,
-    normalize: Option<&'a VecNormalize>,
+pub struct PpoAgent<S> {
+    source: S,
     deterministic: bool,
     /// Draws of sampled actions (one per step); untouched when greedy.
     rng: ChaCha8Rng,
@@ -29,7 +56,7 @@ pub struct PpoAgent<'a> {
     height: usize,
 }
 
-impl<'a> PpoAgent<'a> {
+impl<'a> PpoAgent<Borrowed<'a>> {
     /// An agent for a `width × height` grid; greedy when `deterministic`, otherwise
     /// sampling with a stream seeded by `action_seed`. `normalize` is the run's frozen
     /// observation normaliser, if it has one.
@@ -41,6 +68,26 @@ impl<'a> PpoAgent<'a> {
         deterministic: bool,
         action_seed: u64,
     ) -> Result<Self, RlError> {
+        Self::with_source(
+            Borrowed(policy, normalize),
+            width,
+            height,
+            deterministic,
+            action_seed,
+        )
+    }
+}
+
+impl<S: PolicySource> PpoAgent<S> {
+    /// As [`PpoAgent::new`], with the policy held by `source` (e.g. owned).
+    pub fn with_source(
+        source: S,
+        width: usize,
+        height: usize,
+        deterministic: bool,
+        action_seed: u64,
+    ) -> Result<Self, RlError> {
+        let policy = source.policy();
         let space = helitack::space(width, height);
         if !policy.accepts(space) {
             return Err(RlError::config(
@@ -51,20 +98,20 @@ impl<'a> PpoAgent<'a> {
                 ),
             ));
         }
+        let hidden = policy.initial_hidden(1);
         Ok(Self {
-            policy,
-            normalize,
+            source,
             deterministic,
             rng: ChaCha8Rng::seed_from_u64(action_seed),
             obs: ObsBatch::new(space, 1),
-            hidden: policy.initial_hidden(1),
+            hidden,
             width,
             height,
         })
     }
 }
 
-impl firecast_sim::Policy for PpoAgent<'_> {
+impl<S: PolicySource> firecast_sim::Policy for PpoAgent<S> {
     fn act(&mut self, obs: &Observation<'_>) -> Decision {
         if (obs.width, obs.height) != (self.width, self.height) {
             // `new` checked the grid; an environment of another size has no valid
@@ -80,11 +127,11 @@ impl firecast_sim::Policy for PpoAgent<'_> {
             &mut self.obs.image,
             &mut self.obs.vector,
         );
-        if let Some(n) = self.normalize {
+        if let Some(n) = self.source.normalize() {
             n.normalize_obs(&mut self.obs.vector);
         }
         let action = policy_actions(
-            self.policy,
+            self.source.policy(),
             &self.obs,
             self.hidden.as_mut(),
             self.deterministic,

@@ -255,7 +255,8 @@ pub fn ppo_policy(
         .into_iter()
         .next()
         .ok_or_else(|| ApiError::new(Code::NoModel, format!("{}: no policies", run.display())))?;
-    let live = firecast_rl::ensemble::LivePolicy::new(first, width, height)
+    // Greedy, as `rl.ensemble` plays it (the action seed draws nothing).
+    let live = firecast_rl::agent::PpoAgent::with_source(first, width, height, true, 0)
         .map_err(|e| ApiError::new(Code::NoModel, format!("{}: {e}", run.display())))?;
     Ok(Box::new(live))
 }
