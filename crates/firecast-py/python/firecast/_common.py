@@ -92,7 +92,7 @@ def seed_arg(seed: Any, key: str) -> int:
 
 
 def observation_space(width: int, height: int) -> spaces.Dict:
-    """``cells`` holds the true code range [0, 9]; see the package README for why not 255."""
+    """``cells`` holds the true code range [0, 9]; docs/guides/python.md says why not 255."""
     return spaces.Dict(
         {
             "cells": spaces.Box(low=0, high=CODE_MAX, shape=(FRAME_STACK, height, width), dtype=np.uint8),
