@@ -1,4 +1,4 @@
-//! GRIDMET (METDATA) yearly NetCDF files: `<short>_<YYYY>.nc` (data spec §2).
+//! GRIDMET (METDATA) yearly NetCDF files: `<short>_<YYYY>.nc` (docs/spec/data.md §2).
 //!
 //! Everything is read from the file, nothing is assumed: the data variable is looked up under
 //! each of its known names, the `day`/`lat`/`lon` axes are resolved from the variable's
@@ -105,7 +105,7 @@ impl GridmetVariable {
     }
 
     /// NetCDF variable names, in lookup order: the yearly-file name, its alternative spellings,
-    /// then the name used in the whole-record `agg_met_*` files (spec §2.2).
+    /// then the name used in the whole-record `agg_met_*` files (docs/spec/data.md §2.2).
     pub fn netcdf_names(self) -> &'static [&'static str] {
         match self {
             Self::Pr => &["precipitation_amount"],
@@ -140,7 +140,7 @@ impl GridmetVariable {
         }
     }
 
-    /// Units after unpacking (spec §2.2).
+    /// Units after unpacking (docs/spec/data.md §2.2).
     pub fn units(self) -> &'static str {
         match self {
             Self::Pr | Self::Pet | Self::Etr => "mm",

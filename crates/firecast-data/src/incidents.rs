@@ -1,4 +1,4 @@
-//! IRWIN / WFIGS incident readers (data spec §1).
+//! IRWIN / WFIGS incident readers (docs/spec/data.md §1).
 //!
 //! [`read_incidents`] reads one incident file into an [`IncidentTable`]: the incidents that pass
 //! (discovery time as epoch milliseconds UTC, a WGS84 point, an id and the incident type) and,
@@ -8,10 +8,11 @@
 //! Three formats are read, detected from the content (a file whose first non-blank character is
 //! `{` is JSON, anything else is CSV):
 //!
-//! - **CSV** as exported by ArcGIS Hub (spec §1.2). Columns are found by header *name*, never by
-//!   position, so every year's field set works as long as the few needed columns exist. The
-//!   authors' display-name layout (`Fire Discovery Date Time`, `x`, `y`; spec §1.5) and the
-//!   perimeter layer's `attr_*` names are accepted as aliases (see [`FIELD_NAMES`]).
+//! - **CSV** as exported by ArcGIS Hub (docs/spec/data.md §1.2). Columns are found by header
+//!   *name*, never by position, so every year's field set works as long as the few needed columns
+//!   exist. The authors' display-name layout (`Fire Discovery Date Time`, `x`, `y`;
+//!   docs/spec/data.md §1.5) and the perimeter layer's `attr_*` names are accepted as aliases (see
+//!   [`FIELD_NAMES`]).
 //! - **GeoJSON** (`f=geojson`): a `FeatureCollection`; attributes in `properties`, the point in
 //!   `geometry.coordinates = [lon, lat]`.
 //! - **Esri JSON** (`f=json`): attributes in `attributes`, the point in `geometry {x, y}`; the
@@ -183,7 +184,7 @@ impl fmt::Display for IncidentFormat {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct IncidentFilter {
     /// `IncidentTypeCategory` values to keep (compared ignoring ASCII case). Empty keeps every
-    /// row, whatever its category. The default is `["WF"]` (wildfires; spec §1.3).
+    /// row, whatever its category. The default is `["WF"]` (wildfires; docs/spec/data.md §1.3).
     pub categories: Vec<String>,
 }
 
@@ -1547,7 +1548,7 @@ fn read_json(
 /// Parses a discovery date-time into milliseconds since 1970-01-01T00:00:00Z.
 ///
 /// Accepted (surrounding white space ignored; every value without an explicit offset is UTC,
-/// spec §1.4):
+/// docs/spec/data.md §1.4):
 ///
 /// - epoch milliseconds: an optionally negative integer of 11 to 13 digits, optionally with a
 ///   `.0…` suffix as pandas writes integral floats (`1596740280000`, `1596740280000.0`). Shorter

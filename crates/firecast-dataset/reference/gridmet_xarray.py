@@ -4,7 +4,7 @@
 Kept in the repository as the honest baseline for `firecast bench gridmet`: per sample and
 per variable, the yearly file is opened with xarray (opened files are cached, as the
 authors' prefetch cache does), the nearest cell is chosen by an independent argmin on the
-lat and lon axes (data spec §4.6), and the window's days are sliced out of each year it
+lat and lon axes (docs/spec/data.md §4.6), and the window's days are sliced out of each year it
 touches, then concatenated. CF decoding is xarray's default (mask and scale).
 
 Usage: gridmet_xarray.py GRIDMET_DIR SAMPLES_CSV OUT_F32 VAR[,VAR...] FIRST_OFFSET LAST_OFFSET

@@ -17,7 +17,7 @@ use crate::{DatasetError, Tier, time};
 /// The reference script, shipped inside the binary so the benchmark needs no checkout.
 pub const REFERENCE_SCRIPT: &str = include_str!("../reference/gridmet_xarray.py");
 
-/// The paper's scale: windows, variables and years of CONUS files (data spec §3.3, §4.7).
+/// The paper's scale: windows, variables and years of CONUS files (docs/spec/data.md §3.3, §4.7).
 pub const PAPER_WINDOWS: f64 = 126_800.0;
 pub const PAPER_VARIABLES: f64 = 15.0;
 pub const PAPER_YEARS: f64 = 12.0;

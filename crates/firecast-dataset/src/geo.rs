@@ -1,7 +1,7 @@
 //! Distances, geodesic offsets, the CONUS box and a bucketed point index.
 //!
 //! The authors measured every distance with the haversine formula on R = 6371.0088 km and
-//! placed near negatives with geopy's geodesic destination on WGS84 (data spec §4, §10.1).
+//! placed near negatives with geopy's geodesic destination on WGS84 (docs/spec/data.md §4, §10.1).
 //! FireCast does the same, so "≥ 100 km" means what it meant for them.
 
 use serde::{Deserialize, Serialize};
@@ -97,7 +97,7 @@ pub struct GeoBox {
 }
 
 impl GeoBox {
-    /// The authors' CONUS box (data spec §4.1), bounds inclusive.
+    /// The authors' CONUS box (docs/spec/data.md §4.1), bounds inclusive.
     pub const CONUS: GeoBox = GeoBox {
         lat_min: 24.396308,
         lat_max: 49.384358,
@@ -193,7 +193,7 @@ fn bucket(lat: f64, lon: f64) -> (i32, i32) {
 }
 
 /// Index `(row from the north, column from the west)` of a GRIDMET cell centre on the full
-/// CONUS grid (data spec §2.3), so cells compare across files, subsets and imports.
+/// CONUS grid (docs/spec/data.md §2.3), so cells compare across files, subsets and imports.
 pub fn gridmet_cell_index(cell_lat: f64, cell_lon: f64) -> (u32, u32) {
     let j = ((49.4 - cell_lat) * 24.0).round().clamp(0.0, 584.0);
     let i = ((cell_lon + 124.766_666_633_3) * 24.0).round().clamp(0.0, 1385.0);
@@ -206,14 +206,14 @@ mod tests {
 
     #[test]
     fn haversine_matches_the_spec_reference() {
-        // London -> Paris, data spec §10.1: 343,556.535 m.
+        // London -> Paris, docs/spec/data.md §10.1: 343,556.535 m.
         let d = haversine_km(51.5074, -0.1278, 48.8566, 2.3522);
         assert!((d - 343.556535).abs() < 1e-3, "{d}");
     }
 
     #[test]
     fn geodesic_destination_inverts_a_known_geodesic() {
-        // Geodesic London -> Paris is 343,923.120 m (spec §10.1); the initial bearing that
+        // Geodesic London -> Paris is 343,923.120 m (docs/spec/data.md §10.1); the initial bearing that
         // reaches Paris lands within a metre of it.
         let mut best = (f64::MAX, 0.0);
         let mut b = 140.0;

@@ -1,5 +1,5 @@
 //! The published FireCastRL CSV (Kaggle `firecastrl/us-wildfire-dataset`,
-//! `Wildfire_Dataset.csv`, data spec §3): import into the dataset format, and publish a
+//! `Wildfire_Dataset.csv`, docs/spec/data.md §3): import into the dataset format, and publish a
 //! dataset as a folder ready for `kaggle datasets create -p` / `version -p`.
 
 use std::collections::{BTreeMap, HashMap};
@@ -112,7 +112,7 @@ struct RawWindow {
 }
 
 fn parse_day(s: &str) -> Option<i32> {
-    // A date, or a date-time whose time part is ignored (spec §3.1: both occur).
+    // A date, or a date-time whose time part is ignored (docs/spec/data.md §3.1: both occur).
     let date = s.trim().split([' ', 'T']).next()?;
     time::parse_date(date)
 }
@@ -286,7 +286,7 @@ pub fn import(
         }
         // Row 61 is the event day (the ignition day of a positive window).
         let event_day = w.first_day + 60;
-        // The GRIDMET cell by the grid's formula (data spec §2.3).
+        // The GRIDMET cell by the grid's formula (docs/spec/data.md §2.3).
         let (j, i) = crate::geo::gridmet_cell_index(w.lat, w.lon);
         samples.push(WindowSample {
             sample_id: k as u32,
@@ -345,7 +345,7 @@ fn default_license() -> String {
     "CC-BY-4.0".into()
 }
 
-/// Licence names the Kaggle client accepts (peers §3.3).
+/// Licence names the Kaggle client accepts (docs/spec/peers.md §3.3).
 pub const LICENSES: &[&str] = &[
     "CC0-1.0",
     "CC-BY-4.0",

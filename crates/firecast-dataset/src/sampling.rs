@@ -1,10 +1,10 @@
-//! Positives and three-tier negatives (data spec §4).
+//! Positives and three-tier negatives (docs/spec/data.md §4).
 //!
 //! Two variants, chosen by a param:
 //! - `paper`: the FireCastRL paper's description — near negatives shifted 90–150 days, tier
 //!   counts 5,000 / 35,000 / 36,000 (or scaled to keep its 50,720 : 76,080 ratio), and the
 //!   "no fire recorded" conditions checked at each negative's own time and place.
-//! - `code`: what the authors' scripts do (spec §4.2–4.5): one near attempt per positive with
+//! - `code`: what the authors' scripts do (docs/spec/data.md §4.2–4.5): one near attempt per positive with
 //!   a ±90–120 day offset, yearly negatives at every whole 365-day step back to the period
 //!   start, far negatives until the count is reached. Their quirks are kept, except two
 //!   that are switches: the near check against the *origin* positive itself (which rejects
@@ -108,7 +108,7 @@ pub struct Ignitions {
     pub dropped: Vec<(u64, &'static str)>,
 }
 
-/// The authors' rule (spec §4.1): sort by time (stably, then by row), walk the reports and
+/// The authors' rule (docs/spec/data.md §4.1): sort by time (stably, then by row), walk the reports and
 /// keep one only if it is in the region, on land, and — against the *last kept* report —
 /// both at least `min_distance_km` away and `min_gap_hours` later.
 pub fn dedup_ignitions(
@@ -175,7 +175,7 @@ pub enum Variant {
     /// The paper's text (the default).
     #[default]
     Paper,
-    /// The authors' code, spec §4.
+    /// The authors' code, docs/spec/data.md §4.
     Code,
 }
 
@@ -225,7 +225,7 @@ pub struct NegativeConfig {
     #[serde(default = "default_dedup_days")]
     pub dedup_days: u32,
     /// Code variant: leave the origin positive out of the near-negative fire check. The
-    /// authors' code includes it, which rejects nearly every candidate (spec §4.3).
+    /// authors' code includes it, which rejects nearly every candidate (docs/spec/data.md §4.3).
     #[serde(default = "yes")]
     pub exclude_origin: bool,
     #[serde(default)]
@@ -448,7 +448,7 @@ pub fn sample_negatives(
         Variant::Code => sample_yearly_code(&ctx),
     };
 
-    // Exact duplicates are dropped within each tier only (spec §4.5).
+    // Exact duplicates are dropped within each tier only (docs/spec/data.md §4.5).
     let mut samples = Vec::new();
     for (tier, report) in [
         (far, &mut far_report),

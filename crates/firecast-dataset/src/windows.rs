@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use crate::time::{self, DayBoundary};
 use crate::{DatasetError, Tier};
 
-/// The paper's 15 features, in the column order of the published CSV (data spec §3.1).
+/// The paper's 15 features, in the column order of the published CSV (docs/spec/data.md §3.1).
 pub const PAPER_FEATURES: [GridmetVariable; 15] = [
     GridmetVariable::Pr,
     GridmetVariable::Rmax,

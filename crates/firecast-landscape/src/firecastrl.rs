@@ -1,4 +1,4 @@
-//! FireCastRL map images (fire-model spec §A2): a land-cover palette PNG and a 16-bit
+//! FireCastRL map images (docs/spec/fire-model.md §A2): a land-cover palette PNG and a 16-bit
 //! heightmap PNG, sampled onto the simulation grid exactly as FireCastRL P2 (`populate_grid`
 //! in `firecastrl_env/envs/environment/helper.py`, itself Concord's `populateGrid`) does:
 //!
@@ -26,7 +26,7 @@ use std::path::Path;
 use crate::georef::GridSpec;
 use crate::{LandCoverScheme, Landscape, LandscapeError};
 
-/// MODIS IGBP class → palette RGB (spec §A2.1).
+/// MODIS IGBP class → palette RGB (docs/spec/fire-model.md §A2.1).
 pub const PALETTE: [(u16, [u8; 3]); 17] = [
     (1, [0, 100, 0]),
     (2, [34, 139, 34]),

@@ -14,7 +14,7 @@
 //!   reader resamples onto) and the cell ⇄ lat/lon helpers on [`Landscape`];
 //! - [`geotiff`]: single-band GeoTIFF land cover / elevation with georeferencing;
 //! - [`srtm`]: SRTM `.hgt` tiles;
-//! - [`firecastrl`]: FireCastRL palette PNG + 16-bit heightmap PNG (spec A2);
+//! - [`firecastrl`]: FireCastRL palette PNG + 16-bit heightmap PNG (docs/spec/fire-model.md §A2);
 //! - [`procedural`]: seeded synthetic landscapes.
 
 use std::path::PathBuf;

@@ -18,7 +18,7 @@ pub const LEGEND_BG: [u8; 3] = [24, 24, 24];
 /// Colour of a code the palette does not know.
 pub const UNKNOWN: [u8; 3] = [200, 200, 200];
 
-/// MODIS IGBP classes 1–17, the FireCastRL colours of spec §A2.1.
+/// MODIS IGBP classes 1–17, the FireCastRL colours of docs/spec/fire-model.md §A2.1.
 const IGBP: [[u8; 3]; 17] = [
     [0, 100, 0],     // 1 Evergreen Needleleaf
     [34, 139, 34],   // 2 Evergreen Broadleaf

@@ -8,7 +8,7 @@
 //! - `compact` (helitack default): the authors' three convolution branches and spatial
 //!   attention on a 2×-pooled input, then a 1×1 reduction and average pooling to 2,400
 //!   features, fused with the helicopter vector; a frame stack instead of the LSTM.
-//! - `paper`: the authors' `FireEnvLSTMCNN` as specified (learning.md §3.1), with the
+//! - `paper`: the authors' `FireEnvLSTMCNN` as specified (docs/spec/learning.md §3.1), with the
 //!   275,515,392-parameter LSTM input projection.
 
 use firecast_learn::layers::{Cell, Recurrent};
@@ -317,7 +317,7 @@ impl ConvBlock {
     }
 }
 
-/// The authors' three-branch trunk with spatial attention (learning.md §3.1).
+/// The authors' three-branch trunk with spatial attention (docs/spec/learning.md §3.1).
 #[derive(Debug)]
 struct Trunk {
     a: [ConvBlock; 2],

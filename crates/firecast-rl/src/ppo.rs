@@ -1,4 +1,4 @@
-//! PPO with Stable-Baselines3's semantics (rl-anchors.md §1): hyper-parameters and presets,
+//! PPO with Stable-Baselines3's semantics (docs/spec/rl-anchors.md §1): hyper-parameters and presets,
 //! the per-minibatch loss, PyTorch's Adam and `clip_grad_norm_`.
 
 use serde::{Deserialize, Serialize};

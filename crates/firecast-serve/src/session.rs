@@ -19,7 +19,7 @@ use crate::fire::{Environment, LiveAgent, LiveRun};
 /// Frames a second a run starts at.
 const DEFAULT_FPS: u32 = 30;
 const MAX_FPS: u32 = 240;
-/// WebSocket close code for a message that is not the protocol (RFC 6455 §7.4.1).
+/// WebSocket close code for a message that is not the protocol (RFC 6455, section 7.4.1).
 const POLICY_VIOLATION: u16 = 1008;
 
 /// A live-fire slot, given back when dropped.

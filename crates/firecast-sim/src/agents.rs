@@ -7,7 +7,7 @@ use crate::automaton::{FireState, SimError};
 use crate::env::{Action, EnvConfig, Observation, StepInfo, WildfireEnv};
 
 /// What a policy returns: an action, optionally after teleporting the helicopter (only the
-/// paper's rule-based agent does that, §4).
+/// paper's rule-based agent does that, docs/spec/learning.md §4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Decision {
     pub action: Action,
@@ -60,7 +60,7 @@ pub enum RuleNavigation {
     Fly,
 }
 
-/// The paper's rule-based agent (learning.md §4): waypoints every 10° on circles around the
+/// The paper's rule-based agent (docs/spec/learning.md §4): waypoints every 10° on circles around the
 /// fire origin, (int(cx + r·cos a), int(cy + r·sin a)), outermost circle first.
 #[derive(Debug, Clone)]
 pub struct RuleBasedAgent {
@@ -166,7 +166,8 @@ pub struct FireChaser {
 }
 
 impl Default for FireChaser {
-    /// Reach 4: inside the 5-cell drop footprint (§A8), so a drop always hits the cell it aims at.
+    /// Reach 4: inside the 5-cell drop footprint (docs/spec/fire-model.md §A8), so a drop always
+    /// hits the cell it aims at.
     fn default() -> Self {
         Self { reach: 4 }
     }

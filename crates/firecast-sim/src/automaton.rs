@@ -1,12 +1,12 @@
-//! The Concord / FireCastRL cellular automaton (spec Part A, §A6–§A9), driven by either the
+//! The Concord / FireCastRL cellular automaton (docs/spec/fire-model.md §A6–§A9), driven by either the
 //! Concord compatibility kernel or the behave Rothermel kernel.
 //!
-//! Semantics (P2 defaults, §A6.3): a cell spreads only at the instant it ignites, scheduling
-//! the ignition times of its 20 neighbours (radius 2.5 cells, line of sight through
-//! non-burnable cells, §A6.4 "P2 scheme"; the original BFS search is an option, see
-//! [`Neighbourhood`]); it burns for at most 500 min, shortened to
-//! travel time + 200 min; its burn index (BI) is fixed by the fastest rate that reached it;
-//! once the daily low-intensity latch fires, Low-BI cells no longer spread.
+//! Semantics (P2 defaults, docs/spec/fire-model.md §A6.3): a cell spreads only at the instant it
+//! ignites, scheduling the ignition times of its 20 neighbours (radius 2.5 cells, line of sight
+//! through non-burnable cells, docs/spec/fire-model.md §A6.4 "P2 scheme"; the original BFS search
+//! is an option, see [`Neighbourhood`]); it burns for at most 500 min, shortened to travel time +
+//! 200 min; its burn index (BI) is fixed by the fastest rate that reached it; once the daily
+//! low-intensity latch fires, Low-BI cells no longer spread.
 //!
 //! State is struct-of-arrays over row-major cells (index `y * width + x`, row 0 south). Only
 //! cells that burn or are scheduled to ignite are visited per update (active lists); all
@@ -27,13 +27,15 @@ use crate::fuel::FuelModel;
 use crate::random::{RandomSource, Uniform};
 use crate::rothermel::{FuelMoisture, RothermelError, SpreadInputs, SurfaceFuelBed};
 
-/// Fixed simulated time per environment step (§A7): 4 × 2.9916 min.
+/// Fixed simulated time per environment step (docs/spec/fire-model.md §A7): 4 × 2.9916 min.
 pub const DEFAULT_DT_MIN: f64 = 11.9664;
-/// FireCastRL's daily probabilities of the end-of-low-intensity latch, days 0–7 (§A6.3).
+/// FireCastRL's daily probabilities of the end-of-low-intensity latch, days 0–7
+/// (docs/spec/fire-model.md §A6.3).
 pub const FIRECASTRL_LATCH: [f64; 8] = [0.0, 0.1, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0];
 /// Concord's daily latch probabilities, days 0–5.
 pub const CONCORD_LATCH: [f64; 6] = [0.0, 0.6, 0.6, 0.7, 0.8, 1.0];
-/// FireCastRL's non-burnable ("river") MODIS classes (§A3.1; the code's 18 does not exist).
+/// FireCastRL's non-burnable ("river") MODIS classes (docs/spec/fire-model.md §A3.1; the code's 18
+/// does not exist).
 pub const FIRECASTRL_RIVER_CLASSES: [u16; 4] = [12, 14, 16, 17];
 /// FireCastRL's fire-survivor classes: permanent wetlands (Concord used forests).
 pub const FIRECASTRL_SURVIVOR_CLASSES: [u16; 1] = [11];
@@ -51,7 +53,7 @@ const BFS_STEPS: [(i32, i32); 4] = [(-1, 0), (1, 0), (0, -1), (0, 1)];
 /// arithmetic produces).
 const RATE_UNSET: u64 = 0x7ff8_dead_beef_0001;
 
-/// Fire state of a cell (§A6.1).
+/// Fire state of a cell (docs/spec/fire-model.md §A6.1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[repr(u8)]
 pub enum FireState {
@@ -70,7 +72,7 @@ impl FireState {
     }
 }
 
-/// Burn index (§A6.2).
+/// Burn index (docs/spec/fire-model.md §A6.2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 #[repr(u8)]
 pub enum BurnIndex {
@@ -161,7 +163,7 @@ pub enum WindHeight {
 }
 
 impl Wind {
-    /// Midflame speed over a fuel bed `depth_ft` deep (spec B7, data.md §wind).
+    /// Midflame speed over a fuel bed `depth_ft` deep (docs/spec/fire-model.md §B7, docs/spec/data.md §9).
     pub fn midflame_mph(&self, depth_ft: f64) -> f64 {
         let speed = self.speed_mph.max(0.0);
         match self.measured_at {
@@ -183,7 +185,7 @@ pub fn unsheltered_waf(depth_ft: f64) -> f64 {
     }
 }
 
-/// Helitack footprint shape (§A8).
+/// Helitack footprint shape (docs/spec/fire-model.md §A8).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum HelitackFootprint {
@@ -194,9 +196,9 @@ pub enum HelitackFootprint {
     FullDisc,
 }
 
-/// How a spreading cell finds its neighbours (§A6.4). Both reach the same cells (the offsets
-/// within the radius); they differ in which are blocked by non-burnable cells and in the
-/// order they are offered, which decides ties of ignition time.
+/// How a spreading cell finds its neighbours (docs/spec/fire-model.md §A6.4). Both reach the same
+/// cells (the offsets within the radius); they differ in which are blocked by non-burnable cells
+/// and in the order they are offered, which decides ties of ignition time.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Neighbourhood {
@@ -641,7 +643,7 @@ impl Automaton {
             }
         }
 
-        // BFS neighbourhood tables (§A6.4, original scheme).
+        // BFS neighbourhood tables (docs/spec/fire-model.md §A6.4, original scheme).
         let side = (2 * ri + 1) as usize;
         let mut bfs_window = vec![BFS_OUTSIDE; side * side];
         let mut bfs_lines = Vec::new();
@@ -654,7 +656,7 @@ impl Automaton {
             bfs_line_range.push((start, bfs_lines.len() as u32));
         }
 
-        // Helitack footprint (§A8).
+        // Helitack footprint (docs/spec/fire-model.md §A8).
         let rad = (cfg.helitack_radius_ft / cell).round() as i32;
         let mut footprint = Vec::new();
         for dy in -rad..=rad {
@@ -872,7 +874,7 @@ impl Automaton {
         }
     }
 
-    /// `updateFire(time)` (§A6.3), with the configured [`Neighbourhood`].
+    /// `updateFire(time)` (docs/spec/fire-model.md §A6.3), with the configured [`Neighbourhood`].
     pub fn update_fire(&mut self, time: f64) {
         self.time = time;
         let day = (time / MIN_PER_DAY).floor().max(0.0) as u64;
@@ -1112,8 +1114,8 @@ impl Automaton {
         }
     }
 
-    /// Helitack drop centred on (cx, cy) (§A8): every footprint cell gets one more drop,
-    /// loses any scheduled ignition, and is set back to Unburnt if it was burning.
+    /// Helitack drop centred on (cx, cy) (docs/spec/fire-model.md §A8): every footprint cell gets
+    /// one more drop, loses any scheduled ignition, and is set back to Unburnt if it was burning.
     pub fn helitack(&mut self, cx: usize, cy: usize) -> DropOutcome {
         let mut out = DropOutcome::default();
         let (w, h) = (self.width as i64, self.height as i64);
@@ -1142,8 +1144,9 @@ impl Automaton {
         out
     }
 
-    /// Fire line between two cells (Bresenham, §A9): each cell blocks spread from sources below
-    /// High BI, loses its scheduled ignition and is lowered by `fire_line_depth_ft`.
+    /// Fire line between two cells (Bresenham, docs/spec/fire-model.md §A9): each cell blocks
+    /// spread from sources below High BI, loses its scheduled ignition and is lowered by
+    /// `fire_line_depth_ft`.
     pub fn add_fire_line(&mut self, a: (usize, usize), b: (usize, usize)) -> Result<(), SimError> {
         self.check(a.0 as i64, a.1 as i64)?;
         self.check(b.0 as i64, b.1 as i64)?;
@@ -1166,9 +1169,9 @@ impl Automaton {
         Ok(())
     }
 
-    /// Marks cells as an unburnt island (Concord only, §A6.5): non-burnable until a spark lands
-    /// in the island. Islands last until [`reset`](Self::reset); activating each island with
-    /// probability 0.5 is the loader's choice.
+    /// Marks cells as an unburnt island (Concord only, docs/spec/fire-model.md §A6.5): non-burnable
+    /// until a spark lands in the island. Islands last until [`reset`](Self::reset); activating
+    /// each island with probability 0.5 is the loader's choice.
     pub fn add_unburnt_island(&mut self, cells: &[(usize, usize)]) -> Result<(), SimError> {
         for &(x, y) in cells {
             let i = self.check(x as i64, y as i64)?;
@@ -1259,7 +1262,7 @@ impl Automaton {
     pub fn spread_rates(&self) -> &[f64] {
         &self.spread_rate
     }
-    /// Whether the cell survived the fire (cosmetic, §A6.3 a).
+    /// Whether the cell survived the fire (cosmetic, docs/spec/fire-model.md §A6.3 a).
     pub fn is_fire_survivor(&self, i: usize) -> bool {
         self.survivor[i]
     }
@@ -1283,8 +1286,8 @@ impl Automaton {
     }
 }
 
-/// BI thresholds (§A6.2) per MODIS class: Grass rule for grasslands, Shrub for closed/open
-/// shrublands, Forest for classes 1–5, always Low otherwise.
+/// BI thresholds (docs/spec/fire-model.md §A6.2) per MODIS class: Grass rule for grasslands, Shrub
+/// for closed/open shrublands, Forest for classes 1–5, always Low otherwise.
 fn concord_bi_thresholds(class: u16) -> [f64; 2] {
     match class {
         10 => [45.0, f64::INFINITY],

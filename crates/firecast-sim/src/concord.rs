@@ -1,4 +1,4 @@
-//! The Concord Consortium / FireCastRL compatibility kernel (spec Part A, §A3–§A5).
+//! The Concord Consortium / FireCastRL compatibility kernel (docs/spec/fire-model.md §A3–§A5).
 //!
 //! This is the single-particle spread-rate function FireCastRL inherited from the Concord
 //! wildfire model, *quirks included*: the wind-factor exponent E is a product instead of an
@@ -93,7 +93,7 @@ impl LandCover {
         self as u8
     }
 
-    /// Fuel constants of §A4 (identical in P1, P2 and T).
+    /// Fuel constants of docs/spec/fire-model.md §A4 (identical in P1, P2 and T).
     pub fn fuel(self) -> ConcordFuelConstants {
         let c = ConcordFuelConstants::new;
         match self {
@@ -121,7 +121,7 @@ impl LandCover {
         matches!(self, Self::UrbanBuilt | Self::SnowIce | Self::Water)
     }
 
-    /// Moisture content (fraction) from the chosen FireCastRL table (§A3.3).
+    /// Moisture content (fraction) from the chosen FireCastRL table (docs/spec/fire-model.md §A3.3).
     pub fn moisture_frac(self, table: MoistureTable, drought: DroughtLevel) -> f64 {
         let row: [f64; 4] = match table {
             MoistureTable::FireCastRlPython => match self {
@@ -167,7 +167,7 @@ impl LandCover {
     }
 }
 
-/// Which FireCastRL moisture table to use (§A3.3).
+/// Which FireCastRL moisture table to use (docs/spec/fire-model.md §A3.3).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum MoistureTable {
     /// Python environments P1 = P2 (`moisture_lookup_by_land_cover`).
@@ -191,7 +191,7 @@ pub enum ConcordFuel {
 }
 
 impl ConcordFuel {
-    /// Fuel constants (§A4).
+    /// Fuel constants (docs/spec/fire-model.md §A4).
     pub fn fuel(self) -> ConcordFuelConstants {
         match self {
             Self::Grass => LandCover::Grasslands.fuel(),
@@ -213,7 +213,7 @@ impl ConcordFuel {
     }
 }
 
-/// Drought level of a zone; each helitack drop lowers it by one (§A3.2).
+/// Drought level of a zone; each helitack drop lowers it by one (docs/spec/fire-model.md §A3.2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize)]
 pub enum DroughtLevel {
     /// No drought (0).
@@ -307,7 +307,7 @@ pub fn is_firecastrl_river_zone(zone_index: usize) -> bool {
     FIRECASTRL_NON_BURNABLE_ZONES.contains(&zone_index)
 }
 
-/// Inputs of the single-particle spread function (§A4).
+/// Inputs of the single-particle spread function (docs/spec/fire-model.md §A4).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ConcordFuelConstants {
     /// Surface-area-to-volume ratio σ, ft⁻¹.
@@ -423,8 +423,9 @@ pub fn direction_factor(eccentricity: f64, cos_theta: f64) -> f64 {
     (1.0 - eccentricity) / (1.0 - eccentricity * cos_theta)
 }
 
-/// The spread kernel prepared for one target fuel at one moisture (§A12: precompute R₀, the
-/// wind coefficient C·ratio^−E and the slope coefficient 5.275·β^−0.3 per fuel × drought).
+/// The spread kernel prepared for one target fuel at one moisture (docs/spec/fire-model.md §A12:
+/// precompute R₀, the wind coefficient C·ratio^−E and the slope coefficient 5.275·β^−0.3 per fuel ×
+/// drought).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct ConcordSpread {
     variant: SpreadVariant,

@@ -1,13 +1,13 @@
-//! The helitack suppression environment (learning.md §2) with Gymnasium semantics, and a
+//! The helitack suppression environment (docs/spec/learning.md §2) with Gymnasium semantics, and a
 //! vectorised version stepping N environments in parallel.
 //!
 //! - Actions (Discrete(5), original numbering): 0 "Down" y + speed, 1 "Up" y − speed,
 //!   2 "Left" x − speed, 3 "Right" x + speed, 4 helitack drop. Grid y points north.
-//! - Observation: the last [`FRAME_STACK`] frames (oldest first, newest last) of H×W cell
-//!   codes, the helicopter cell and whether it is over a *Burning* cell. Cell code (P1
-//!   intent, §2.3): 0 for non-burnable cells, else fireState·3 + BI + 1 (1..=9); divide by
-//!   [`CODE_MAX`] for the normalised [0, 1] value. Frames are `u8` and updated incrementally
-//!   from the cells that changed in the last four steps, so a step costs O(changes).
+//! - Observation: the last [`FRAME_STACK`] frames (oldest first, newest last) of H×W cell codes,
+//!   the helicopter cell and whether it is over a *Burning* cell. Cell code (P1 intent,
+//!   docs/spec/learning.md §2.3): 0 for non-burnable cells, else fireState·3 + BI + 1 (1..=9);
+//!   divide by [`CODE_MAX`] for the normalised [0, 1] value. Frames are `u8` and updated
+//!   incrementally from the cells that changed in the last four steps, so a step costs O(changes).
 //! - One step: teleport (rule-based agent only), apply the action, then exactly one
 //!   `update_fire(t + dt)`; reward and observation describe the state after the update.
 
@@ -135,8 +135,8 @@ impl RewardWeights {
         }
     }
 
-    /// P2 (`firecastrl/Wildfire-env0`, §2.4): +5 quenched, −0.05 burning, −0.01 step,
-    /// −1 drop on non-burnable or burnt, clipped to [−10, 10].
+    /// P2 (`firecastrl/Wildfire-env0`, docs/spec/learning.md §2.4): +5 quenched, −0.05 burning,
+    /// −0.01 step, −1 drop on non-burnable or burnt, clipped to [−10, 10].
     pub fn p2() -> Self {
         Self {
             quenched: 5.0,
@@ -149,8 +149,8 @@ impl RewardWeights {
         }
     }
 
-    /// Variant T (websocket, §2.2): +10 quenched, −5 new burnt, −0.1 burning, −0.1 step,
-    /// 2·exp(−d/20) proximity, drops +40·(BI+1) / −5 burnt / +5·min(n,5) or −10.
+    /// Variant T (websocket, docs/spec/learning.md §2.2): +10 quenched, −5 new burnt, −0.1 burning,
+    /// −0.1 step, 2·exp(−d/20) proximity, drops +40·(BI+1) / −5 burnt / +5·min(n,5) or −10.
     pub fn websocket_t() -> Self {
         Self {
             quenched: 10.0,
@@ -170,8 +170,8 @@ impl RewardWeights {
         }
     }
 
-    /// Variant P1 `calculate_reward_improved_scaled` (§2.3), penalty check on cell state:
-    /// −1 new burnt, +2 quenched, +1 per burning reduction, −0.05 burning, −0.01 step,
+    /// Variant P1 `calculate_reward_improved_scaled` (docs/spec/learning.md §2.3), penalty check on
+    /// cell state: −1 new burnt, +2 quenched, +1 per burning reduction, −0.05 burning, −0.01 step,
     /// −0.2 drop on river/burnt, clipped to [−10, 10].
     pub fn p1_improved() -> Self {
         Self {
@@ -642,7 +642,7 @@ impl WildfireEnv {
         self.step_with_teleport(action, None)
     }
 
-    /// A step that first moves the helicopter to `teleport` (rule-based agent, §4).
+    /// A step that first moves the helicopter to `teleport` (rule-based agent, docs/spec/learning.md §4).
     pub fn step_with_teleport(
         &mut self,
         action: Action,

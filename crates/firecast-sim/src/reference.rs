@@ -1,6 +1,7 @@
 //! Side by side with the FireCastRL Python environment (`aisystems-lab/wildfire-env`, the P2
-//! engine, spec §A0): the same map, seeds and actions in both, compared episode by episode
-//! (steps, burnt cells, peak burning cells, a checksum of the final fire-state grid) and timed.
+//! engine, docs/spec/fire-model.md §A0): the same map, seeds and actions in both, compared episode
+//! by episode (steps, burnt cells, peak burning cells, a checksum of the final fire-state grid) and
+//! timed.
 //!
 //! FireCast ships only a small driver ([`DRIVER`]) that imports the user's checkout of that
 //! environment and steps it; the environment itself is not part of FireCast.

@@ -10,9 +10,9 @@
 //! the wind limit is off by default ([`WindLimit`]); dynamic curing uses 1.333 − 1.11·M_herb;
 //! the length-to-width ratio uses the mi/h Anderson (1983) coefficients and is capped at 8.
 //!
-//! Two behave behaviours are **not in spec Part B** but are in behave's `surfaceFire.cpp` at
-//! the oracle commit (d963287f60), run whatever the wind-limit setting, and are required by the
-//! random oracle:
+//! Two behave behaviours are **not in docs/spec/fire-model.md Part B** but are in behave's
+//! `surfaceFire.cpp` at the oracle commit (d963287f60), run whatever the wind-limit setting, and
+//! are required by the random oracle:
 //! - `calculateWindSpeedLimit` caps the slope factor φ_s at 0.9·I_R (a dimensionless factor
 //!   against a speed in ft/min). This is not the (disabled) effective-wind limit. Without it
 //!   cases 184 and 699 are 171 % and 13.6 % off on ROS.
@@ -211,7 +211,7 @@ fn size_bin(sav_per_ft: f64) -> usize {
         .unwrap_or(BOUNDS.len())
 }
 
-/// Per-category (dead or live) aggregates of §B2/§B4.
+/// Per-category (dead or live) aggregates of docs/spec/fire-model.md §B2/§B4.
 #[derive(Debug, Clone, Copy, Default)]
 struct Category {
     surface_area: f64,
@@ -416,9 +416,9 @@ impl SurfaceFuelBed {
             return Ok(Self::non_burnable(model));
         }
 
-        // Dynamic curing (§B7): part of the herbaceous load moves to a dead class that keeps
-        // the herbaceous SAV and takes the 1-h moisture. 1.333 − 1.11·M is behave's
-        // BehavePlus-consistent form.
+        // Dynamic curing (docs/spec/fire-model.md §B7): part of the herbaceous load moves to a dead
+        // class that keeps the herbaceous SAV and takes the 1-h moisture. 1.333 − 1.11·M is
+        // behave's BehavePlus-consistent form.
         let herb = model.load_live_herb_lb_ft2;
         let cured_fraction = if model.dynamic && herb > 0.0 {
             let m = moisture.live_herb_frac;
@@ -613,9 +613,9 @@ impl SurfaceFuelBed {
         let phi_s = self.slope_factor(inputs.slope_percent);
 
         // behave's `calculateWindSpeedLimit` (surfaceFire.cpp), run whatever the wind-limit
-        // setting: φ_s is capped at 0.9·I_R, a dimensionless factor against a speed in ft/min.
-        // Not in spec Part B. It only bites on steep slopes with a weak reaction; random-oracle
-        // cases 184 and 699 need it.
+        // setting: φ_s is capped at 0.9·I_R, a dimensionless factor against a speed in ft/min. Not
+        // in docs/spec/fire-model.md Part B. It only bites on steep slopes with a weak reaction;
+        // random-oracle cases 184 and 699 need it.
         let phi_s = phi_s.min(0.9 * self.reaction_intensity_btu_ft2_min());
 
         // Vector sum in a frame whose x axis points upslope, y axis 90° clockwise from it.
@@ -744,12 +744,12 @@ fn validate_model(model: &FuelModel) -> Result<(), RothermelError> {
     Ok(())
 }
 
-/// Direction of maximum spread as behave's `calculateDirectionOfMaxSpread` reports it: the
-/// atan2 result with 360° added when negative, then |azimuth| < 0.5° snapped to exactly 0
-/// ("undocumented hack from BehavePlus code"; not in spec Part B, pinned by random-oracle cases
-/// 12, 180, 186, 534, 626). One extra step keeps the range [0, 360): for a tiny negative
-/// angle, adding 360° rounds to exactly 360.0, which behave would report; this returns 0, the
-/// same direction.
+/// Direction of maximum spread as behave's `calculateDirectionOfMaxSpread` reports it: the atan2
+/// result with 360° added when negative, then |azimuth| < 0.5° snapped to exactly 0 ("undocumented
+/// hack from BehavePlus code"; not in docs/spec/fire-model.md Part B, pinned by random-oracle cases
+/// 12, 180, 186, 534, 626). One extra step keeps the range [0, 360): for a tiny negative angle,
+/// adding 360° rounds to exactly 360.0, which behave would report; this returns 0, the same
+/// direction.
 fn behave_azimuth_deg(atan2_deg: f64) -> f64 {
     let mut azimuth = atan2_deg;
     if azimuth < -1.0e-20 {

@@ -1,4 +1,4 @@
-//! The real GRIDMET grid (data spec §2.3), region windows on it, and FireCast's rough land
+//! The real GRIDMET grid (docs/spec/data.md §2.3), region windows on it, and FireCast's rough land
 //! mask of the conterminous United States.
 
 use super::SynthError;

@@ -36,7 +36,7 @@ use super::noise::{Stream, hash_with, key, mix64};
 use super::weather::{Candidate, gid_to_ji};
 use crate::gridmet::day_to_ymd;
 
-/// The header of a real 2023 WFIGS "Incident Locations to Date" CSV export (data spec §1.2).
+/// The header of a real 2023 WFIGS "Incident Locations to Date" CSV export (docs/spec/data.md §1.2).
 pub const WFIGS_HEADER: [&str; 97] = [
     "X",
     "Y",

@@ -491,7 +491,7 @@ fn esri_json_feature_set() {
     );
     let r1 = by_row(&t, 1);
     assert_eq!(r1.discovered_ms, 1_756_225_560_000);
-    // Initial* preferred over the (slightly different) geometry, spec §1.3.
+    // Initial* preferred over the (slightly different) geometry, docs/spec/data.md §1.3.
     assert_eq!((r1.lat, r1.lon), (45.78496, -104.4958));
     assert_eq!(r1.location, LocationSource::InitialLatLon);
     assert_eq!(r1.id.as_deref(), Some("2025-MTCUS-000347"));

@@ -49,7 +49,7 @@ fn run(config: &SynthConfig, dir: &Path) -> SynthSummary {
     s
 }
 
-/// Spec ranges (data spec §2.2), with the float tolerance of packing.
+/// Spec ranges (docs/spec/data.md §2.2), with the float tolerance of packing.
 fn range(v: GridmetVariable) -> (f32, f32) {
     use GridmetVariable as G;
     match v {

@@ -14,7 +14,7 @@ For every NetCDF file the script
 * finds the data variable, orders it as [day][lat][lon] by dimension *names*;
 * checks that both libraries agree, that `day` decodes to 1 January .. 31 December of the
   file's year, latitude descends from the GRIDMET grid, masked cells are the same on every day,
-  and values lie in the data spec ranges;
+  and values lie in the ranges of docs/spec/data.md §2.2;
 * with --dump, compares three days of every file with what the Rust reader
   (`firecast_data::gridmet::GridmetFile`) returned.
 

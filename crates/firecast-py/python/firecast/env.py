@@ -25,7 +25,7 @@ RESET_OPTIONS = ("episode_seed",)
 
 
 class HelitackEnv(gym.Env):
-    """A helicopter fighting one wildfire (learning.md §2; the Rust ``WildfireEnv``).
+    """A helicopter fighting one wildfire (docs/spec/learning.md §2; the Rust ``WildfireEnv``).
 
     Args:
         profile: reward preset, ``"p2"`` (the default), ``"websocket_t"``, ``"p1_improved"`` or ``"suppression"``.

@@ -1,10 +1,11 @@
 //! The Rothermel–Albini kernel against every behave oracle file, row by row.
 //!
-//! Fixed-scenario files: relative 1e-6 (README §Recommended tolerances), widened by half a
-//! unit of the oracle's last printed digit where the file prints fewer digits than that needs
-//! (e.g. 0.191585 ch/h). Random oracle: two-sided relative 1e-4, direction within 0.01°,
-//! exact zeros, stale `lw_ratio`/`back_ftmin`/`flank_ftmin` skipped on zero-ROS rows; no
-//! fallback, but 10 listed rows are evaluated at their de-rounded inputs (`DEROUNDED_INPUTS`).
+//! Fixed-scenario files: relative 1e-6 ("Recommended tolerances" in
+//! crates/firecast-sim/tests/fixtures/README.md), widened by half a unit of the oracle's last
+//! printed digit where the file prints fewer digits than that needs (e.g. 0.191585 ch/h). Random
+//! oracle: two-sided relative 1e-4, direction within 0.01°, exact zeros, stale
+//! `lw_ratio`/`back_ftmin`/`flank_ftmin` skipped on zero-ROS rows; no fallback, but 10 listed rows
+//! are evaluated at their de-rounded inputs (`DEROUNDED_INPUTS`).
 
 use firecast_sim::rothermel::{FT_PER_MIN_PER_CH_PER_H, FuelMoisture, SpreadInputs, SurfaceFuelBed};
 use firecast_sim::spread_csv::OUTPUT_COLUMNS;
@@ -526,7 +527,7 @@ fn fuel_table_matches_behave_csv() {
     c.finish();
 }
 
-/// behave's own unit tests and other published cross-checks (spec §B10.2 / §B10.1).
+/// behave's own unit tests and other published cross-checks (docs/spec/fire-model.md §B10.2 / §B10.1).
 #[test]
 fn published_point_checks() {
     let mut c = Checker::new("spec B10 point checks");

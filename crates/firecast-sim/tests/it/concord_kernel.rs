@@ -1,5 +1,5 @@
 //! The Concord/FireCastRL compatibility kernel against the Concord reference test values
-//! (spec §A5), plus edge-case policies and the corrected variant.
+//! (docs/spec/fire-model.md §A5), plus edge-case policies and the corrected variant.
 
 use firecast_sim::concord::{
     ConcordCell, ConcordFuel, ConcordSpread, ConcordWind, DroughtLevel, EdgeCasePolicy, LandCover,
@@ -34,7 +34,7 @@ fn concord_reference(
     fire_spread_rate_ftmin(&source, &target, &fuel.fuel(), 0.06, &wind, 1.0, variant)
 }
 
-/// Compares to a value printed in the spec, within one unit of its last printed digit.
+/// Compares to a value printed in docs/spec/fire-model.md §A5, within one unit of its last printed digit.
 fn assert_printed(actual: f64, printed: &str, what: &str) {
     let expected: f64 = printed.parse().unwrap();
     let decimals = printed.split_once('.').map_or(0, |(_, f)| f.len());
@@ -103,8 +103,8 @@ fn concord_direction_factor_values() {
 
 #[test]
 fn python_r0_table() {
-    // Spec §A5 "R0 in FireCastRL Python", ft/min at No/Mild/Medium/Severe (printed to 2 decimals;
-    // the "≈0" entries are near-cancellations).
+    // docs/spec/fire-model.md §A5 "R0 in FireCastRL Python", ft/min at No/Mild/Medium/Severe
+    // (printed to 2 decimals; the "≈0" entries are near-cancellations).
     let table: [(LandCover, [f64; 4]); 14] = [
         (LandCover::EvergreenNeedleleaf, [-0.90, -0.34, 0.0, 0.17]),
         (LandCover::EvergreenBroadleaf, [-0.44, -0.10, 0.11, 0.23]),
@@ -127,8 +127,8 @@ fn python_r0_table() {
             let m = lc.moisture_frac(MoistureTable::FireCastRlPython, drought);
             let r0 = ConcordSpread::new(&lc.fuel(), m, COMPAT).no_wind_no_slope_ros_ftmin();
             // Half a unit of the printed last digit (plus round-off). One spec entry is off:
-            // DeciduousNeedleleaf/No is printed −0.66, but the §A5 formulas give −0.6548 (an
-            // independent re-computation agrees), so it gets one extra hundredth.
+            // DeciduousNeedleleaf/No is printed −0.66, but the docs/spec/fire-model.md §A5 formulas
+            // give −0.6548 (an independent re-computation agrees), so it gets one extra hundredth.
             let tol = if expected.abs() >= 10.0 {
                 0.051
             } else if lc == LandCover::DeciduousNeedleleaf && i == 0 {
@@ -150,7 +150,7 @@ fn python_r0_table() {
 
 #[test]
 fn closed_shrub_python_example_at_wind_zero() {
-    // Spec §A5: closed shrub (default drought Medium), wind 0, 500-ft cells.
+    // docs/spec/fire-model.md §A5: closed shrub (default drought Medium), wind 0, 500-ft cells.
     let lc = LandCover::ClosedShrublands;
     let m = lc.moisture_frac(MoistureTable::FireCastRlPython, DroughtLevel::Medium);
     let k = ConcordSpread::new(&lc.fuel(), m, COMPAT);

@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
 """Independent check of the random-oracle rows that miss 1e-4 at their printed inputs.
 
-This is a pure-Python (stdlib only) implementation of spec Part B, written from the spec and
-from behave's source (commit d963287f60), not from the Rust kernel. It adds the two
-behave-only steps that Part B omits: phi_s capped at 0.9*I_R (`calculateWindSpeedLimit`) and
-an azimuth in [0, 0.5) deg snapped to 0. Pass --spec-only to leave them out.
+This is a pure-Python (stdlib only) implementation of docs/spec/fire-model.md Part B,
+written from that text and from behave's source (commit d963287f60), not from the Rust
+kernel. It adds the two behave-only steps that Part B omits: phi_s capped at 0.9*I_R
+(`calculateWindSpeedLimit`) and an azimuth in [0, 0.5) deg snapped to 0. Pass --spec-only to
+leave them out.
 
   python3 behave_rounding_check.py                 # rows outside tolerance at printed inputs,
                                                    # then a de-rounding fit for each of them
