@@ -47,6 +47,9 @@ pub struct ServeArgs {
     /// Live fires at once at most (beyond: 429).
     #[arg(long, default_value_t = 256)]
     pub max_fires: usize,
+    /// The `rerun` CLI whose web viewer opens recordings [default: the venv's].
+    #[arg(long, value_name = "PATH")]
+    pub rerun: Option<PathBuf>,
 }
 
 pub fn run(settings: &Settings, args: &ServeArgs) -> anyhow::Result<ExitCode> {
@@ -90,6 +93,10 @@ pub fn run(settings: &Settings, args: &ServeArgs) -> anyhow::Result<ExitCode> {
         job_args,
         max_queued_jobs: args.max_jobs.max(1),
         max_fires: args.max_fires.max(1),
+        rerun_cli: args
+            .rerun
+            .clone()
+            .unwrap_or_else(|| firecast_serve::rerun_viewer::default_cli(&root)),
     };
     let json = settings.json;
     firecast_serve::serve(config, |addr| {

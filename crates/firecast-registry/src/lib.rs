@@ -178,6 +178,20 @@ pub struct LineageRow {
     pub size: i64,
 }
 
+/// A registered dataset version.
+#[derive(Debug, Clone, Serialize)]
+pub struct DatasetRow {
+    pub name: String,
+    pub version: String,
+    pub rows: i64,
+    pub location: String,
+    /// The schema as the writer recorded it (JSON text).
+    pub schema_json: String,
+    pub metadata: serde_json::Value,
+    pub run_id: Option<String>,
+    pub created_at: String,
+}
+
 /// A run with everything recorded about it.
 #[derive(Debug, Clone, Serialize)]
 pub struct RunDetails {
@@ -900,6 +914,30 @@ impl Registry {
                 .query_map(params![run_id, key], |r| Ok((r.get(0)?, r.get(1)?)))?
                 .collect::<Result<_, _>>()?;
             Ok(points)
+        })
+    }
+
+    /// Every registered dataset version, by name, newest first within a name.
+    pub fn list_datasets(&self) -> Result<Vec<DatasetRow>, RegistryError> {
+        self.with_conn(|conn| {
+            let mut stmt = conn.prepare(
+                "SELECT name, version, rows, location, schema_json, metadata, run_id, created_at::VARCHAR
+                 FROM datasets ORDER BY name, created_at DESC, version",
+            )?;
+            let rows = stmt.query_map([], |r| {
+                let metadata: String = r.get(5)?;
+                Ok(DatasetRow {
+                    name: r.get(0)?,
+                    version: r.get(1)?,
+                    rows: r.get(2)?,
+                    location: r.get(3)?,
+                    schema_json: r.get(4)?,
+                    metadata: serde_json::from_str(&metadata).unwrap_or(serde_json::Value::String(metadata)),
+                    run_id: r.get(6)?,
+                    created_at: r.get(7)?,
+                })
+            })?;
+            Ok(rows.collect::<Result<_, _>>()?)
         })
     }
 

@@ -51,6 +51,7 @@ pub struct AppState {
     pub fires: AtomicUsize,
     runs: Arc<Runs>,
     jobs: Jobs,
+    rerun: crate::rerun_viewer::RerunViewer,
 }
 
 pub type Shared = Arc<AppState>;
@@ -70,7 +71,9 @@ impl AppState {
             },
             runs.clone(),
         );
+        let rerun = crate::rerun_viewer::RerunViewer::new(&cfg.root, cfg.rerun_cli.clone());
         Arc::new(Self {
+            rerun,
             coverage,
             overview: tokio::sync::OnceCell::new(),
             fire,
@@ -270,6 +273,14 @@ pub fn router(state: Shared) -> Router {
         .route("/api/runs/{id}/artifacts/{name}", get(artifact_root))
         .route("/api/runs/{id}/artifacts/{name}/{*path}", get(artifact_file))
         .route("/api/compare", get(compare))
+        .route("/api/runs/{id}/outputs/{name}/{*path}", get(output_file))
+        .route("/api/tables/forecast", get(forecast_table))
+        .route("/api/tables/rl", get(rl_table))
+        .route("/api/datasets", get(datasets))
+        .route("/api/datasets/{name}", get(dataset))
+        .route("/api/datasets/{name}/files/{file}", get(dataset_file))
+        .route("/rerun/", get(rerun_index))
+        .route("/rerun/{file}", get(rerun_file))
         .fallback(|| async { ApiError::not_found("no such page or endpoint") })
         .layer(axum::middleware::from_fn_with_state(state.clone(), guard))
         .with_state(state)
@@ -689,7 +700,14 @@ async fn artifact(state: Shared, id: String, name: String, rest: String) -> Resu
         })?;
         let store = firecast_store::ArtifactStore::open(&location, &root)
             .map_err(|e| ApiError::internal(e.to_string()))?;
-        let key = crate::runs::artifact_key(&store.key_of(&row.uri), &rest)?;
+        let base = store.key_of(&row.uri);
+        // An artifact that is one file also answers to its own name (`…/ppo-best.rrd`):
+        // viewers such as Rerun's tell the format from the URL's end.
+        let key = if !rest.is_empty() && base.rsplit('/').next() == Some(rest.as_str()) {
+            base
+        } else {
+            crate::runs::artifact_key(&base, &rest)?
+        };
         let bytes = store.get_bytes(&key).map_err(|e| match e {
             firecast_store::StoreError::NotFound(uri) => ApiError::not_found(format!("no file {uri}")),
             other => ApiError::internal(other.to_string()),
@@ -702,8 +720,10 @@ async fn artifact(state: Shared, id: String, name: String, rest: String) -> Resu
 }
 
 #[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct CompareQuery {
     ids: Option<String>,
+    group: Option<String>,
 }
 
 async fn compare(
@@ -719,7 +739,126 @@ async fn compare(
         .map(str::to_string)
         .collect();
     let runs = state.runs.clone();
-    blocking(move || runs.compare(&ids).map(Json)).await
+    blocking(move || runs.compare(&ids, q.group.as_deref()).map(Json)).await
+}
+
+/// A file a run wrote (one of its lineage outputs), read only inside the project.
+async fn output_file(
+    State(state): State<Shared>,
+    Path((id, name, path)): Path<(String, String, String)>,
+) -> Result<Response, ApiError> {
+    let runs = state.runs.clone();
+    let root = state.cfg.root.clone();
+    let (bytes, file) = blocking(move || {
+        let details = runs.details(&id)?;
+        let file = crate::results::output_path(&root, &details, &name, &path)?;
+        if !file.is_file() {
+            return Err(ApiError::not_found(format!("{} is not a file", file.display())));
+        }
+        let bytes =
+            std::fs::read(&file).map_err(|e| ApiError::internal(format!("{}: {e}", file.display())))?;
+        Ok((
+            bytes,
+            file.file_name()
+                .map(|f| f.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+        ))
+    })
+    .await?;
+    Ok(untrusted(content_type(&file), bytes))
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TableQuery {
+    run: Option<String>,
+}
+
+async fn forecast_table(
+    State(state): State<Shared>,
+    Q(q): Q<TableQuery>,
+) -> Result<Json<serde_json::Value>, ApiError> {
+    let runs = state.runs.clone();
+    let root = state.cfg.root.clone();
+    blocking(move || {
+        let id = crate::results::run_param(q.run.as_deref())?;
+        crate::results::forecast_table(&runs, &root, id).map(Json)
+    })
+    .await
+}
+
+async fn rl_table(
+    State(state): State<Shared>,
+    Q(q): Q<TableQuery>,
+) -> Result<Json<serde_json::Value>, ApiError> {
+    let runs = state.runs.clone();
+    let root = state.cfg.root.clone();
+    blocking(move || {
+        let id = crate::results::run_param(q.run.as_deref())?;
+        crate::results::rl_table(&runs, &root, id).map(Json)
+    })
+    .await
+}
+
+async fn datasets(State(state): State<Shared>) -> Result<Json<serde_json::Value>, ApiError> {
+    let runs = state.runs.clone();
+    let root = state.cfg.root.clone();
+    blocking(move || crate::results::datasets(&runs, &root).map(Json)).await
+}
+
+async fn dataset(
+    State(state): State<Shared>,
+    Path(name): Path<String>,
+) -> Result<Json<serde_json::Value>, ApiError> {
+    let runs = state.runs.clone();
+    let root = state.cfg.root.clone();
+    blocking(move || crate::results::dataset(&runs, &root, &name).map(Json)).await
+}
+
+async fn dataset_file(
+    State(state): State<Shared>,
+    Path((name, file)): Path<(String, String)>,
+) -> Result<Response, ApiError> {
+    let runs = state.runs.clone();
+    let root = state.cfg.root.clone();
+    let (bytes, file) = blocking(move || {
+        let path = crate::results::dataset_file(&runs, &root, &name, &file)?;
+        let bytes =
+            std::fs::read(&path).map_err(|e| ApiError::internal(format!("{}: {e}", path.display())))?;
+        Ok((bytes, file))
+    })
+    .await?;
+    Ok(untrusted(content_type(&file), bytes))
+}
+
+async fn rerun_index(State(state): State<Shared>) -> Result<Response, ApiError> {
+    rerun_asset(state, "index.html".to_string()).await
+}
+
+async fn rerun_file(State(state): State<Shared>, Path(file): Path<String>) -> Result<Response, ApiError> {
+    rerun_asset(state, file).await
+}
+
+/// A file of Rerun's web viewer (only the files it is made of).
+async fn rerun_asset(state: Shared, file: String) -> Result<Response, ApiError> {
+    let Some(name) = crate::rerun_viewer::FILES.iter().find(|f| **f == file) else {
+        return Err(ApiError::not_found(format!(
+            "Rerun's viewer has no file `{}`",
+            short(&file)
+        )));
+    };
+    let path = state.rerun.dir().await?.join(name);
+    let bytes = tokio::fs::read(&path)
+        .await
+        .map_err(|e| ApiError::internal(format!("{}: {e}", path.display())))?;
+    Ok((
+        [
+            (header::CONTENT_TYPE, crate::rerun_viewer::content_type(name)),
+            (header::CACHE_CONTROL, "max-age=3600"),
+        ],
+        Body::from(bytes),
+    )
+        .into_response())
 }
 
 /// A file written by a pipeline: shown, never run as this server's page (no scripts, its

@@ -11,6 +11,8 @@ pub mod fire;
 pub mod forecast;
 pub mod jobs;
 pub mod overview;
+pub mod rerun_viewer;
+pub mod results;
 pub mod runs;
 mod session;
 
@@ -47,6 +49,8 @@ pub struct ServeConfig {
     pub max_queued_jobs: usize,
     /// Live fires at once at most.
     pub max_fires: usize,
+    /// The `rerun` CLI whose web viewer opens the recordings (`rerun-sdk` in the venv).
+    pub rerun_cli: PathBuf,
 }
 
 impl ServeConfig {

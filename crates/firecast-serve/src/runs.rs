@@ -185,6 +185,14 @@ impl Runs {
         })
     }
 
+    /// Every registered dataset version.
+    pub fn datasets(&self) -> Result<Vec<firecast_registry::DatasetRow>, ApiError> {
+        if self.stamp().is_none() {
+            return Ok(Vec::new());
+        }
+        self.open()?.list_datasets().map_err(registry_error)
+    }
+
     pub fn details(&self, id: &str) -> Result<firecast_registry::RunDetails, ApiError> {
         check_run_id(id)?;
         self.open()?.run_details(id).map_err(registry_error)
@@ -198,7 +206,7 @@ impl Runs {
     }
 
     /// Parameters by dotted name, differing ones, and metric summaries side by side.
-    pub fn compare(&self, ids: &[String]) -> Result<serde_json::Value, ApiError> {
+    pub fn compare(&self, ids: &[String], group: Option<&str>) -> Result<serde_json::Value, ApiError> {
         if ids.len() < 2 || ids.len() > 20 {
             return Err(ApiError::bad("compare 2 to 20 runs: ?ids=a,b"));
         }
@@ -238,18 +246,22 @@ impl Runs {
                 .collect();
             metrics.insert(key.clone(), serde_json::json!(per_run));
         }
+        let grouped = group
+            .filter(|g| !g.is_empty())
+            .map(|g| crate::results::group(&details, g));
         Ok(serde_json::json!({
             "runs": details.iter().map(|d| &d.run).collect::<Vec<_>>(),
             "params": params,
             "differing": differing,
             "metrics": metrics,
+            "grouped": grouped,
         }))
     }
 }
 
 /// Nested parameters as dotted names (`ppo.gamma`, `models[1].kind`): compared by name, never
 /// by position in a list of runs.
-fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<String, serde_json::Value>) {
+pub(crate) fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<String, serde_json::Value>) {
     match v {
         serde_json::Value::Object(map) if !map.is_empty() => {
             for (k, x) in map {
