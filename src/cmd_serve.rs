@@ -124,9 +124,12 @@ pub struct BenchServeArgs {
     /// Live fires in the frame-rate phase.
     #[arg(long, default_value_t = 20)]
     pub speed_clients: usize,
-    /// Clients requesting the runs table as fast as they can.
+    /// Clients requesting the runs table.
     #[arg(long, default_value_t = 8)]
     pub http_clients: usize,
+    /// Runs-table requests a second the clients offer together (0: as fast as they can).
+    #[arg(long, default_value_t = 1250.0)]
+    pub http_rate: f64,
     /// Seconds of the load phase.
     #[arg(long, default_value_t = 30.0)]
     pub seconds: f64,
@@ -164,6 +167,7 @@ pub fn bench(settings: &Settings, args: &BenchServeArgs) -> anyhow::Result<ExitC
         clients: args.clients,
         speed_clients: args.speed_clients,
         http_clients: args.http_clients,
+        http_rate: args.http_rate.max(0.0),
         seconds: args.seconds,
         agent: args.agent.clone(),
     };
@@ -176,7 +180,7 @@ pub fn bench(settings: &Settings, args: &BenchServeArgs) -> anyhow::Result<ExitC
     .map_err(|e| anyhow::anyhow!(e))?;
     let goals = [
         (
-            "first frame p99 <= 200 ms",
+            "first frame p99 <= 200 ms (fires started while the others stream)",
             r.first_frame.p99_ms <= GOAL_FIRST_FRAME_MS,
         ),
         ("30 frames/s to each client", r.speed_fps_min >= GOAL_FPS * 0.98),
@@ -212,16 +216,30 @@ pub fn bench(settings: &Settings, args: &BenchServeArgs) -> anyhow::Result<ExitC
             r.clients, r.seconds, r.fires_started, r.frames
         );
         println!(
-            "  first frame   p50 {:.1} ms, p99 {:.1} ms, max {:.1} ms",
-            r.first_frame.p50_ms, r.first_frame.p99_ms, r.first_frame.max_ms
+            "  first frame   p50 {:.1} ms, p99 {:.1} ms, max {:.1} ms ({} fires started while the others stream)",
+            r.first_frame.p50_ms, r.first_frame.p99_ms, r.first_frame.max_ms, r.first_frame.count
+        );
+        println!(
+            "                p50 {:.1} ms, p99 {:.1} ms, max {:.1} ms (the opening burst: {} asked for at once)",
+            r.first_frame_burst.p50_ms,
+            r.first_frame_burst.p99_ms,
+            r.first_frame_burst.max_ms,
+            r.first_frame_burst.count
         );
         println!(
             "  frame late    p50 {:.1} ms, p99 {:.1} ms (against 30 frames/s)",
             r.frame_lateness.p50_ms, r.frame_lateness.p99_ms
         );
         println!(
-            "  runs table    {:.0} requests/s, p50 {:.1} ms, p99 {:.1} ms",
-            r.http_per_second, r.http_latency.p50_ms, r.http_latency.p99_ms
+            "  runs table    {:.0} requests/s ({}), p50 {:.1} ms, p99 {:.1} ms",
+            r.http_per_second,
+            if args.http_rate > 0.0 {
+                format!("{:.0} offered", args.http_rate)
+            } else {
+                "as fast as the clients can".to_string()
+            },
+            r.http_latency.p50_ms,
+            r.http_latency.p99_ms
         );
         println!(
             "  errors        {}{}",

@@ -599,10 +599,15 @@ async fn job_file(
     Ok(untrusted(content_type(&name), bytes))
 }
 
-async fn runs_page(State(state): State<Shared>, Q(q): Q<RunsQuery>) -> Result<Response, ApiError> {
+async fn runs_page(
+    State(state): State<Shared>,
+    uri: axum::http::Uri,
+    Q(q): Q<RunsQuery>,
+) -> Result<Response, ApiError> {
     let runs = state.runs.clone();
-    let page = blocking(move || runs.page(&q)).await?;
-    Ok(Json(page).into_response())
+    let key = uri.query().unwrap_or_default().to_string();
+    let bytes = blocking(move || runs.page_json(&q, &key)).await?;
+    Ok(([(header::CONTENT_TYPE, "application/json")], Body::from(bytes)).into_response())
 }
 
 async fn runs_csv(State(state): State<Shared>, Q(mut q): Q<RunsQuery>) -> Result<Response, ApiError> {

@@ -4,9 +4,12 @@
 //! 1. the runs page with that many runs in the registry (first answer, then warm),
 //! 2. `speed_clients` live fires played at the default 30 frames a second each (the frame
 //!    rate each client gets),
-//! 3. `clients` live fires for `seconds` while `http_clients` request the runs table as
-//!    fast as they can: frame lateness against each fire's 30 frames-a-second schedule,
-//!    first-frame latency, requests a second, errors, and the server's peak memory.
+//! 3. `clients` live fires for `seconds` while `http_clients` request the runs table at
+//!    `http_rate` requests a second between them (0: as fast as they can): frame lateness
+//!    against each fire's 30 frames-a-second schedule, first-frame latency (of the fires
+//!    started while the others stream — each client starts its next fire when one ends — and
+//!    apart, of the opening burst of `clients` fires asked for at the same instant),
+//!    requests a second, errors, and the server's peak memory.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -33,6 +36,8 @@ pub struct BenchConfig {
     pub clients: usize,
     pub speed_clients: usize,
     pub http_clients: usize,
+    /// Requests a second offered by the runs-table clients together (0: unpaced).
+    pub http_rate: f64,
     pub seconds: f64,
     pub agent: String,
 }
@@ -76,7 +81,10 @@ pub struct BenchReport {
     pub seconds: f64,
     pub frames: u64,
     pub fires_started: u64,
+    /// Fires started while the others stream.
     pub first_frame: Latency,
+    /// The opening burst: `clients` fires asked for at the same instant.
+    pub first_frame_burst: Latency,
     /// How late each frame arrived against its fire's 30 frames-a-second schedule.
     pub frame_lateness: Latency,
     pub http_requests: u64,
@@ -294,6 +302,7 @@ async fn load(cfg: &BenchConfig, addr: &str, pid: u32, say: &dyn Fn(&str)) -> Re
             tokio::spawn(page_client(
                 http.clone(),
                 format!("{base}/api/runs?limit=50"),
+                cfg.http_rate / cfg.http_clients.max(1) as f64,
                 deadline,
                 stats.clone(),
             ))
@@ -321,6 +330,7 @@ async fn load(cfg: &BenchConfig, addr: &str, pid: u32, say: &dyn Fn(&str)) -> Re
         frames: stats.frames.load(Ordering::Relaxed),
         fires_started: stats.fires.load(Ordering::Relaxed),
         first_frame: Latency::of(lock(&stats.first_frame)),
+        first_frame_burst: Latency::of(lock(&stats.first_frame_burst)),
         frame_lateness: Latency::of(lock(&stats.lateness)),
         http_requests: requests,
         http_per_second: requests as f64 / elapsed,
@@ -344,6 +354,7 @@ struct Stats {
     requests: AtomicU64,
     errors: AtomicU64,
     first_frame: std::sync::Mutex<Vec<f64>>,
+    first_frame_burst: std::sync::Mutex<Vec<f64>>,
     lateness: std::sync::Mutex<Vec<f64>>,
     http: std::sync::Mutex<Vec<f64>>,
     examples: std::sync::Mutex<Vec<String>>,
@@ -367,8 +378,10 @@ async fn fire_client(url: String, first_seed: u64, deadline: Instant, stats: Arc
     let began = Instant::now();
     let mut frames = 0u64;
     let mut seed = first_seed;
+    let mut opening = true;
     'fires: while Instant::now() < deadline {
         let asked = Instant::now();
+        let burst = std::mem::take(&mut opening);
         let mut ws = match tokio_tungstenite::connect_async(format!("{url}&seed={}", seed % 1_000_000)).await
         {
             Ok((ws, _)) => ws,
@@ -405,7 +418,12 @@ async fn fire_client(url: String, first_seed: u64, deadline: Instant, stats: Arc
                     match first {
                         None => {
                             first = Some(now);
-                            if let Ok(mut v) = stats.first_frame.lock() {
+                            let sample = if burst {
+                                &stats.first_frame_burst
+                            } else {
+                                &stats.first_frame
+                            };
+                            if let Ok(mut v) = sample.lock() {
                                 v.push((now - asked).as_secs_f64() * 1e3);
                             }
                         }
@@ -432,8 +450,22 @@ async fn fire_client(url: String, first_seed: u64, deadline: Instant, stats: Arc
     (frames, began.elapsed().as_secs_f64())
 }
 
-async fn page_client(http: reqwest::Client, url: String, deadline: Instant, stats: Arc<Stats>) {
+/// Requests the page until the deadline, `per_second` a second (0: back to back).
+async fn page_client(
+    http: reqwest::Client,
+    url: String,
+    per_second: f64,
+    deadline: Instant,
+    stats: Arc<Stats>,
+) {
+    let began = Instant::now();
+    let mut sent = 0u32;
     while Instant::now() < deadline {
+        if per_second > 0.0 {
+            let due = began + Duration::from_secs_f64(f64::from(sent) / per_second);
+            tokio::time::sleep_until(due.into()).await;
+        }
+        sent += 1;
         let t = Instant::now();
         match http
             .get(&url)

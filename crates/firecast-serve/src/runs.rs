@@ -2,7 +2,7 @@
 //! writing it), the runs table kept in memory until the file changes, filtered, sorted and
 //! paged here; run details, metric series, logs, artifacts and comparisons.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::SystemTime;
@@ -16,7 +16,13 @@ use crate::error::{ApiError, Code};
 pub struct Runs {
     path: PathBuf,
     cache: Mutex<Option<Cached>>,
+    /// Pages as sent, by query, for the registry state they were made from: the runs table
+    /// polled by many pages costs one lookup while nothing is written.
+    pages: Mutex<HashMap<String, ((SystemTime, u64), axum::body::Bytes)>>,
 }
+
+/// Pages kept at most (then the cache starts over).
+const PAGES_KEPT: usize = 256;
 
 struct Cached {
     stamp: (SystemTime, u64),
@@ -78,6 +84,7 @@ impl Runs {
         Self {
             path,
             cache: Mutex::new(None),
+            pages: Mutex::new(HashMap::new()),
         }
     }
 
@@ -123,6 +130,27 @@ impl Runs {
         Ok(rows)
     }
 
+    /// One page of the runs table as JSON, from the page cache when the registry has not
+    /// changed since it was made (`key`: the request's query string).
+    pub fn page_json(&self, q: &RunsQuery, key: &str) -> Result<axum::body::Bytes, ApiError> {
+        let stamp = self.stamp().unwrap_or((SystemTime::UNIX_EPOCH, 0));
+        if let Some((s, bytes)) = self.pages.lock().unwrap_or_else(|e| e.into_inner()).get(key)
+            && *s == stamp
+        {
+            return Ok(bytes.clone());
+        }
+        let page = self.page(q)?;
+        let bytes = axum::body::Bytes::from(
+            serde_json::to_vec(&page).map_err(|e| ApiError::internal(e.to_string()))?,
+        );
+        let mut pages = self.pages.lock().unwrap_or_else(|e| e.into_inner());
+        if pages.len() >= PAGES_KEPT {
+            pages.clear();
+        }
+        pages.insert(key.to_string(), (stamp, bytes.clone()));
+        Ok(bytes)
+    }
+
     /// One page of the runs table.
     pub fn page(&self, q: &RunsQuery) -> Result<RunsPage, ApiError> {
         let all = self.all()?;
@@ -143,17 +171,7 @@ impl Runs {
             })
             .collect();
         let key = q.sort.as_deref().unwrap_or("started_at");
-        let text = |r: &RunRow| -> String {
-            match key {
-                "run_id" => r.run_id.clone(),
-                "pipeline" => r.pipeline.clone(),
-                "stage" => r.stage.clone().unwrap_or_default(),
-                "kind" => r.kind.clone(),
-                "status" => r.status.clone(),
-                "ended_at" => r.ended_at.clone().unwrap_or_default(),
-                _ => r.started_at.clone(),
-            }
-        };
+        // Borrowed keys: a page of 10,000 runs is sorted per request without allocating.
         match key {
             "duration_secs" => rows.sort_by(|a, b| {
                 a.duration_secs
@@ -162,7 +180,11 @@ impl Runs {
                     .then_with(|| a.run_id.cmp(&b.run_id))
             }),
             "run_id" | "pipeline" | "stage" | "kind" | "status" | "ended_at" | "started_at" => {
-                rows.sort_by(|a, b| text(a).cmp(&text(b)).then_with(|| a.run_id.cmp(&b.run_id)))
+                rows.sort_by(|a, b| {
+                    sort_text(a, key)
+                        .cmp(sort_text(b, key))
+                        .then_with(|| a.run_id.cmp(&b.run_id))
+                })
             }
             other => {
                 return Err(ApiError::bad(format!(
@@ -256,6 +278,19 @@ impl Runs {
             "metrics": metrics,
             "grouped": grouped,
         }))
+    }
+}
+
+/// The text a sort key compares (borrowed: no allocation per comparison).
+fn sort_text<'a>(r: &'a RunRow, key: &str) -> &'a str {
+    match key {
+        "run_id" => &r.run_id,
+        "pipeline" => &r.pipeline,
+        "stage" => r.stage.as_deref().unwrap_or_default(),
+        "kind" => &r.kind,
+        "status" => &r.status,
+        "ended_at" => r.ended_at.as_deref().unwrap_or_default(),
+        _ => &r.started_at,
     }
 }
 

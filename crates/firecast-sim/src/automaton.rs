@@ -52,6 +52,38 @@ const BFS_STEPS: [(i32, i32); 4] = [(-1, 0), (1, 0), (0, -1), (0, 1)];
 /// Bit pattern of a [`Automaton::rate_cache`] entry not yet computed (a NaN payload that no
 /// arithmetic produces).
 const RATE_UNSET: u64 = 0x7ff8_dead_beef_0001;
+/// Source cells per block of the rate cache (a power of two).
+const RATE_BLOCK_CELLS: usize = 64;
+
+/// The memoised spread rates, allocated a block of source cells at a time when a fire first
+/// reaches it: a fire touches a small part of its map, and a server running 200 live fires
+/// should not hold (and clear) every map's full table up front. Blocks are shared by clones.
+struct RateCache {
+    blocks: Box<[std::sync::OnceLock<Box<[AtomicU64]>>]>,
+    per_cell: usize,
+}
+
+impl RateCache {
+    fn new(cells: usize, per_cell: usize) -> Self {
+        Self {
+            blocks: (0..cells.div_ceil(RATE_BLOCK_CELLS))
+                .map(|_| std::sync::OnceLock::new())
+                .collect(),
+            per_cell,
+        }
+    }
+
+    /// The entry of source `c` along offset `k`.
+    #[inline(always)]
+    fn entry(&self, c: usize, k: usize) -> &AtomicU64 {
+        let block = self.blocks[c / RATE_BLOCK_CELLS].get_or_init(|| {
+            (0..RATE_BLOCK_CELLS * self.per_cell)
+                .map(|_| AtomicU64::new(RATE_UNSET))
+                .collect()
+        });
+        &block[(c % RATE_BLOCK_CELLS) * self.per_cell + k]
+    }
+}
 
 /// Fire state of a cell (docs/spec/fire-model.md §A6.1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -460,13 +492,13 @@ pub struct Automaton {
     survivor: Vec<bool>,
     in_sched: Vec<bool>,
     new_ign: Vec<f64>,
-    /// Memoised spread rate from source cell `c` along offset `k` (index `c * offsets + k`, so
-    /// one source's entries are contiguous) for the unmodified landscape: no helitack drop on
+    /// Memoised spread rate from source cell `c` along offset `k` (one source's entries
+    /// contiguous, in blocks of sources allocated on first use) for the unmodified landscape: no helitack drop on
     /// the target, no fire line on the target or the source. The rate is then a pure function
     /// of (fuel entry, offset, rise), so entries stay valid across resets; `RATE_UNSET` marks
     /// an entry not yet computed. Shared by clones: two threads filling the same entry store
     /// the same bits, so relaxed atomics suffice and results do not depend on the schedule.
-    rate_cache: Arc<[AtomicU64]>,
+    rate_cache: Arc<RateCache>,
     // Active lists and scratch.
     burning: Vec<u32>,
     scheduled: Vec<u32>,
@@ -671,9 +703,7 @@ impl Automaton {
             }
         }
 
-        let rate_cache: Arc<[AtomicU64]> = (0..n * offsets.len())
-            .map(|_| AtomicU64::new(RATE_UNSET))
-            .collect();
+        let rate_cache = Arc::new(RateCache::new(n, offsets.len()));
         let base_elev: Vec<f64> = landscape.elevation_ft.iter().map(|&e| f64::from(e)).collect();
         let mut a = Self {
             width: w,
@@ -1082,11 +1112,10 @@ impl Automaton {
         let off = self.offsets[k];
         let cacheable = self.drops[n] == 0 && (self.flags[n] | self.flags[c]) & FLAG_FIRE_LINE == 0;
         let r = if cacheable {
-            let e = c * self.offsets.len() + k;
-            let v = self.rate_cache[e].load(Ordering::Relaxed);
+            let v = self.rate_cache.entry(c, k).load(Ordering::Relaxed);
             if v == RATE_UNSET {
                 let r = self.rate(n, &off, self.elev[n] - self.elev[c]);
-                self.rate_cache[e].store(r.to_bits(), Ordering::Relaxed);
+                self.rate_cache.entry(c, k).store(r.to_bits(), Ordering::Relaxed);
                 r
             } else {
                 f64::from_bits(v)
@@ -1268,6 +1297,10 @@ impl Automaton {
     }
     pub fn helitack_drops(&self, i: usize) -> u8 {
         self.drops[i]
+    }
+    /// Helitack drops per cell, row-major (what [`Self::helitack_drops`] gives cell by cell).
+    pub fn helitack_drop_counts(&self) -> &[u8] {
+        &self.drops
     }
     /// Non-burnable ("river") cell.
     pub fn is_non_burnable(&self, i: usize) -> bool {
