@@ -18,7 +18,7 @@ pub enum RunsCommand {
         /// Only runs of this stage (or foreach base).
         #[arg(long)]
         stage: Option<String>,
-        /// Only runs with this status (running, succeeded, failed, restored).
+        /// Only runs with this status (running, succeeded, failed, restored, or crashed: left running by a process that is gone).
         #[arg(long)]
         status: Option<String>,
         /// At most this many runs.

@@ -264,3 +264,59 @@ fn two_pipeline_runs_and_a_reader_share_one_registry_at_once() {
         assert_eq!(shown["metrics"][0]["count"], 6);
     }
 }
+
+#[test]
+fn runs_of_a_killed_process_read_as_crashed() {
+    let p = Project::new();
+    p.write(
+        "pipelines/long.yaml",
+        r#"
+stages:
+  wait:
+    uses: cmd
+    params:
+      command: sleep 20 && echo done > ${outputs.o}
+    outputs: {o: out/long.txt}
+"#,
+    );
+    let mut child = p
+        .firecast()
+        .args(["--json", "pipeline", "run", "pipelines/long.yaml"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait until the stage run is recorded as running, then kill the process under it.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(30);
+    loop {
+        let running = p.json(&["runs", "list", "--status", "running"]);
+        if running.as_array().is_some_and(|r| r.len() == 2) {
+            break;
+        }
+        assert!(std::time::Instant::now() < deadline, "never running: {running}");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let runs = p.json(&["runs", "list"]);
+    let statuses: Vec<&str> = runs
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["status"].as_str().unwrap())
+        .collect();
+    assert_eq!(statuses, ["crashed", "crashed"], "{runs:#}");
+    assert_eq!(
+        p.json(&["runs", "list", "--status", "crashed"])
+            .as_array()
+            .unwrap()
+            .len(),
+        2
+    );
+    assert!(
+        p.json(&["runs", "list", "--status", "running"])
+            .as_array()
+            .unwrap()
+            .is_empty()
+    );
+}

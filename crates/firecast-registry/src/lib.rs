@@ -70,6 +70,7 @@ CREATE TABLE IF NOT EXISTS artifacts (
     size BIGINT NOT NULL,
     created_at TIMESTAMP NOT NULL
 );
+CREATE TABLE IF NOT EXISTS run_owners (run_id VARCHAR PRIMARY KEY, owner VARCHAR NOT NULL);
 CREATE TABLE IF NOT EXISTS lineage (
     run_id VARCHAR NOT NULL,
     direction VARCHAR NOT NULL,
@@ -645,6 +646,12 @@ impl Registry {
                     cache_key
                 ],
             )?;
+            // Who runs it: a reader can then tell a run whose process is gone (`crashed`)
+            // from one still going.
+            conn.execute(
+                "INSERT INTO run_owners VALUES (?, ?) ON CONFLICT DO UPDATE SET owner = excluded.owner",
+                params![run_id, owner::this_process()],
+            )?;
             Ok(())
         })
     }
@@ -795,22 +802,46 @@ impl Registry {
         )
     }
 
-    /// Runs, newest first.
+    /// Runs, newest first. A `running` run whose process is gone from this machine reads as
+    /// `crashed` (and filters as such).
     pub fn list_runs(&self, filter: &RunFilter) -> Result<Vec<RunRow>, RegistryError> {
-        let (clause, args) = filter_clause(filter);
-        let mut sql = format!("{RUN_SELECT}{clause} ORDER BY started_at DESC, run_id DESC");
-        if let Some(limit) = filter.limit {
-            sql.push_str(&format!(" LIMIT {limit}"));
+        let wanted = filter.status.clone();
+        let liveness = matches!(wanted.as_deref(), Some("running" | "crashed"));
+        let mut sql_filter = filter.clone();
+        if liveness {
+            sql_filter.status = Some("running".into());
         }
+        let (clause, args) = filter_clause(&sql_filter);
         self.with_conn(|conn| {
+            let mut sql = format!(
+                "{}{clause} ORDER BY started_at DESC, run_id DESC",
+                run_select(conn)?
+            );
+            if let (Some(limit), false) = (filter.limit, liveness) {
+                sql.push_str(&format!(" LIMIT {limit}"));
+            }
             let mut stmt = conn.prepare(&sql)?;
             let rows = stmt.query_map(duckdb::params_from_iter(args.iter()), run_row)?;
-            Ok(rows.collect::<Result<_, _>>()?)
+            let mut rows: Vec<RunRow> = rows.collect::<Result<_, _>>()?;
+            if liveness {
+                rows.retain(|r| Some(r.status.as_str()) == wanted.as_deref());
+                if let Some(limit) = filter.limit {
+                    rows.truncate(limit);
+                }
+            }
+            Ok(rows)
         })
     }
 
     /// How many runs match (the filter's limit aside).
     pub fn count_runs(&self, filter: &RunFilter) -> Result<u64, RegistryError> {
+        if matches!(filter.status.as_deref(), Some("running" | "crashed")) {
+            let all = RunFilter {
+                limit: None,
+                ..filter.clone()
+            };
+            return Ok(self.list_runs(&all)?.len() as u64);
+        }
         let (clause, args) = filter_clause(filter);
         self.with_conn(|conn| {
             let n: i64 = conn.query_row(
@@ -831,8 +862,9 @@ impl Registry {
     pub fn run_details(&self, id_or_prefix: &str) -> Result<RunDetails, RegistryError> {
         self.with_conn(|conn| {
             let run_id = resolve_run_id(conn, id_or_prefix)?;
+            let select = run_select(conn)?;
             let run = conn.query_row(
-                &format!("{RUN_SELECT} WHERE run_id = ?"),
+                &format!("{select} WHERE run_id = ?"),
                 params![run_id],
                 run_row,
             )?;
@@ -877,7 +909,7 @@ impl Registry {
                 })?
                 .collect::<Result<_, _>>()?;
             let mut stmt = conn.prepare(&format!(
-                "{RUN_SELECT} WHERE pipeline_run_id = ? ORDER BY started_at, run_id"
+                "{select} WHERE pipeline_run_id = ? ORDER BY started_at, run_id"
             ))?;
             let children = stmt
                 .query_map(params![run_id], run_row)?
@@ -1093,10 +1125,83 @@ fn cell_to_json(array: &dyn duckdb::arrow::array::Array, row: usize) -> serde_js
     })
 }
 
-const RUN_SELECT: &str =
+const RUN_COLUMNS: &str =
     "SELECT run_id, pipeline_run_id, parent_run_id, pipeline, stage, kind, kind_version, params,
     status, strftime(started_at, '%Y-%m-%d %H:%M:%S'), strftime(ended_at, '%Y-%m-%d %H:%M:%S'),
-    epoch(ended_at) - epoch(started_at), git_commit, cache_key, error FROM runs";
+    epoch(ended_at) - epoch(started_at), git_commit, cache_key, error";
+
+/// The runs query, with each run's owner where the file records owners (registries written
+/// before `run_owners` existed, opened read-only, have none).
+fn run_select(conn: &Connection) -> Result<String, RegistryError> {
+    let owners: i64 = conn.query_row(
+        "SELECT count(*) FROM duckdb_tables() WHERE table_name = 'run_owners' AND database_name = current_database()",
+        [],
+        |r| r.get(0),
+    )?;
+    Ok(if owners > 0 {
+        format!("{RUN_COLUMNS}, (SELECT o.owner FROM run_owners o WHERE o.run_id = runs.run_id) FROM runs")
+    } else {
+        format!("{RUN_COLUMNS}, NULL FROM runs")
+    })
+}
+
+/// Which process runs a run: `host|boot id|pid|process start`, and whether it is gone.
+mod owner {
+    /// This process, as the registry records it.
+    pub fn this_process() -> String {
+        let pid = std::process::id();
+        format!(
+            "{}|{}|{pid}|{}",
+            host(),
+            boot_id(),
+            start_ticks(pid).unwrap_or_default()
+        )
+    }
+
+    fn read(path: &str) -> String {
+        std::fs::read_to_string(path)
+            .map(|s| s.trim().to_string())
+            .unwrap_or_default()
+    }
+
+    fn host() -> String {
+        read("/proc/sys/kernel/hostname")
+    }
+
+    fn boot_id() -> String {
+        read("/proc/sys/kernel/random/boot_id")
+    }
+
+    /// The process's start time in clock ticks after boot (`/proc/<pid>/stat` field 22): a
+    /// reused pid has another.
+    fn start_ticks(pid: u32) -> Option<String> {
+        let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+        // The command name (field 2) may hold spaces; fields after its `)` are plain.
+        let rest = stat.get(stat.rfind(')')? + 1..)?;
+        rest.split_whitespace().nth(19).map(str::to_string)
+    }
+
+    /// Whether the owner is known to be gone: recorded on this machine (same host name), and
+    /// either this machine has rebooted since or no process with that pid and start time
+    /// exists. Owners on other machines, or not recorded, are never called gone.
+    pub fn is_gone(owner: &str) -> bool {
+        let parts: Vec<&str> = owner.split('|').collect();
+        let [h, boot, pid, start] = parts[..] else {
+            return false;
+        };
+        let (here, this_boot) = (host(), boot_id());
+        if h.is_empty() || h != here || this_boot.is_empty() {
+            return false;
+        }
+        if boot != this_boot {
+            return true;
+        }
+        match pid.parse::<u32>() {
+            Ok(pid) => start_ticks(pid).is_none_or(|now| !start.is_empty() && now != start),
+            Err(_) => false,
+        }
+    }
+}
 
 fn artifact_row(r: &duckdb::Row<'_>) -> duckdb::Result<ArtifactRow> {
     Ok(ArtifactRow {
@@ -1119,7 +1224,15 @@ fn run_row(r: &duckdb::Row<'_>) -> duckdb::Result<RunRow> {
         kind: r.get(5)?,
         kind_version: r.get(6)?,
         params: serde_json::from_str(&params).unwrap_or(serde_json::Value::String(params)),
-        status: r.get(8)?,
+        status: {
+            let status: String = r.get(8)?;
+            let owner: Option<String> = r.get(15)?;
+            if status == "running" && owner.as_deref().is_some_and(owner::is_gone) {
+                "crashed".to_string()
+            } else {
+                status
+            }
+        },
         started_at: r.get(9)?,
         ended_at: r.get(10)?,
         duration_secs: r.get(11)?,
@@ -1263,6 +1376,66 @@ mod tests {
                 chrono::Utc::now(),
             )
             .unwrap();
+    }
+
+    #[test]
+    fn a_run_whose_process_is_gone_reads_as_crashed() {
+        let dir = tempfile::tempdir().unwrap();
+        let registry = Registry::open(&dir.path().join("r.duckdb")).unwrap();
+        for id in ["alive", "dead", "elsewhere", "unrecorded"] {
+            run(&registry, id);
+        }
+        // A process that has ended: its pid with the start time it had is gone.
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let dead_pid = child.id();
+        child.wait().unwrap();
+        let mine = owner::this_process();
+        let parts: Vec<&str> = mine.split('|').collect();
+        let dead = format!("{}|{}|{dead_pid}|1", parts[0], parts[1]);
+        let elsewhere = format!("another-host|{}|{dead_pid}|1", parts[1]);
+        registry
+            .with_conn(|conn| {
+                conn.execute(
+                    "UPDATE run_owners SET owner = ? WHERE run_id = 'dead'",
+                    params![dead],
+                )?;
+                conn.execute(
+                    "UPDATE run_owners SET owner = ? WHERE run_id = 'elsewhere'",
+                    params![elsewhere],
+                )?;
+                conn.execute("DELETE FROM run_owners WHERE run_id = 'unrecorded'", [])?;
+                Ok(())
+            })
+            .unwrap();
+        let status = |id: &str| registry.run_details(id).unwrap().run.status;
+        assert_eq!(status("alive"), "running");
+        assert_eq!(status("dead"), "crashed");
+        assert_eq!(
+            status("elsewhere"),
+            "running",
+            "another machine's process is not ours to judge"
+        );
+        assert_eq!(status("unrecorded"), "running");
+        let by = |s: &str| RunFilter {
+            status: Some(s.into()),
+            ..RunFilter::default()
+        };
+        let ids = |f: &RunFilter| {
+            registry
+                .list_runs(f)
+                .unwrap()
+                .into_iter()
+                .map(|r| r.run_id)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(ids(&by("crashed")), ["dead"]);
+        assert_eq!(ids(&by("running")).len(), 3);
+        assert_eq!(registry.count_runs(&by("crashed")).unwrap(), 1);
+        // A finished run is what it finished as, whoever ran it.
+        registry
+            .finish_run("dead", RunStatus::Succeeded, chrono::Utc::now(), None)
+            .unwrap();
+        assert_eq!(status("dead"), "succeeded");
     }
 
     #[test]
