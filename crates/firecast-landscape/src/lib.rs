@@ -13,6 +13,9 @@
 //!   written from Karney's (2011) Krüger series, [`georef::GridSpec`] (the simulation grid a
 //!   reader resamples onto) and the cell ⇄ lat/lon helpers on [`Landscape`];
 //! - [`geotiff`]: single-band GeoTIFF land cover / elevation with georeferencing;
+//! - [`landfire`]: LANDFIRE landscapes (fuel models, slope, aspect, elevation, canopy layers)
+//!   as LANDFIRE ships them, with nodata and unknown codes counted;
+//! - [`gridio`]: float32 GeoTIFF grids written with the input's georeference;
 //! - [`srtm`]: SRTM `.hgt` tiles;
 //! - [`firecastrl`]: FireCastRL palette PNG + 16-bit heightmap PNG (docs/spec/fire-model.md §A2);
 //! - [`procedural`]: seeded synthetic landscapes.
@@ -22,6 +25,8 @@ use std::path::PathBuf;
 pub mod firecastrl;
 pub mod georef;
 pub mod geotiff;
+pub mod gridio;
+pub mod landfire;
 pub mod procedural;
 mod resample;
 pub mod srtm;

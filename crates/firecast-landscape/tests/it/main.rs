@@ -16,3 +16,4 @@ pub fn fixture(name: &str) -> PathBuf {
     .join("tests/fixtures")
     .join(name)
 }
+mod landfire;
