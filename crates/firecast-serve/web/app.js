@@ -272,12 +272,20 @@ function fmtTimestamp(t) {
     const d = new Date(parseTime(t) * 1000);
     return d.toISOString().replace('T', ' ').replace(/\.\d+Z$/, ' UTC');
   }
-  return String(t);
+  return String(t).replace(/^(\d{4}-\d{2}-\d{2}[ T]\d{2}:\d{2}:\d{2})\.\d+$/, '$1');
 }
 
+/**
+ * A run id short enough for a table cell that still tells neighbouring runs apart: registry ids
+ * (`20261127T162113118-560bd8`) keep their time of day and random suffix (`16:21:13·560bd8`);
+ * other long ids keep their head and tail. The full id goes in the title.
+ */
 function shortId(id) {
   if (!id) return '—';
-  return id.length > 14 ? id.slice(0, 12) + '…' : id;
+  const s = String(id);
+  const m = s.match(/^\d{8}T(\d{2})(\d{2})(\d{2})\d*-([0-9a-z]+)$/i);
+  if (m) return `${m[1]}:${m[2]}:${m[3]}·${m[4]}`;
+  return s.length > 16 ? `${s.slice(0, 7)}…${s.slice(-7)}` : s;
 }
 
 function statusBadge(status, title) {
@@ -714,6 +722,18 @@ function route() {
     } else if (path === '/compare') {
       setNav('runs'); document.title = 'FireCast — compare runs';
       pageCompare(app, params, scope);
+    } else if (path === '/tables/forecast') {
+      setNav('table3'); document.title = 'FireCast — Table III';
+      pageTableForecast(app, params, scope);
+    } else if (path === '/tables/rl') {
+      setNav('table4'); document.title = 'FireCast — Table IV';
+      pageTableRl(app, params, scope);
+    } else if (path === '/datasets') {
+      setNav('datasets'); document.title = 'FireCast — datasets';
+      pageDatasets(app, params, scope);
+    } else if ((m = path.match(/^\/datasets\/(.+)$/))) {
+      setNav('datasets'); document.title = 'FireCast — dataset';
+      pageDataset(app, m[1], scope);
     } else {
       setNav('');
       document.title = 'FireCast';
@@ -2414,6 +2434,28 @@ function artifactPreview(a, runId) {
   return box;
 }
 
+/**
+ * The datasets a data.dataset run registered: those named after its `name` parameter (the
+ * dataset and its companions, `<name>_samples`), with the version this run made.
+ */
+async function runDatasets(run) {
+  const name = run.params && typeof run.params.name === 'string' ? run.params.name : '';
+  const list = (await api('/api/datasets')).datasets || [];
+  const candidates = list.filter((x) => x.name === name || (name && x.name.startsWith(`${name}_`)));
+  const out = [];
+  for (const c of candidates) {
+    let version = null;
+    try {
+      const d = await api(`/api/datasets/${enc(c.name)}`);
+      const v = (d.versions || []).find((x) => x.run_id === run.run_id);
+      if (!v && candidates.length > 1) continue;
+      version = v ? v.version : null;
+    } catch { /* listed without its version */ }
+    out.push({ name: c.name, version });
+  }
+  return out;
+}
+
 function pageRun(root, id, scope) {
   id = decodeURIComponent(id);
   const page = h('div', { id: 'run-page', 'data-testid': 'run-page' }, loading(`Loading run ${id}…`));
@@ -2439,6 +2481,22 @@ function pageRun(root, id, scope) {
     fact('Duration', fmtDuration(run.duration_secs));
     if (run.git_commit) fact('Git commit', h('code', null, run.git_commit));
     if (run.cache_key) fact('Cache key', h('code', null, run.cache_key));
+    const runId = run.run_id || id;
+    if (run.kind === 'forecast.experiment' && run.status === 'succeeded') {
+      fact('Results', h('a', { href: `#/tables/forecast?${qs({ run: runId })}`, id: 'run-table-link' }, 'Table III of this run'), h('span', { class: 'muted' }, ' (metrics with intervals, paired tests, plots)'));
+    } else if (run.kind === 'rl.evaluate' && run.status === 'succeeded') {
+      fact('Results', h('a', { href: `#/tables/rl?${qs({ run: runId })}`, id: 'run-table-link' }, 'Table IV of this run'), h('span', { class: 'muted' }, ' (agents with intervals, comparisons, recordings)'));
+    }
+    if (run.kind === 'data.dataset') {
+      const dd = h('dd', { id: 'run-datasets' }, loading('Looking for its datasets…'));
+      facts.append(h('dt', null, 'Datasets'), dd);
+      runDatasets(run).then((found) => {
+        if (!scope.alive) return;
+        fill(dd, found.length === 0 ? h('span', { class: 'muted' }, 'none registered by this run')
+          : found.map((f, k) => [k ? ' · ' : '', h('a', { href: `#/datasets/${enc(f.name)}` }, f.name),
+            f.version ? h('span', { class: 'mono small muted' }, ` ${f.version}`) : null]));
+      }).catch((e) => { if (scope.alive) fill(dd, errorBox(e, 'Datasets')); });
+    }
     const header = h('section', { class: 'card', id: 'run-header' },
       h('div', { class: 'card-head' },
         h('h2', { style: { overflowWrap: 'anywhere' } }, h('span', { class: 'mono', id: 'run-id' }, run.run_id || id)),
@@ -2478,6 +2536,7 @@ function pageRun(root, id, scope) {
         const row = h('div', { class: 'artifact', 'data-name': a.name },
           h('div', { class: 'toolbar', style: { margin: '4px 0' } },
             h('a', { href: url, target: '_blank', rel: 'noopener', class: 'mono' }, `${a.name}/${path}`),
+            ext === 'rrd' ? rerunLink(url, `${a.name}/${path}`) : null,
             h('span', { class: 'muted small' }, fmtBytes(a.size)),
             h('span', { class: 'muted small mono', title: a.hash }, a.hash ? `hash ${String(a.hash).slice(0, 12)}` : ''),
             h('span', { class: 'muted small mono', style: { overflowWrap: 'anywhere' } }, a.uri)));
@@ -2612,11 +2671,1077 @@ function pageCompare(root, params, scope) {
     fill(page,
       missing.length ? h('div', { class: 'warning' }, `Not found: ${missing.join(', ')}`) : null,
       h('section', { class: 'card', id: 'compare-runs' }, h('h3', null, `Runs (${runs.length})`), runsTable(runs, { id: 'compare-runs-table', colors })),
-      paramsCard, metricsCard, curvesCard);
+      paramsCard, metricsCard,
+      groupSection(scope, runs.map((r) => r.run_id), [...differing].sort(), params.get('group')),
+      curvesCard);
   }).catch((e) => {
     if (!scope.alive) return;
     showError(page, e, 'The runs could not be compared');
   });
+}
+
+// ============================================================================
+// Result pages: shared pieces (tables with intervals, plots, Rerun links, Markdown)
+// ============================================================================
+
+const f3 = (v) => (Math.abs(v) < 5e-4 ? 0 : v).toFixed(3);
+const fPct1 = (v) => (v * 100).toFixed(1);
+
+function finite(v) { return typeof v === 'number' && Number.isFinite(v) ? v : null; }
+
+/** A p-value: three decimals, or an exponent below 0.001. */
+function fmtP(p) {
+  if (!Number.isFinite(p)) return '—';
+  return p < 1e-3 ? p.toExponential(1) : p.toFixed(3);
+}
+
+/** A signed number for differences (+0.044, −374). */
+function fmtSigned(v, fmt) {
+  if (!Number.isFinite(v)) return '—';
+  const s = fmt(Math.abs(v));
+  return v > 0 ? `+${s}` : v < 0 ? `−${s}` : s;
+}
+
+/** A table cell with an estimate and, under it, its interval [low, high]. */
+function ciCell(est, lo, hi, fmt, opts = {}) {
+  const has = Number.isFinite(lo) && Number.isFinite(hi);
+  return h('td', { class: `num ci${opts.cls ? ' ' + opts.cls : ''}`, title: opts.title || null },
+    h('span', { class: 'est' }, Number.isFinite(est) ? fmt(est) : '—'),
+    has ? h('span', { class: 'ival' }, fmtInterval(lo, hi, fmt)) : null);
+}
+
+/** "[low, high]", or "[low … high]" when the numbers have thousands separators. */
+function fmtInterval(lo, hi, fmt) {
+  const a = fmt(lo);
+  const b = fmt(hi);
+  return `[${a}${(a + b).includes(',') ? ' … ' : ', '}${b}]`;
+}
+
+/** A bootstrap estimate object ({estimate, low, high}) as a cell. */
+function estCell(o, fmt, opts = {}) {
+  if (!o || typeof o !== 'object') return h('td', { class: 'num muted' }, '—');
+  return ciCell(finite(o.estimate), finite(o.low), finite(o.high), fmt, opts);
+}
+
+/**
+ * A table sorted by clicking a column head.
+ * columns: [{key, label, title, num, value(row) → sort key (none: not sortable), cell(row) → <td>,
+ *            best: 'max'|'min' (the best value of the column is marked)}]
+ * opts: {id, cls, columns, rows, sort: {key, order}, rowAttrs(row), empty}
+ */
+function sortableTable(opts) {
+  const st = { key: opts.sort ? opts.sort.key : null, order: opts.sort && opts.sort.order === 'asc' ? 'asc' : 'desc' };
+  const thead = h('thead');
+  const tbody = h('tbody');
+  const table = h('table', { id: opts.id || null, class: opts.cls || null }, thead, tbody);
+  const missing = (x) => x === null || x === undefined || x === '' || (typeof x === 'number' && !Number.isFinite(x));
+  const best = {};
+  for (const c of opts.columns) {
+    if (!c.best || !c.value) continue;
+    const vals = opts.rows.map(c.value).filter((v) => typeof v === 'number' && Number.isFinite(v));
+    if (vals.length > 1 && Math.min(...vals) !== Math.max(...vals)) best[c.key] = c.best === 'min' ? Math.min(...vals) : Math.max(...vals);
+  }
+  const render = () => {
+    const col = opts.columns.find((c) => c.key === st.key && c.value);
+    const rows = opts.rows.slice();
+    if (col) {
+      const dir = st.order === 'asc' ? 1 : -1;
+      rows.sort((a, b) => {
+        const x = col.value(a);
+        const y = col.value(b);
+        const xm = missing(x);
+        const ym = missing(y);
+        if (xm || ym) return Number(xm) - Number(ym);
+        if (typeof x === 'number' && typeof y === 'number') return (x - y) * dir;
+        return String(x).localeCompare(String(y), 'en', { numeric: true }) * dir;
+      });
+    }
+    thead.replaceChildren(h('tr', null, opts.columns.map((c) => {
+      const sortable = !!c.value;
+      const active = sortable && st.key === c.key;
+      const th = h('th', {
+        class: [sortable ? 'sortable' : '', c.num ? 'num' : ''].filter(Boolean).join(' ') || null,
+        'data-sort': c.key,
+        'aria-sort': sortable ? (active ? (st.order === 'asc' ? 'ascending' : 'descending') : 'none') : null,
+        tabindex: sortable ? 0 : null,
+        title: c.title || (sortable ? `Sort by ${c.label}` : null),
+      }, c.label, active ? h('span', { class: 'arrow' }, st.order === 'asc' ? '▲' : '▼') : null);
+      if (sortable) {
+        const go = () => {
+          if (st.key === c.key) st.order = st.order === 'asc' ? 'desc' : 'asc';
+          else { st.key = c.key; st.order = c.num ? (c.best === 'min' ? 'asc' : 'desc') : 'asc'; }
+          render();
+        };
+        th.addEventListener('click', go);
+        th.addEventListener('keydown', (ev) => { if (ev.key === 'Enter' || ev.key === ' ') { ev.preventDefault(); go(); } });
+      }
+      return th;
+    })));
+    tbody.replaceChildren(...(rows.length === 0
+      ? [h('tr', { class: 'empty-row' }, h('td', { colspan: opts.columns.length }, opts.empty || 'Nothing to show.'))]
+      : rows.map((r) => h('tr', opts.rowAttrs ? opts.rowAttrs(r) : null, opts.columns.map((c) => {
+        const td = c.cell(r);
+        if (best[c.key] !== undefined && c.value(r) === best[c.key]) {
+          td.classList.add('best');
+          td.title = `${td.title ? td.title + ' — ' : ''}best in this column`;
+        }
+        return td;
+      })))));
+  };
+  render();
+  return h('div', { class: 'table-wrap' }, table);
+}
+
+/** A plain table of objects (unknown shapes): one column per key. */
+function objectsTable(items, id) {
+  const first = ['name', 'split', 'tier', 'feature'];
+  const keys = [];
+  for (const it of items) for (const k of Object.keys(it || {})) if (!keys.includes(k)) keys.push(k);
+  keys.sort((a, b) => (first.indexOf(a) < 0 ? 99 : first.indexOf(a)) - (first.indexOf(b) < 0 ? 99 : first.indexOf(b)));
+  return h('div', { class: 'table-wrap' }, h('table', { id: id || null },
+    h('thead', null, h('tr', null, keys.map((k) => h('th', { class: items.some((it) => typeof (it || {})[k] === 'number') ? 'num' : null }, k)))),
+    h('tbody', null, items.map((it) => h('tr', null, keys.map((k) => {
+      const v = (it || {})[k];
+      return h('td', { class: typeof v === 'number' ? 'num' : 'wrap' }, typeof v === 'number' ? fmtNum(v) : fmtValue(v));
+    }))))));
+}
+
+/** The URL of a file a run wrote (one of its lineage outputs). */
+function outputUrl(runId, name, path) {
+  return `/api/runs/${enc(runId)}/outputs/${enc(name)}/${String(path).split('/').map(enc).join('/')}`;
+}
+
+/** Rerun's web viewer (served by this server) on a recording the server serves. */
+function rerunHref(fileUrl) {
+  return `/rerun/?url=${enc(new URL(fileUrl, location.href).href)}`;
+}
+
+function rerunLink(fileUrl, label) {
+  return h('a', {
+    class: 'button rerun-link', href: rerunHref(fileUrl), target: '_blank', rel: 'noopener',
+    title: `Open ${label || 'this recording'} in Rerun's web viewer (new tab; the viewer takes a few seconds to load)`,
+    'data-testid': 'open-rerun',
+  }, '▶ Open in Rerun');
+}
+
+/** A large view of an image over the page (Esc, the × or a click beside it closes it). */
+function openLightbox(scope, src, caption) {
+  let open = true;
+  const close = () => {
+    if (!open) return;
+    open = false;
+    box.remove();
+    document.removeEventListener('keydown', onKey);
+  };
+  const onKey = (ev) => { if (ev.key === 'Escape') close(); };
+  const closeBtn = h('button', { type: 'button', class: 'lightbox-close', 'aria-label': 'Close', onclick: close }, '×');
+  const box = h('div', { class: 'lightbox', role: 'dialog', 'aria-modal': 'true', 'aria-label': caption },
+    h('figure', null,
+      h('img', { src, alt: caption }),
+      h('figcaption', null, h('span', null, caption), h('a', { href: src, target: '_blank', rel: 'noopener' }, 'open the file'), closeBtn)));
+  box.addEventListener('click', (ev) => { if (ev.target === box) close(); });
+  document.body.append(box);
+  document.addEventListener('keydown', onKey);
+  scope.add(close);
+  closeBtn.focus();
+}
+
+/** A plot: large ones fill their column, thumbnails are small; a click enlarges either. */
+function plotFigure(scope, url, caption, large) {
+  const img = h('img', { src: url, alt: caption, loading: large ? 'eager' : 'lazy', class: 'plot-img' });
+  const fig = h('figure', { class: `plot ${large ? 'large' : 'thumb'}`, 'data-plot': url.split('/').pop() },
+    h('button', { type: 'button', class: 'plot-open', title: `Enlarge: ${caption}`, onclick: () => openLightbox(scope, url, caption) }, img),
+    h('figcaption', null, caption));
+  img.addEventListener('error', () => fig.replaceChildren(errorBox(new ApiError('preview', `${caption} (${url.split('/').pop()}) could not be loaded.`), 'Plot')));
+  return fig;
+}
+
+/** A picker of the runs a result page can show. */
+function runPicker(runs, current, onPick) {
+  const sel = h('select', { id: 'table-run', 'data-testid': 'table-run', 'aria-label': 'Run' },
+    runs.map((r) => h('option', { value: r.run_id, title: r.run_id },
+      `${fmtTimestamp(r.started_at)} · ${r.pipeline || '—'} / ${r.stage || '—'} · ${shortId(r.run_id)}`)));
+  if (current && !runs.some((r) => r.run_id === current)) sel.prepend(h('option', { value: current }, current));
+  sel.value = current;
+  sel.addEventListener('change', () => onPick(sel.value));
+  return h('label', { class: 'field' }, h('span', null, `Run (${runs.length})`), sel);
+}
+
+function safeId(s) { return String(s).replace(/[^A-Za-z0-9_-]/g, '_'); }
+
+// ---------- Markdown (dataset cards) ----------
+
+/**
+ * Markdown → DOM for dataset cards: headings, paragraphs, lists, tables, code blocks, quotes,
+ * rules; inline code, bold, italics, links and images. Only text nodes and fixed elements are
+ * made: HTML in the text shows as text. opts.link(href) → a URL or null (text only);
+ * opts.image(src, alt) → an element or null (the alt text in brackets).
+ */
+function renderMarkdown(text, opts = {}) {
+  const lines = String(text || '').replace(/\r\n?/g, '\n').split('\n');
+  const out = h('div', { class: 'markdown' });
+  let i = 0;
+  const indentOf = (l) => l.match(/^\s*/)[0].replace(/\t/g, '    ').length;
+  const isBlank = (l) => /^\s*$/.test(l);
+  const isFence = (l) => /^\s*(```|~~~)/.test(l);
+  const isHeading = (l) => /^#{1,6}\s/.test(l);
+  const isRule = (l) => /^\s{0,3}([-*_])(\s*\1){2,}\s*$/.test(l);
+  const listRe = /^(\s*)([-*+]|\d{1,9}[.)])\s+(.*)$/;
+  const isList = (l) => listRe.test(l) && !isRule(l);
+  const isQuote = (l) => /^\s{0,3}>/.test(l);
+  const delimRe = /^\s*\|?\s*:?-+:?\s*(\|\s*:?-+:?\s*)*\|?\s*$/;
+  const isTable = (k) => k + 1 < lines.length && lines[k].includes('|') && lines[k + 1].includes('-') && delimRe.test(lines[k + 1]);
+  const startsBlock = (k) => isFence(lines[k]) || isHeading(lines[k]) || isList(lines[k]) || isQuote(lines[k]) || isRule(lines[k]) || isTable(k);
+
+  const safeHref = (href) => {
+    const s = String(href).trim();
+    if (opts.link) return opts.link(s);
+    return /^(https?:|mailto:|#)/i.test(s) ? s : null;
+  };
+
+  function inline(s) {
+    const frag = document.createDocumentFragment();
+    const re = /(`+)([\s\S]*?[^`])\1(?!`)|!\[([^\]]*)\]\(\s*([^)\s]+)(?:\s+"[^"]*")?\s*\)|\[([^\]]+)\]\(\s*([^)\s]+)(?:\s+"[^"]*")?\s*\)|\*\*(?=\S)([\s\S]*?\S)\*\*|__(?=\S)([\s\S]*?\S)__(?![A-Za-z0-9])|\*(?=[^\s*])([\s\S]*?[^\s*])\*|(?<![A-Za-z0-9_])_(?=[^\s_])([\s\S]*?[^\s_])_(?![A-Za-z0-9_])|(https?:\/\/[^\s<>()]*[^\s<>().,;:!?'"])|( {2,}|\\)\n/g;
+    let last = 0;
+    let m;
+    while ((m = re.exec(s))) {
+      if (m.index > last) frag.append(s.slice(last, m.index));
+      last = re.lastIndex;
+      if (m[1]) frag.append(h('code', null, m[2].replace(/^ (.*) $/, '$1')));
+      else if (m[4] !== undefined) {
+        const el = opts.image ? opts.image(m[4], m[3]) : null;
+        frag.append(el || `[${m[3] || 'image'}]`);
+      } else if (m[6] !== undefined) {
+        const href = safeHref(m[6]);
+        frag.append(href ? h('a', { href, target: /^https?:/i.test(href) ? '_blank' : null, rel: 'noopener' }, inline(m[5])) : inline(m[5]));
+      } else if (m[7] !== undefined || m[8] !== undefined) frag.append(h('strong', null, inline(m[7] !== undefined ? m[7] : m[8])));
+      else if (m[9] !== undefined || m[10] !== undefined) frag.append(h('em', null, inline(m[9] !== undefined ? m[9] : m[10])));
+      else if (m[11]) frag.append(h('a', { href: m[11], target: '_blank', rel: 'noopener' }, m[11]));
+      else if (m[12]) frag.append(h('br'));
+    }
+    if (last < s.length) frag.append(s.slice(last));
+    return frag;
+  }
+
+  function splitRow(l) {
+    let s = l.trim();
+    if (s.startsWith('|')) s = s.slice(1);
+    if (s.endsWith('|') && !s.endsWith('\\|')) s = s.slice(0, -1);
+    const cells = [];
+    let cur = '';
+    let code = false;
+    for (let k = 0; k < s.length; k++) {
+      const c = s[k];
+      if (c === '\\' && s[k + 1] === '|') { cur += '|'; k++; continue; }
+      if (c === '`') code = !code;
+      if (c === '|' && !code) { cells.push(cur.trim()); cur = ''; continue; }
+      cur += c;
+    }
+    cells.push(cur.trim());
+    return cells;
+  }
+
+  function table() {
+    const head = splitRow(lines[i]);
+    const aligns = splitRow(lines[i + 1]).map((c) => (c.startsWith(':') && c.endsWith(':') ? 'center' : c.endsWith(':') ? 'right' : null));
+    i += 2;
+    const body = [];
+    while (i < lines.length && !isBlank(lines[i]) && lines[i].includes('|')) body.push(splitRow(lines[i++]));
+    const st = (k) => (aligns[k] ? { textAlign: aligns[k] } : null);
+    return h('div', { class: 'table-wrap' }, h('table', null,
+      h('thead', null, h('tr', null, head.map((c, k) => h('th', { style: st(k) }, inline(c))))),
+      h('tbody', null, body.map((r) => h('tr', null, head.map((_, k) => h('td', { style: st(k) }, inline(r[k] || ''))))))));
+  }
+
+  function list() {
+    const first = lines[i].match(listRe);
+    const indent = indentOf(first[1]);
+    const ordered = /\d/.test(first[2]);
+    const el = h(ordered ? 'ol' : 'ul');
+    if (ordered && parseInt(first[2], 10) !== 1) el.setAttribute('start', String(parseInt(first[2], 10)));
+    while (i < lines.length) {
+      const m = lines[i].match(listRe);
+      if (!m || isRule(lines[i]) || indentOf(m[1]) !== indent || /\d/.test(m[2]) !== ordered) break;
+      const li = h('li');
+      let text = [m[3]];
+      const flush = () => { if (text.length) { li.append(inline(text.join('\n'))); text = []; } };
+      i++;
+      while (i < lines.length) {
+        const l = lines[i];
+        if (isBlank(l)) {
+          let k = i + 1;
+          while (k < lines.length && isBlank(lines[k])) k++;
+          if (k < lines.length && indentOf(lines[k]) > indent) { i = k; if (!listRe.test(lines[k])) { flush(); } continue; }
+          if (k < lines.length && listRe.test(lines[k]) && indentOf(lines[k]) === indent) { i = k; }
+          break;
+        }
+        const lm = l.match(listRe);
+        if (lm && indentOf(lm[1]) > indent && !isRule(l)) { flush(); li.append(list()); continue; }
+        if (lm) break;
+        if (indentOf(l) > indent) {
+          if (isFence(l)) { flush(); li.append(fence()); continue; }
+          text.push(l.trim()); i++; continue;
+        }
+        if (startsBlock(i)) break;
+        text.push(l.trim()); // a lazy continuation line
+        i++;
+      }
+      flush();
+      el.append(li);
+    }
+    return el;
+  }
+
+  function fence() {
+    const open = lines[i].trim();
+    const marker = open.slice(0, 3);
+    const lang = open.slice(3).trim();
+    const indent = indentOf(lines[i]);
+    const body = [];
+    i++;
+    while (i < lines.length && !lines[i].trim().startsWith(marker)) body.push(lines[i++].slice(Math.min(indent, indentOf(lines[i - 1]))));
+    i++;
+    return h('pre', { class: 'block', 'data-lang': lang || null }, h('code', null, body.join('\n')));
+  }
+
+  function blocks(target, stopAt) {
+    while (i < lines.length && (stopAt === undefined || i < stopAt)) {
+      const line = lines[i];
+      if (isBlank(line)) { i++; continue; }
+      if (isFence(line)) { target.append(fence()); continue; }
+      const hm = line.match(/^(#{1,6})\s+(.*?)(\s+#+)?\s*$/);
+      if (hm) {
+        const level = Math.min(6, hm[1].length + (opts.shift || 0));
+        target.append(h(`h${level}`, { class: 'md-h' }, inline(hm[2])));
+        i++;
+        continue;
+      }
+      if (isRule(line)) { target.append(h('hr')); i++; continue; }
+      if (isTable(i)) { target.append(table()); continue; }
+      if (isList(line)) { target.append(list()); continue; }
+      if (isQuote(line)) {
+        const inner = [];
+        while (i < lines.length && isQuote(lines[i])) inner.push(lines[i++].replace(/^\s{0,3}>\s?/, ''));
+        target.append(h('blockquote', null, renderMarkdown(inner.join('\n'), opts)));
+        continue;
+      }
+      const para = [];
+      while (i < lines.length && !isBlank(lines[i]) && (para.length === 0 || !startsBlock(i))) para.push(lines[i++].replace(/^\s+/, ''));
+      target.append(h('p', null, inline(para.join('\n'))));
+    }
+  }
+
+  blocks(out);
+  return out;
+}
+
+// ============================================================================
+// Page 6: Table III (a forecast.experiment run)
+// ============================================================================
+
+const T3_METRICS = [
+  { key: 'accuracy', label: 'Accuracy [%]', fmt: fPct1 },
+  { key: 'precision', label: 'Precision' },
+  { key: 'recall', label: 'Recall' },
+  { key: 'f1', label: 'F1' },
+  { key: 'auroc', label: 'AUROC' },
+  { key: 'auprc', label: 'AUPRC' },
+  { key: 'brier', label: 'Brier', lower: true, title: 'Brier score (lower is better)' },
+  { key: 'ece', label: 'ECE', lower: true, title: 'Expected calibration error (lower is better)' },
+];
+
+const PLOT_KINDS = ['precision_recall', 'auroc_forest', 'auprc_forest', 'calibration', 'confusion', 'training', 'roc'];
+const PLOT_LABELS = {
+  roc: 'ROC curves',
+  precision_recall: 'Precision–recall curves',
+  calibration: 'Calibration (reliability)',
+  auroc_forest: 'AUROC with intervals',
+  auprc_forest: 'AUPRC with intervals',
+  confusion: 'Confusion matrix',
+  training: 'Training curves',
+};
+const MAIN_PLOTS = ['roc', 'precision_recall', 'calibration'];
+
+/** A plot file of an experiment: its kind, protocol and model (from `kind_protocol[_model].png`). */
+function classifyPlot(path, protocols) {
+  const stem = path.split('/').pop().replace(/\.png$/i, '');
+  for (const kind of PLOT_KINDS) {
+    if (!stem.startsWith(kind + '_')) continue;
+    const rest = stem.slice(kind.length + 1);
+    let proto = null;
+    for (const p of protocols) if ((rest === p || rest.startsWith(p + '_')) && (proto === null || p.length > proto.length)) proto = p;
+    if (proto === null) continue;
+    return { kind, protocol: proto, model: rest === proto ? '' : rest.slice(proto.length + 1), path };
+  }
+  return { kind: 'other', protocol: null, model: '', path, stem };
+}
+
+function plotCaption(p) {
+  if (p.kind === 'other') return p.stem || p.path;
+  const label = PLOT_LABELS[p.kind] || p.kind;
+  return p.model ? `${label}: ${p.model}` : label;
+}
+
+/** Thresholds of a result row over its seeds: {mean, differ, rule, all}. */
+function thresholdOf(r) {
+  const all = (Array.isArray(r.runs) ? r.runs : []).map((x) => finite(x.threshold)).filter((x) => x !== null);
+  const rules = [...new Set((r.runs || []).map((x) => x.threshold_rule).filter(Boolean))];
+  if (!all.length) return { mean: null, differ: false, rule: rules.join('; '), all };
+  const mean = all.reduce((a, b) => a + b, 0) / all.length;
+  return { mean, differ: Math.max(...all) - Math.min(...all) > 1e-9, rule: rules.join('; '), all };
+}
+
+function pageTableForecast(root, params, scope) {
+  const asked = params.get('run') || '';
+  const page = h('div', { id: 'table3-page', 'data-testid': 'table3-page' }, loading('Loading Table III…'));
+  root.append(h('div', { class: 'page-title' },
+    h('h1', null, 'Table III — ignition forecasts'),
+    h('span', { class: 'crumbs' }, h('a', { href: `#/runs?${qs({ kind: 'forecast.experiment' })}` }, 'forecast.experiment runs'))), page);
+
+  api(`/api/tables/forecast${asked ? `?${qs({ run: asked })}` : ''}`).then((d) => {
+    if (!scope.alive) return;
+    const run = d.run || {};
+    const res = d.results || {};
+    const runId = run.run_id || asked;
+    const rows = Array.isArray(res.results) ? res.results : [];
+    const protocols = (Array.isArray(res.protocols) ? res.protocols : []).slice();
+    for (const r of rows) if (r.protocol && !protocols.some((p) => p.name === r.protocol)) protocols.push({ name: r.protocol });
+    // The headline protocol first, then in the experiment's order.
+    protocols.sort((a, b) => Number(b.name === res.headline) - Number(a.name === res.headline));
+    const plots = (Array.isArray(d.plots) ? d.plots : []).map((p) => classifyPlot(p, protocols.map((x) => x.name)));
+    const output = d.output || { name: 'report' };
+    const plotUrl = (p) => outputUrl(runId, output.name || 'report', p.path);
+    const models = [...new Set(rows.map((r) => r.model))];
+
+    const facts = h('dl', { class: 'facts' });
+    const fact = (k, ...v) => facts.append(h('dt', null, k), h('dd', null, ...v));
+    fact('Experiment', h('b', null, res.name || run.params && run.params.name || '—'));
+    fact('Run', runLink(runId, true), ' · ', run.pipeline || '—', run.stage ? [' / ', run.stage] : null, ' · ', fmtTimestamp(run.started_at));
+    if (res.dataset) {
+      fact('Dataset', h('a', { href: `#/datasets/${enc(res.dataset)}`, id: 'table3-dataset' }, res.dataset),
+        res.dataset_version ? h('span', { class: 'mono small muted' }, ` ${res.dataset_version}`) : null,
+        res.framing ? h('span', { class: 'muted' }, ` · ${res.framing} framing`) : null);
+    }
+    fact('Models', `${models.length}: `, h('span', { class: 'small' }, models.join(', ')));
+    fact('Intervals', `${Math.round((res.level || 0.95) * 100)} % percentile bootstrap${res.bootstrap ? `, ${nf0.format(res.bootstrap)} resamples` : ''}${res.cluster ? ` of test ${res.cluster}s` : ''}; models with several seeds averaged over them`);
+    if (output.path) fact('Files', h('code', null, output.path), ' (', h('a', { href: plotUrl({ path: 'results.json' }), target: '_blank', rel: 'noopener' }, 'results.json'), ')');
+    const head = h('section', { class: 'card', id: 'table3-head' },
+      h('div', { class: 'toolbar' },
+        runPicker(Array.isArray(d.runs) ? d.runs : [], runId, (id) => { location.hash = `#/tables/forecast?${qs({ run: id })}`; }),
+        h('a', { class: 'button', href: `#/runs/${enc(runId)}` }, 'Run page')),
+      facts);
+
+    const sections = protocols.map((p) => table3Protocol(scope, p, res, rows.filter((r) => r.protocol === p.name),
+      plots.filter((x) => x.protocol === p.name), plotUrl));
+    const others = plots.filter((x) => x.protocol === null);
+    fill(page, head, sections,
+      others.length ? h('section', { class: 'card', id: 'table3-other-plots' }, h('h3', null, `Other plots (${others.length})`),
+        h('div', { class: 'plot-thumbs' }, others.map((p) => plotFigure(scope, plotUrl(p), plotCaption(p), false)))) : null);
+  }).catch((e) => {
+    if (!scope.alive) return;
+    showError(page, e, 'Table III');
+  });
+}
+
+function table3Protocol(scope, p, res, rows, plots, plotUrl) {
+  const headline = p.name === res.headline;
+  const level = Math.round((res.level || 0.95) * 100);
+  const desc = [];
+  if (Array.isArray(p.days) && p.days.length === 2) {
+    const [a, b] = p.days;
+    desc.push(h('p', null, `Inputs: days ${a}…${b} relative to the predicted date`,
+      p.leaks_future === false ? ' — they end before the predicted date (a forecast).' : '.'));
+  }
+  if (p.leaks_future) {
+    desc.push(h('div', { class: 'warning leak-note' }, h('strong', null, 'Leak: '),
+      'the inputs include days on and after the predicted date (the ignition itself), as the published FireCastRL table did; these scores are not a forecast\u2019s.'));
+  }
+  if (p.split || Number.isFinite(p.train)) {
+    desc.push(h('p', null,
+      p.split ? ['Split: ', p.split, '. '] : null,
+      Number.isFinite(p.train) ? `Train ${nf0.format(p.train)} / val ${nf0.format(p.val)} / test ${nf0.format(p.test)}` : null,
+      Number.isFinite(p.test_positives) ? ` (${nf0.format(p.test_positives)} positive, prevalence ${f3(p.prevalence)})` : null,
+      p.dropped ? `; ${nf0.format(p.dropped)} samples dropped` : null, '.'));
+  }
+  if (Number.isFinite(p.majority_accuracy)) {
+    desc.push(h('p', { class: 'muted' }, `No skill: majority-class accuracy ${fPct1(p.majority_accuracy)} %, AUPRC ${f3(p.prevalence)} (the prevalence), AUROC 0.5.`,
+      p.oracle ? ` Oracle (the synthetic generator's true probabilities, never a model input): AUROC ${f3(p.oracle.auroc)}, AUPRC ${f3(p.oracle.auprc)}.` : null));
+  }
+
+  const cols = [
+    { key: 'model', label: 'Model', value: (r) => r.model, cell: (r) => h('td', { class: 'mono nowrap' }, r.model, r.kind && r.kind !== r.model ? h('div', { class: 'muted small' }, r.kind) : null) },
+    { key: 'family', label: 'Family', value: (r) => r.family || '', cell: (r) => h('td', { class: 'small' }, r.family || '—') },
+    ...T3_METRICS.map((m) => ({
+      key: m.key, label: m.label, num: true, best: m.lower ? 'min' : 'max', title: m.title || null,
+      value: (r) => finite((r.test || {})[m.key]),
+      cell: (r) => {
+        const iv = (r.intervals || {})[m.key];
+        const sd = finite((r.seed_std || {})[m.key]);
+        const fmt = m.fmt || f3;
+        const nSeeds = (r.seeds || []).length;
+        const lo = Array.isArray(iv) ? finite(iv[0]) : null;
+        const hi = Array.isArray(iv) ? finite(iv[1]) : null;
+        return ciCell(finite((r.test || {})[m.key]), lo, hi, fmt, {
+          title: `${m.label}: ${r.model} on the test split${lo !== null ? `, ${level} % interval ${fmtInterval(lo, hi, fmt)}` : ''}${nSeeds > 1 && sd !== null ? `; seed standard deviation ${fmt(sd)} over ${nSeeds} seeds` : ''}`,
+        });
+      },
+    })),
+    {
+      key: 'threshold', label: 'Threshold', num: true, value: (r) => thresholdOf(r).mean,
+      cell: (r) => {
+        const t = thresholdOf(r);
+        return h('td', { class: 'num', title: `${t.rule || 'threshold'}${t.differ ? `; per seed: ${t.all.map(f3).join(', ')} (mean shown)` : ''}` },
+          t.mean === null ? '—' : `${f3(t.mean)}${t.differ ? '…' : ''}`,
+          t.rule ? h('span', { class: 'ival' }, t.rule.startsWith('max F1') ? 'max F1 (val)' : t.rule.replace(/^fixed /, 'fixed ')) : null);
+      },
+    },
+    { key: 'seeds', label: 'Seeds', num: true, value: (r) => (r.seeds || []).length, cell: (r) => h('td', { class: 'num', title: `seeds ${(r.seeds || []).join(', ')}` }, fmtNum((r.seeds || []).length)) },
+  ];
+  const table = sortableTable({
+    id: `table3-${safeId(p.name)}`, cls: 'table3 results-table', columns: cols, rows,
+    sort: { key: 'auroc', order: 'desc' }, rowAttrs: (r) => ({ 'data-model': r.model }),
+    empty: 'No model was evaluated under this protocol.',
+  });
+
+  // Paired tests of this protocol.
+  const paired = (Array.isArray(res.paired) ? res.paired : []).filter((x) => x.protocol === p.name);
+  const pairedBlock = paired.length ? h('div', { class: 'section-gap', id: `paired-${safeId(p.name)}` },
+    h('h4', null, 'Paired tests on the same test samples'),
+    h('div', { class: 'table-wrap' }, h('table', { class: 'paired-table' },
+      h('thead', null, h('tr', null, ['Model', 'vs baseline', 'McNemar b / c', 'McNemar p', 'ΔAUROC (DeLong)', 'DeLong p', 'ΔAUPRC', 'P(model better, AUPRC)'].map((c, k) => h('th', { class: k > 1 ? 'num' : null }, c)))),
+      h('tbody', null, paired.map((x) => h('tr', null,
+        h('td', { class: 'mono' }, x.model),
+        h('td', { class: 'mono' }, x.baseline),
+        h('td', { class: 'num' }, `${fmtNum(x.mcnemar_b)} / ${fmtNum(x.mcnemar_c)}`),
+        h('td', { class: `num${x.mcnemar_p < 0.05 ? ' signif' : ''}`, title: x.mcnemar_exact ? 'exact binomial test' : 'χ² with continuity correction' }, fmtP(x.mcnemar_p)),
+        h('td', { class: 'num' }, fmtSigned(x.delong_auroc_diff, f3)),
+        h('td', { class: `num${x.delong_p < 0.05 ? ' signif' : ''}` }, fmtP(x.delong_p)),
+        ciCell(finite(x.auprc_diff), Array.isArray(x.auprc_diff_interval) ? finite(x.auprc_diff_interval[0]) : null,
+          Array.isArray(x.auprc_diff_interval) ? finite(x.auprc_diff_interval[1]) : null, (v) => fmtSigned(v, f3)),
+        h('td', { class: 'num' }, Number.isFinite(x.prob_model_better_auprc) ? f3(x.prob_model_better_auprc) : '—')))))),
+    h('p', { class: 'muted small' }, 'Best model against the best baseline; p < 0.05 in bold.')) : null;
+
+  // Plots: the curves large, the rest as thumbnails.
+  const main = MAIN_PLOTS.map((k) => plots.find((x) => x.kind === k && !x.model)).filter(Boolean);
+  const rest = plots.filter((x) => !main.includes(x));
+  const order = ['auroc_forest', 'auprc_forest', 'confusion', 'training'];
+  rest.sort((a, b) => {
+    const ia = order.indexOf(a.kind) < 0 ? 9 : order.indexOf(a.kind);
+    const ib = order.indexOf(b.kind) < 0 ? 9 : order.indexOf(b.kind);
+    return ia - ib || a.model.localeCompare(b.model);
+  });
+  const plotsBlock = plots.length ? h('div', { class: 'section-gap' },
+    h('h4', null, `Plots (${plots.length})`),
+    main.length ? h('div', { class: 'plot-grid' }, main.map((x) => plotFigure(scope, plotUrl(x), plotCaption(x), true))) : null,
+    rest.length ? h('div', { class: 'plot-thumbs' }, rest.map((x) => plotFigure(scope, plotUrl(x), plotCaption(x), false))) : null) : null;
+
+  return h('section', { class: 'card protocol', id: `protocol-${safeId(p.name)}`, 'data-protocol': p.name },
+    h('div', { class: 'card-head' },
+      h('h2', null, 'Protocol ', h('code', null, p.name), headline ? h('span', { class: 'badge status-succeeded headline-badge' }, 'headline') : null,
+        p.leaks_future ? h('span', { class: 'badge status-failed' }, 'inputs leak the future') : null),
+      h('span', { class: 'muted small' }, `${rows.length} model${rows.length === 1 ? '' : 's'} · click a column to sort · ${level} % intervals under each value`)),
+    desc, table, pairedBlock, plotsBlock);
+}
+
+// ============================================================================
+// Page 7: Table IV (an rl.evaluate run)
+// ============================================================================
+
+const T4_METRICS = [
+  { key: 'cells_burned', label: 'Cells burnt', best: 'min', iqm: true },
+  { key: 'cells_saved', label: 'Cells saved vs none', best: 'max', title: 'Cells saved against no suppression on the same fire' },
+  { key: 'timesteps', label: 'Steps', title: 'Steps until the fire was out or the episode ended' },
+  { key: 'helitacks', label: 'Helitacks', title: 'Water drops' },
+  { key: 'water_used_gal', label: 'Water (gal)' },
+];
+
+/** A number for Table IV: integers above 100, one decimal below. */
+function fmt4(v) {
+  if (!Number.isFinite(v)) return '—';
+  return Math.abs(v) >= 100 ? nf0.format(Math.round(v)) : v.toFixed(1);
+}
+
+function pageTableRl(root, params, scope) {
+  const asked = params.get('run') || '';
+  const page = h('div', { id: 'table4-page', 'data-testid': 'table4-page' }, loading('Loading Table IV…'));
+  root.append(h('div', { class: 'page-title' },
+    h('h1', null, 'Table IV — helicopter suppression'),
+    h('span', { class: 'crumbs' }, h('a', { href: `#/runs?${qs({ kind: 'rl.evaluate' })}` }, 'rl.evaluate runs'))), page);
+
+  api(`/api/tables/rl${asked ? `?${qs({ run: asked })}` : ''}`).then((d) => {
+    if (!scope.alive) return;
+    const run = d.run || {};
+    const ev = d.evaluation || {};
+    const runId = run.run_id || asked;
+    const agents = Array.isArray(ev.agents) ? ev.agents : [];
+    const fires = Array.isArray(ev.fires) ? ev.fires.length : null;
+    const output = d.output || { name: 'report' };
+    const level = Math.round(((agents[0] && agents[0].cells_burned && agents[0].cells_burned.mean && agents[0].cells_burned.mean.level) || 0.95) * 100);
+
+    const facts = h('dl', { class: 'facts' });
+    const fact = (k, ...v) => facts.append(h('dt', null, k), h('dd', null, ...v));
+    fact('Run', runLink(runId, true), ' · ', run.pipeline || '—', run.stage ? [' / ', run.stage] : null, ' · ', fmtTimestamp(run.started_at));
+    fact('Fires', fires !== null ? `${nf0.format(fires)} held-out fires, the same for every agent` : '—',
+      ev.deterministic ? ' (greedy PPO actions)' : '');
+    fact('Intervals', `${level} % stratified bootstrap${ev.resamples ? `, ${nf0.format(ev.resamples)} resamples` : ''}; IQM: the interquartile mean over episodes`);
+    if (output.path) fact('Files', h('code', null, output.path), ' (', h('a', { href: outputUrl(runId, output.name || 'report', 'evaluation.json'), target: '_blank', rel: 'noopener' }, 'evaluation.json'), ')');
+    const head = h('section', { class: 'card', id: 'table4-head' },
+      h('div', { class: 'toolbar' },
+        runPicker(Array.isArray(d.runs) ? d.runs : [], runId, (id) => { location.hash = `#/tables/rl?${qs({ run: id })}`; }),
+        h('a', { class: 'button', href: `#/runs/${enc(runId)}` }, 'Run page')),
+      facts);
+
+    // Agents.
+    const known = new Set(['agent', 'runs', 'episodes', 'contained_rate', ...T4_METRICS.map((m) => m.key)]);
+    const extra = [];
+    for (const a of agents) {
+      for (const [k, v] of Object.entries(a)) {
+        if (known.has(k) || extra.includes(k) || !v || typeof v !== 'object') continue;
+        if (v.mean || Number.isFinite(v.estimate)) extra.push(k);
+      }
+    }
+    const metrics = [...T4_METRICS.filter((m) => agents.some((a) => a[m.key])), ...extra.map((k) => ({ key: k, label: k.replace(/_/g, ' ') }))];
+    const meanOf = (a, k) => {
+      const v = a[k];
+      if (!v) return null;
+      return v.mean ? v.mean : (Number.isFinite(v.estimate) ? v : null);
+    };
+    const cols = [
+      { key: 'agent', label: 'Agent', value: (a) => a.agent, cell: (a) => h('td', { class: 'nowrap' }, h('b', { class: 'mono' }, a.agent), AGENT_LABELS[a.agent] ? h('div', { class: 'muted small' }, AGENT_LABELS[a.agent]) : null) },
+      { key: 'runs', label: 'Runs × fires', num: true, value: (a) => a.episodes, cell: (a) => h('td', { class: 'num', title: `${a.episodes} episodes` }, `${fmtNum(a.runs)} × ${fmtNum(a.runs ? Math.round(a.episodes / a.runs) : fires)}`) },
+    ];
+    for (const m of metrics) {
+      cols.push({
+        key: `${m.key}.mean`, label: `${m.label}, mean`, num: true, title: m.title || null, best: m.best || null,
+        value: (a) => { const o = meanOf(a, m.key); return o ? finite(o.estimate) : null; },
+        cell: (a) => {
+          const iqm = a[m.key] && a[m.key].iqm;
+          return estCell(meanOf(a, m.key), fmt4, { title: iqm && !m.iqm ? `IQM ${fmt4(iqm.estimate)} ${fmtInterval(iqm.low, iqm.high, fmt4)}` : null });
+        },
+      });
+      if (m.iqm) {
+        cols.push({
+          key: `${m.key}.iqm`, label: `${m.label}, IQM`, num: true, best: m.best || null,
+          value: (a) => (a[m.key] && a[m.key].iqm ? finite(a[m.key].iqm.estimate) : null),
+          cell: (a) => estCell(a[m.key] && a[m.key].iqm, fmt4),
+        });
+      }
+    }
+    if (agents.some((a) => a.contained_rate)) {
+      cols.push({
+        key: 'contained', label: 'Contained', num: true, title: 'Share of fires put out before the episode ended', best: 'max',
+        value: (a) => (a.contained_rate ? finite(a.contained_rate.estimate) : null),
+        cell: (a) => estCell(a.contained_rate, (v) => `${Math.round(v * 100)} %`),
+      });
+    }
+    const agentsCard = h('section', { class: 'card', id: 'table4-agents' },
+      h('div', { class: 'card-head' }, h('h2', null, `Agents (${agents.length})`),
+        h('span', { class: 'muted small' }, `click a column to sort · ${level} % intervals under each value`)),
+      sortableTable({ id: 'table4-table', cls: 'results-table', columns: cols, rows: agents, sort: null, rowAttrs: (a) => ({ 'data-agent': a.agent }), empty: 'This evaluation has no agents.' }));
+
+    // Comparisons.
+    const comps = Array.isArray(ev.comparisons) ? ev.comparisons : [];
+    const verdict = (c) => {
+      const diff = c.cells_burned_diff;
+      if (!diff || !Number.isFinite(diff.low) || !Number.isFinite(diff.high)) return null;
+      if (diff.high < 0) return h('span', { class: 'badge status-succeeded' }, 'burns less');
+      if (diff.low > 0) return h('span', { class: 'badge status-failed' }, 'burns more');
+      return h('span', { class: 'badge' }, 'no clear difference');
+    };
+    const compCard = comps.length ? h('section', { class: 'card', id: 'table4-comparisons' },
+      h('h2', null, 'Comparisons on the same fires'),
+      h('div', { class: 'table-wrap' }, h('table', { id: 'table4-comparisons-table' },
+        h('thead', null, h('tr', null, ['Agent', 'vs baseline', 'Δ cells burnt (agent − baseline)', 'Relative reduction', 'P(agent burns less)', ''].map((c, k) => h('th', { class: k > 1 && k < 5 ? 'num' : null }, c)))),
+        h('tbody', null, comps.map((c) => h('tr', { 'data-baseline': c.baseline },
+          h('td', { class: 'mono' }, c.agent),
+          h('td', { class: 'mono' }, c.baseline),
+          estCell(c.cells_burned_diff, (v) => fmtSigned(v, fmt4)),
+          estCell(c.relative_reduction, (v) => `${fmtSigned(v * 100, (x) => x.toFixed(1))} %`),
+          estCell(c.probability_better, f3),
+          h('td', null, verdict(c))))))),
+      h('p', { class: 'muted small' }, 'A negative Δ and a positive reduction mean the agent burns less than the baseline; "burns less / more" when the whole interval of Δ is on one side of 0.')) : null;
+
+    // Plots.
+    const plots = Array.isArray(d.plots) ? d.plots : [];
+    const plotsCard = plots.length ? h('section', { class: 'card', id: 'table4-plots' }, h('h2', null, `Plots (${plots.length})`),
+      h('div', { class: 'plot-grid two' }, plots.map((p) => plotFigure(scope, outputUrl(runId, output.name || 'report', p), p.replace(/\.png$/i, '').replace(/_/g, ' '), true)))) : null;
+
+    // Recordings.
+    const recs = Array.isArray(d.recordings) ? d.recordings : [];
+    const evRecs = Array.isArray(ev.recordings) ? ev.recordings : [];
+    const fileUrl = (r) => `/api/runs/${enc(runId)}/artifacts/${enc(r.artifact)}/${enc(r.file)}`;
+    const matched = new Set();
+    const rows = evRecs.map((e) => {
+      const file = String(e.path || '').split('/').pop();
+      const art = recs.find((r) => r.file === file);
+      if (art) matched.add(art);
+      return { e, art, file };
+    });
+    const others = recs.filter((r) => !matched.has(r));
+    const recCard = h('section', { class: 'card', id: 'table4-recordings' },
+      h('h2', null, `Recordings (${recs.length})`),
+      h('p', { class: 'muted small' }, "Episodes recorded for Rerun: fire state, helicopter path and drops, burning and burnt cells per step. The viewer opens in a new tab (it loads a 40 MB module the first time)."),
+      rows.length ? h('div', { class: 'table-wrap' }, h('table', { id: 'table4-recordings-table' },
+        h('thead', null, h('tr', null, ['Episode', 'Training seed', 'Fire', 'Cells burnt', 'Steps', 'Helitacks', 'File', ''].map((c, k) => h('th', { class: k >= 1 && k <= 5 ? 'num' : null }, c)))),
+        h('tbody', null, rows.map(({ e, art, file }) => h('tr', { 'data-role': e.role },
+          h('td', null, h('b', null, e.role || '—')),
+          h('td', { class: 'num' }, fmtNum(e.train_seed)),
+          h('td', { class: 'num' }, fmtNum(e.fire)),
+          h('td', { class: 'num' }, fmtNum(e.cells_burned)),
+          h('td', { class: 'num' }, fmtNum(e.timesteps)),
+          h('td', { class: 'num' }, fmtNum(e.helitacks)),
+          h('td', { class: 'mono small' }, art ? h('a', { href: fileUrl(art), download: file }, file) : file, art ? h('span', { class: 'muted' }, ` ${fmtBytes(art.size)}`) : null),
+          h('td', null, art ? rerunLink(fileUrl(art), `the ${e.role} episode`) : h('span', { class: 'muted small' }, 'not stored as an artifact'))))))) : null,
+      others.length ? h('div', { class: 'section-gap' }, h('h4', null, 'Other recordings of this run'),
+        h('ul', { class: 'plain-list' }, others.map((r) => h('li', null,
+          h('span', { class: 'mono' }, `${r.artifact}/${r.file}`), ' ', h('span', { class: 'muted small' }, fmtBytes(r.size)), ' ', rerunLink(fileUrl(r), r.artifact))))) : null,
+      recs.length === 0 ? h('p', { class: 'muted' }, 'This run stored no recordings.') : null);
+
+    fill(page, head, agentsCard, compCard, recCard, plotsCard);
+  }).catch((e) => {
+    if (!scope.alive) return;
+    showError(page, e, 'Table IV');
+  });
+}
+
+// ============================================================================
+// Page 8: datasets
+// ============================================================================
+
+function pageDatasets(root, params, scope) {
+  const page = h('div', { id: 'datasets-page', 'data-testid': 'datasets-page' }, loading('Loading datasets…'));
+  root.append(h('div', { class: 'page-title' }, h('h1', null, 'Datasets')), page);
+  api('/api/datasets').then((d) => {
+    if (!scope.alive) return;
+    const list = Array.isArray(d.datasets) ? d.datasets : [];
+    fill(page, h('section', { class: 'card' },
+      h('p', { class: 'muted' }, 'The datasets of the registry: each version is a hash of its configuration and values, made by a run.'),
+      sortableTable({
+        id: 'datasets-table', rows: list, sort: { key: 'name', order: 'asc' },
+        empty: 'No dataset in the registry yet. Run `cargo xtask demo` or a pipeline with a data.dataset stage.',
+        rowAttrs: (x) => ({ 'data-name': x.name }),
+        columns: [
+          { key: 'name', label: 'Name', value: (x) => x.name, cell: (x) => h('td', null, h('a', { href: `#/datasets/${enc(x.name)}` }, x.name)) },
+          { key: 'latest', label: 'Latest version', value: (x) => x.latest, cell: (x) => h('td', { class: 'mono small' }, x.latest || '—') },
+          { key: 'rows', label: 'Rows', num: true, value: (x) => x.rows, cell: (x) => h('td', { class: 'num' }, fmtNum(x.rows)) },
+          { key: 'versions', label: 'Versions', num: true, value: (x) => x.versions, cell: (x) => h('td', { class: 'num' }, fmtNum(x.versions)) },
+          { key: 'card', label: 'Card', value: (x) => (x.card ? 1 : 0), cell: (x) => h('td', null, x.card ? h('span', { class: 'badge status-succeeded' }, 'card') : h('span', { class: 'muted' }, '—')) },
+          { key: 'created_at', label: 'Created (UTC)', value: (x) => x.created_at, cell: (x) => h('td', { class: 'mono small nowrap' }, fmtTimestamp(x.created_at)) },
+          { key: 'location', label: 'Location', value: (x) => x.location, cell: (x) => h('td', { class: 'mono small wrap' }, x.location || '—') },
+        ],
+      })));
+  }).catch((e) => {
+    if (!scope.alive) return;
+    showError(page, e, 'The datasets could not be listed');
+  });
+}
+
+function pageDataset(root, name, scope) {
+  name = decodeURIComponent(name);
+  const page = h('div', { id: 'dataset-page', 'data-testid': 'dataset-page' }, loading(`Loading dataset ${name}…`));
+  root.append(h('div', { class: 'page-title' }, h('h1', null, 'Dataset ', h('span', { class: 'mono' }, name)),
+    h('span', { class: 'crumbs' }, h('a', { href: '#/datasets' }, '← all datasets'))), page);
+  api(`/api/datasets/${enc(name)}`).then((d) => {
+    if (!scope.alive) return;
+    const files = Array.isArray(d.files) ? d.files : [];
+    const fileUrl = (f) => `/api/datasets/${enc(d.name || name)}/files/${enc(f)}`;
+    const versions = Array.isArray(d.versions) ? d.versions : [];
+    const current = versions.find((v) => v.on_disk) || versions[0] || {};
+    const man = d.manifest && typeof d.manifest === 'object' ? d.manifest : null;
+    const hasMap = files.includes('map.png');
+
+    // Head: facts and the map.
+    const facts = h('dl', { class: 'facts' });
+    const fact = (k, ...v) => facts.append(h('dt', null, k), h('dd', null, ...v));
+    fact('On disk', h('span', { class: 'mono' }, d.on_disk || '—'), versions.length > 1 ? h('span', { class: 'muted' }, ` (${versions.length} versions registered)`) : null);
+    if (current.run_id) fact('Made by', runLink(current.run_id, true), current.created_at ? h('span', { class: 'muted small' }, ` · ${fmtTimestamp(current.created_at)}`) : null);
+    if (Number.isFinite(current.rows)) fact('Rows', nf0.format(current.rows));
+    if (man) {
+      if (Number.isFinite(man.samples)) fact('Samples', `${nf0.format(man.samples)}${Number.isFinite(man.positives) ? ` (${nf0.format(man.positives)} positive, ${fmtPct(man.positives / Math.max(1, man.samples))})` : ''}`);
+      if (man.splits && typeof man.splits === 'object') fact('Splits', Object.entries(man.splits).map(([k, v]) => `${k} ${fmtNum(v)}`).join(' · '), man.test_from ? h('span', { class: 'muted' }, ` (test from ${man.test_from})`) : null);
+      if (man.framing && typeof man.framing === 'object') fact('Framing', h('b', null, man.framing.kind || '—'), Array.isArray(man.day_offsets) ? ` · days ${man.day_offsets[0]}…${man.day_offsets[1]} around each sample's date` : null);
+      if (Array.isArray(man.features)) fact('Features', `${man.features.length}: `, h('span', { class: 'mono small' }, man.features.join(', ')));
+    }
+    fact('Location', h('code', null, d.location || '—'));
+    if (d.folder) fact('Folder', h('code', null, d.folder));
+    if (files.length) fact('Files', files.map((f, k) => [k ? ', ' : '', h('a', { href: fileUrl(f), target: '_blank', rel: 'noopener', class: 'mono small' }, f)]));
+    const mapFig = hasMap ? h('figure', { class: 'dataset-map', id: 'dataset-map' },
+      h('button', { type: 'button', class: 'plot-open', title: 'Enlarge the map', onclick: () => openLightbox(scope, fileUrl('map.png'), `${name}: where the samples are`) },
+        h('img', { src: fileUrl('map.png'), alt: `Map of the samples of ${name}`, id: 'dataset-map-img' })),
+      h('figcaption', null, 'Where the samples are')) : null;
+    const head = h('section', { class: 'card', id: 'dataset-head' }, h('div', { class: mapFig ? 'dataset-head-grid' : null }, facts, mapFig));
+
+    // The card.
+    const cardSec = h('section', { class: 'card', id: 'dataset-card' }, h('h2', null, 'Card'));
+    if (typeof d.card === 'string' && d.card.trim()) {
+      cardSec.append(renderMarkdown(d.card, {
+        shift: 1,
+        image: (src, alt) => {
+          const f = String(src).replace(/^\.\//, '');
+          if (!files.includes(f)) return null;
+          if (f === 'map.png' && mapFig) return h('span', { class: 'muted small' }, `[${alt || 'map'}: shown above]`);
+          return h('img', { src: fileUrl(f), alt: alt || f, class: 'md-img' });
+        },
+        link: (href) => {
+          if (/^(https?:|mailto:)/i.test(href)) return href;
+          const f = href.replace(/^\.\//, '');
+          return files.includes(f) ? fileUrl(f) : null;
+        },
+      }));
+    } else cardSec.append(h('p', { class: 'muted' }, 'This dataset has no card (card.md) in its folder.'));
+
+    // Statistics.
+    const stats = d.stats && typeof d.stats === 'object' ? d.stats : null;
+    const statsSec = h('section', { class: 'card', id: 'dataset-stats' }, h('h2', null, 'Statistics'));
+    if (!stats) statsSec.append(h('p', { class: 'muted' }, 'No stats.json in the dataset folder.'));
+    else {
+      const feats = Array.isArray(stats.features) ? stats.features : [];
+      if (feats.length) {
+        const splits = [...new Set(feats.map((f) => f.split).filter(Boolean))];
+        const splitSel = h('select', { id: 'stats-split', 'aria-label': 'Split' }, h('option', { value: '' }, 'every split'), splits.map((s) => h('option', { value: s }, s)));
+        const holder = h('div');
+        const numCol = (key, label) => ({ key, label, num: true, value: (f) => finite(f[key]), cell: (f) => h('td', { class: 'num' }, fmtNum(f[key])) });
+        const render = () => {
+          const rows = feats.filter((f) => !splitSel.value || f.split === splitSel.value);
+          holder.replaceChildren(sortableTable({
+            id: 'stats-table', rows, columns: [
+              { key: 'split', label: 'Split', value: (f) => f.split, cell: (f) => h('td', null, f.split || '—') },
+              { key: 'feature', label: 'Feature', value: (f) => f.feature, cell: (f) => h('td', { class: 'mono' }, f.feature) },
+              numCol('rows', 'Rows'), numCol('missing', 'Missing'), numCol('mean', 'Mean'), numCol('std', 'Std'), numCol('min', 'Min'), numCol('max', 'Max'),
+            ],
+          }));
+        };
+        splitSel.addEventListener('change', render);
+        render();
+        statsSec.append(h('h3', null, `Features per split (${feats.length} rows)`), h('div', { class: 'toolbar' }, h('label', { class: 'field' }, h('span', null, 'Split'), splitSel)), holder);
+      }
+      for (const [k, v] of Object.entries(stats)) {
+        if (k === 'features') continue;
+        if (Array.isArray(v) && v.length && v.every((x) => x && typeof x === 'object' && !Array.isArray(x))) {
+          statsSec.append(h('h3', { class: 'section-gap' }, k === 'tiers' ? 'Samples per split and tier' : k), objectsTable(v, `stats-${safeId(k)}`));
+        } else {
+          statsSec.append(h('h3', { class: 'section-gap' }, k), h('pre', { class: 'block' }, JSON.stringify(v, null, 2)));
+        }
+      }
+    }
+
+    // Versions.
+    const versSec = h('section', { class: 'card', id: 'dataset-versions' }, h('h2', null, `Versions (${versions.length})`),
+      h('div', { class: 'table-wrap' }, h('table', { id: 'versions-table' },
+        h('thead', null, h('tr', null, ['Version', '', 'Rows', 'Created (UTC)', 'Made by run', 'Metadata'].map((c, k) => h('th', { class: k === 2 ? 'num' : null }, c)))),
+        h('tbody', null, versions.map((v) => h('tr', { class: v.on_disk ? 'selected' : null, 'data-version': v.version },
+          h('td', { class: 'mono small' }, v.version),
+          h('td', null, v.on_disk ? h('span', { class: 'badge status-succeeded', title: 'The files in the folder are this version' }, 'on disk') : h('span', { class: 'badge', title: 'Registered; the folder now holds another version' }, 'not on disk')),
+          h('td', { class: 'num' }, fmtNum(v.rows)),
+          h('td', { class: 'mono small nowrap' }, fmtTimestamp(v.created_at)),
+          h('td', null, v.run_id ? runLink(v.run_id) : '—'),
+          h('td', { class: 'small wrap' }, v.metadata && typeof v.metadata === 'object'
+            ? Object.entries(v.metadata).map(([k, x]) => h('div', null, h('span', { class: 'muted' }, `${k}: `), h('span', { class: 'mono' }, fmtValue(x))))
+            : fmtValue(v.metadata))))))));
+
+    // Schema.
+    const schema = d.schema;
+    const schemaSec = h('section', { class: 'card', id: 'dataset-schema' }, h('h2', null, 'Schema'));
+    if (Array.isArray(schema) && schema.every((x) => typeof x === 'string')) {
+      schemaSec.append(h('p', { class: 'muted small' }, `${schema.length} columns`), h('div', { class: 'chips' }, schema.map((c) => h('span', { class: 'chip mono' }, c))));
+    } else if (Array.isArray(schema) && schema.every((x) => x && typeof x === 'object')) schemaSec.append(objectsTable(schema, 'schema-table'));
+    else if (schema && typeof schema === 'object') {
+      schemaSec.append(h('div', { class: 'table-wrap' }, h('table', { class: 'kv' }, h('tbody', null, Object.entries(schema).map(([k, v]) => h('tr', null, h('td', null, k), h('td', null, fmtValue(v))))))));
+    } else schemaSec.append(h('p', { class: 'muted' }, schema ? String(schema) : 'No schema recorded.'));
+
+    // Manifest.
+    const manSec = h('section', { class: 'card', id: 'dataset-manifest' }, h('h2', null, 'Manifest (dataset.json)'));
+    if (!man) manSec.append(h('p', { class: 'muted' }, 'No dataset.json in the dataset folder.'));
+    else {
+      const scalars = Object.entries(man).filter(([k, v]) => !['files', 'provenance', 'config', 'features'].includes(k) && (v === null || typeof v !== 'object' || (Array.isArray(v) && v.length <= 8 && v.every((x) => typeof x !== 'object'))));
+      const small = Object.entries(man).filter(([k, v]) => !['files', 'provenance', 'features'].includes(k) && v && typeof v === 'object' && !scalars.some(([s]) => s === k));
+      manSec.append(h('div', { class: 'table-wrap' }, h('table', { class: 'kv', id: 'manifest-table' }, h('tbody', null,
+        scalars.map(([k, v]) => h('tr', null, h('td', null, k), h('td', null, fmtValue(v)))),
+        small.map(([k, v]) => h('tr', null, h('td', null, k), h('td', null, flatten(v).map(([kk, vv]) => h('div', null, h('span', { class: 'muted' }, `${kk}: `), fmtValue(vv))))))))));
+      if (man.files && typeof man.files === 'object') {
+        manSec.append(h('h3', { class: 'section-gap' }, `Files and their hashes (${Object.keys(man.files).length})`),
+          h('div', { class: 'table-wrap' }, h('table', { class: 'kv' }, h('tbody', null, Object.entries(man.files).map(([f, hash]) => h('tr', null,
+            h('td', null, files.includes(f) ? h('a', { href: fileUrl(f), target: '_blank', rel: 'noopener' }, f) : f),
+            h('td', { class: 'small', title: String(hash) }, `blake3 ${String(hash).slice(0, 16)}…`)))))));
+      }
+      if (man.provenance && typeof man.provenance === 'object') {
+        const prov = Object.entries(man.provenance);
+        manSec.append(h('details', { class: 'section-gap' }, h('summary', null, `Provenance (${prov.length} entries)`),
+          h('div', { class: 'table-wrap' }, h('table', { class: 'kv' }, h('tbody', null, prov.map(([k, v]) => h('tr', null, h('td', null, k), h('td', { class: 'small' }, fmtValue(v)))))))));
+      }
+      manSec.append(h('details', null, h('summary', null, 'The whole dataset.json'), h('pre', { class: 'block' }, JSON.stringify(man, null, 2))));
+    }
+
+    const jump = h('nav', { class: 'jump', 'aria-label': 'Sections' }, [
+      ['Card', cardSec], ['Statistics', statsSec], ['Versions', versSec], ['Schema', schemaSec], ['Manifest', manSec],
+    ].map(([label, sec]) => h('button', { type: 'button', class: 'link-button', onclick: () => sec.scrollIntoView({ behavior: 'smooth', block: 'start' }) }, label)));
+    fill(page, head, jump, cardSec, statsSec, versSec, schemaSec, manSec);
+  }).catch((e) => {
+    if (!scope.alive) return;
+    showError(page, e, `Dataset ${name}`);
+  });
+}
+
+// ============================================================================
+// Grouped comparison (compare page): mean and interval per group
+// ============================================================================
+
+/**
+ * Dot-and-whisker chart: one row per group, its mean as a dot and its interval as a line.
+ * items: [{label, mean, low, high, n, color}]
+ */
+function drawWhiskers(canvas, items, opts = {}) {
+  const dpr = window.devicePixelRatio || 1;
+  const cssW = Math.max(200, Math.round(canvas.clientWidth || (canvas.parentElement && canvas.parentElement.clientWidth) || 360));
+  const rowH = 24;
+  const cssH = 30 + rowH * Math.max(1, items.length);
+  canvas.style.height = `${cssH}px`;
+  canvas.width = Math.round(cssW * dpr);
+  canvas.height = Math.round(cssH * dpr);
+  const ctx = canvas.getContext('2d');
+  ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+  ctx.fillStyle = '#fff';
+  ctx.fillRect(0, 0, cssW, cssH);
+  ctx.font = FONT;
+  let lo = Infinity;
+  let hi = -Infinity;
+  for (const it of items) {
+    for (const v of [it.mean, it.low, it.high]) if (Number.isFinite(v)) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+  }
+  const t = niceTicks(lo, hi, Math.max(3, Math.min(6, Math.floor(cssW / 90))));
+  const labels = items.map((it) => {
+    let s = String(it.label);
+    while (ctx.measureText(s).width > cssW * 0.32 && s.length > 4) s = s.slice(0, -2);
+    return s === String(it.label) ? s : s + '…';
+  });
+  const padL = Math.min(cssW * 0.34, Math.max(40, ...labels.map((l) => ctx.measureText(l).width)) + 12);
+  const padR = 12;
+  const pw = Math.max(20, cssW - padL - padR);
+  const X = (v) => padL + ((v - t.lo) / (t.hi - t.lo || 1)) * pw;
+  const bottom = 8 + rowH * items.length;
+  ctx.strokeStyle = '#e6e8eb';
+  ctx.fillStyle = '#4a525b';
+  ctx.textAlign = 'center';
+  ctx.textBaseline = 'top';
+  for (const v of t.ticks) {
+    const x = Math.round(X(v)) + 0.5;
+    ctx.beginPath(); ctx.moveTo(x, 4); ctx.lineTo(x, bottom); ctx.stroke();
+    ctx.fillText(tickLabel(v, t.step), clamp(x, padL + 10, padL + pw - 10), bottom + 5);
+  }
+  items.forEach((it, k) => {
+    const y = 8 + rowH * k + rowH / 2;
+    ctx.fillStyle = '#2b3138';
+    ctx.textAlign = 'right';
+    ctx.textBaseline = 'middle';
+    ctx.fillText(labels[k], padL - 8, y);
+    const color = it.color || PALETTE[k % PALETTE.length];
+    if (Number.isFinite(it.low) && Number.isFinite(it.high)) {
+      ctx.strokeStyle = color;
+      ctx.lineWidth = 2;
+      ctx.beginPath();
+      ctx.moveTo(X(it.low), y); ctx.lineTo(X(it.high), y);
+      ctx.moveTo(X(it.low), y - 5); ctx.lineTo(X(it.low), y + 5);
+      ctx.moveTo(X(it.high), y - 5); ctx.lineTo(X(it.high), y + 5);
+      ctx.stroke();
+    }
+    if (Number.isFinite(it.mean)) {
+      ctx.fillStyle = color;
+      ctx.beginPath(); ctx.arc(X(it.mean), y, 4.5, 0, Math.PI * 2); ctx.fill();
+    }
+  });
+  if (opts.empty && !Number.isFinite(lo)) {
+    ctx.fillStyle = '#6b7480';
+    ctx.textAlign = 'center';
+    ctx.fillText(opts.empty, padL + pw / 2, cssH / 2);
+  }
+}
+
+/** A group's value as the server wrote it (JSON text): strings without their quotes. */
+function groupLabel(v) {
+  const s = String(v);
+  if (s.length >= 2 && s.startsWith('"') && s.endsWith('"')) {
+    try { return JSON.parse(s); } catch { return s; }
+  }
+  return s;
+}
+
+/** The group-by section of the compare page. */
+function groupSection(scope, ids, differing, initial) {
+  const sel = h('select', { id: 'group-by', 'data-testid': 'group-by', 'aria-label': 'Group by parameter' },
+    h('option', { value: '' }, '— no grouping —'),
+    differing.map((n) => h('option', { value: n }, n)));
+  const filter = h('input', { id: 'group-filter', type: 'search', placeholder: 'filter metrics', 'aria-label': 'Filter metrics', style: { width: '14em' } });
+  const body = h('div', { id: 'compare-groups' });
+  const card = h('section', { class: 'card', id: 'compare-group' },
+    h('div', { class: 'card-head' }, h('h3', null, 'Group by a parameter'),
+      h('span', { class: 'muted small' }, 'per group: the mean of each run\u2019s last value and its 95 % t interval over the group\u2019s runs (seeds, mostly)')),
+    h('div', { class: 'toolbar' }, h('label', { class: 'field' }, h('span', null, 'Group by'), sel), filter),
+    body);
+  if (differing.length === 0) {
+    sel.disabled = true;
+    body.append(h('p', { class: 'muted' }, 'No parameter differs between these runs: there is nothing to group by.'));
+    return card;
+  }
+  let seq = 0;
+  let grouped = null;
+  let canvases = [];
+  const redraw = () => { for (const c of canvases) if (c.canvas.isConnected) drawWhiskers(c.canvas, c.items); };
+  scope.onResize(redraw);
+
+  const render = () => {
+    canvases = [];
+    if (!grouped) { body.replaceChildren(); return; }
+    const groups = Array.isArray(grouped.groups) ? grouped.groups : [];
+    const colors = groups.map((_, k) => PALETTE[k % PALETTE.length]);
+    const q = filter.value.trim().toLowerCase();
+    const keys = [...new Set(groups.flatMap((g) => Object.keys(g.metrics || {})))].sort().filter((k) => !q || k.toLowerCase().includes(q));
+    const fmtG = (m) => (m ? [h('span', { class: 'est' }, fmtNum(m.mean)), h('span', { class: 'ival' }, Number.isFinite(m.low) ? `${fmtInterval(m.low, m.high, fmtNum)} n ${m.n}` : `n ${m.n}`)] : '—');
+    const groupHead = (g, k) => h('th', { class: 'num' }, h('span', { class: 'swatch', style: { background: colors[k] } }), h('span', { class: 'mono' }, groupLabel(g.value)), h('div', { class: 'muted small' }, `${g.runs.length} run${g.runs.length === 1 ? '' : 's'}`));
+    const grid = h('div', { class: 'charts-grid whiskers' });
+    for (const key of keys.slice(0, 24)) {
+      const items = groups.map((g, k) => {
+        const m = (g.metrics || {})[key];
+        return { label: groupLabel(g.value), mean: m ? m.mean : NaN, low: m && Number.isFinite(m.low) ? m.low : NaN, high: m && Number.isFinite(m.high) ? m.high : NaN, color: colors[k] };
+      });
+      const canvas = h('canvas', { 'aria-label': `Means and intervals of ${key} per group` });
+      grid.append(h('div', { class: 'chart-card', 'data-key': key }, h('h4', null, key), canvas));
+      canvases.push({ canvas, items });
+    }
+    fill(body,
+      h('div', { class: 'group-runs' }, groups.map((g, k) => h('div', { class: 'group-chip', 'data-value': g.value },
+        h('span', { class: 'swatch', style: { background: colors[k] } }),
+        h('b', { class: 'mono' }, `${grouped.param} = ${groupLabel(g.value)}`), ': ',
+        g.runs.map((id, j) => [j ? ', ' : '', runLink(id)])))),
+      keys.length === 0 ? h('p', { class: 'muted' }, q ? 'No metric matches the filter.' : 'These runs logged no metrics.') : h('div', { class: 'table-wrap' }, h('table', { id: 'group-table', class: 'results-table' },
+        h('thead', null, h('tr', null, h('th', null, 'metric'), groups.map(groupHead))),
+        h('tbody', null, keys.map((key) => h('tr', { 'data-key': key }, h('td', { class: 'mono small' }, key),
+          groups.map((g) => h('td', { class: 'num ci' }, fmtG((g.metrics || {})[key])))))))),
+      keys.length > 24 ? h('p', { class: 'muted small' }, `Charts for the first 24 of ${keys.length} metrics: filter to see others.`) : null,
+      grid);
+    requestAnimationFrame(redraw);
+  };
+
+  const load = (param) => {
+    const my = ++seq;
+    const hash = `#/compare?${qs({ ids: ids.join(','), group: param })}`;
+    replaceHash(hash.replace(/%2C/gi, ','));
+    if (!param) { grouped = null; render(); return; }
+    body.replaceChildren(loading(`Grouping by ${param}…`));
+    api(`/api/compare?${qs({ ids: ids.join(','), group: param })}`).then((d) => {
+      if (!scope.alive || my !== seq) return;
+      grouped = d.grouped || { param, groups: [] };
+      render();
+    }).catch((e) => {
+      if (!scope.alive || my !== seq) return;
+      showError(body, e, `Grouping by ${param}`);
+    });
+  };
+  sel.addEventListener('change', () => load(sel.value));
+  let debounce = null;
+  filter.addEventListener('input', () => { clearTimeout(debounce); debounce = setTimeout(render, 200); });
+  scope.add(() => clearTimeout(debounce));
+  if (initial && differing.includes(initial)) { sel.value = initial; load(initial); }
+  return card;
 }
 
 // ============================================================================
