@@ -149,8 +149,152 @@ def test_runs_browser(page):
     expect(compare).to_be_visible(timeout=30_000)
     page.wait_for_timeout(1500)
     assert page.locator("#compare-page .error").count() == 0, compare.inner_text()
-    ids = page.url.split("ids=")[1].split(",")
+    ids = page.url.split("ids=")[1].split("&")[0].split(",")
     assert len(ids) == 2
     for run_id in ids:
-        expect(compare).to_contain_text(run_id[:12])
+        # Short ids (time of day and suffix) in the table, the full id in the title.
+        expect(compare.locator(f'#compare-runs-table a[title="{run_id}"]')).to_have_count(1)
+    labels = compare.locator("#compare-runs-table tbody a").all_inner_texts()
+    assert len(set(labels)) == len(labels), f"run labels that look alike: {labels}"
     shot(page, "compare")
+
+
+def run_id(page, kind):
+    runs = page.request.get(URL + "/api/runs?" + f"kind={kind}&limit=1").json()["runs"]
+    assert runs, f"no {kind} run"
+    return runs[0]["run_id"]
+
+
+def loaded(page, selector, timeout=30_000):
+    """Waits until the image `selector` has loaded (naturalWidth > 0)."""
+    page.wait_for_function(
+        "(s) => { const i = document.querySelector(s); return !!i && i.complete && i.naturalWidth > 0; }",
+        arg=selector,
+        timeout=timeout,
+    )
+
+
+def test_table3(page):
+    page.goto(URL + "/#/tables/forecast")
+    table = page.locator("#table3-leak_free")
+    row = table.locator('tbody tr[data-model="logistic_regression"]')
+    expect(row).to_be_visible(timeout=30_000)
+    # Every metric with its interval under it.
+    assert row.locator("td.ci .ival").count() >= 8, row.inner_text()
+    expect(page.locator("#protocol-leak_free")).to_contain_text("headline")
+    expect(page.locator("#protocol-leak_free")).to_contain_text("prevalence")
+    head = table.locator('th[data-sort="auroc"]')
+    expect(head).to_have_attribute("aria-sort", "descending")
+    head.click()
+    expect(head).to_have_attribute("aria-sort", "ascending")
+    loaded(page, '#protocol-leak_free figure.plot.large[data-plot^="roc_"] img')
+    expect(page.locator("#table3-dataset")).to_have_text("app-ignitions")
+    # A thumbnail opens large, Escape closes it.
+    thumbs = page.locator("#protocol-leak_free figure.plot.thumb button")
+    if thumbs.count():
+        thumbs.first.click()
+        expect(page.locator(".lightbox img")).to_be_visible()
+        page.keyboard.press("Escape")
+        expect(page.locator(".lightbox")).to_have_count(0)
+    page.wait_for_timeout(500)
+    shot(page, "table3")
+
+    # The run page links its table; the table's run link goes back.
+    page.locator("#table3-head a.button", has_text="Run page").click()
+    expect(page.locator("#run-table-link")).to_have_text("Table III of this run", timeout=30_000)
+
+
+def test_table4_and_rerun(page):
+    page.goto(URL + "/#/tables/rl")
+    table = page.locator("#table4-table")
+    for agent in ["ppo", "rule", "none"]:
+        expect(table.locator(f'tbody tr[data-agent="{agent}"]')).to_be_visible(timeout=30_000)
+    expect(page.locator('#table4-comparisons-table tbody tr[data-baseline="none"]')).to_be_visible()
+    loaded(page, '#table4-plots figure[data-plot="table4.png"] img')
+    links = page.locator("#table4-recordings a[data-testid=open-rerun]")
+    expect(links.first).to_be_visible()
+    href = links.first.get_attribute("href")
+    assert href.startswith("/rerun/?url=") and href.endswith(".rrd"), href
+    shot(page, "table4")
+
+    # The recording in Rerun's viewer (served by FireCast; the wasm takes a while at first).
+    with page.context.expect_page() as opened:
+        links.first.click()
+    viewer = opened.value
+    viewer.wait_for_selector("#the_canvas_id.visible", state="attached", timeout=90_000)
+    assert viewer.title() == "Rerun Viewer"
+    box = viewer.locator("#the_canvas_id").bounding_box()
+    assert box and box["width"] > 600 and box["height"] > 400, box
+    viewer.wait_for_timeout(6000)  # the recording streams in
+    viewer.screenshot(path=os.path.join(SHOTS, "rerun.png"))
+    viewer.close()
+
+    # The run page of the evaluation: its table and a Rerun link per recording.
+    page.goto(URL + f"/#/runs/{run_id(page, 'rl.evaluate')}")
+    expect(page.locator("#run-table-link")).to_have_text("Table IV of this run", timeout=30_000)
+    assert page.locator("#run-artifacts a[data-testid=open-rerun]").count() >= 2
+
+
+def test_datasets(page):
+    page.goto(URL + "/#/datasets")
+    expect(page.locator('#datasets-table tr[data-name="app-ignitions"]')).to_be_visible(timeout=30_000)
+    page.locator('#datasets-table a', has_text="app-ignitions").first.click()
+    expect(page).to_have_url(re.compile(r"#/datasets/app-ignitions$"))
+    card = page.locator("#dataset-card")
+    expect(card.locator("h2.md-h").first).to_contain_text("app-ignitions", timeout=30_000)
+    expect(card.locator("table").first).to_be_visible()
+    loaded(page, "#dataset-map-img")
+    expect(page.locator("#stats-table tbody tr").first).to_be_visible()
+    rows = page.locator("#stats-table tbody tr").count()
+    page.locator("#stats-split").select_option("train")
+    assert 0 < page.locator("#stats-table tbody tr").count() < rows
+    expect(page.locator("#versions-table")).to_contain_text("on disk")
+    # The card's text is shown as text: nothing in it runs or becomes markup (tests/cli/serve.rs
+    # appends HTML and a javascript: link to the card).
+    expect(card).to_contain_text("<script>window.__pwned = 1</script>")
+    expect(card).to_contain_text("<b>not bold</b>")
+    assert page.evaluate("window.__pwned") is None
+    assert card.locator("script, iframe, b, img[src=x]").count() == 0
+    link = card.locator("a", has_text="a script link")
+    assert link.count() == 0 or not (link.get_attribute("href") or "").startswith("javascript"), link
+    page.wait_for_timeout(500)
+    shot(page, "dataset")
+
+    # The version's run links back to the dataset.
+    page.locator("#versions-table tbody a").first.click()
+    expect(page.locator("#run-datasets")).to_contain_text("app-ignitions", timeout=30_000)
+
+
+def test_compare_grouped(page):
+    ids = [run_id(page, k) for k in ["rl.train", "forecast.experiment", "rl.evaluate"]]
+    page.goto(URL + "/#/compare?ids=" + ",".join(ids))
+    select = page.locator("#group-by")
+    expect(select).to_be_visible(timeout=30_000)
+    select.select_option("name")
+    expect(page).to_have_url(re.compile(r"group=name"))
+    groups = page.locator("#compare-groups .group-chip")
+    expect(groups).to_have_count(3, timeout=30_000)
+    expect(page.locator("#group-table tbody tr").first).to_be_visible()
+    assert page.locator("#compare-groups canvas").count() >= 1
+    page.locator("#compare-group").scroll_into_view_if_needed()
+    page.wait_for_timeout(500)
+    page.locator("#compare-group").screenshot(path=os.path.join(SHOTS, "compare-grouped.png"))
+
+    # The grouping is in the address: reloading keeps it.
+    page.reload()
+    expect(page.locator("#compare-groups .group-chip")).to_have_count(3, timeout=30_000)
+    expect(page.locator("#group-by")).to_have_value("name")
+
+
+def test_phone_nav(browser):
+    context = browser.new_context(viewport={"width": 390, "height": 800}, is_mobile=True)
+    page = context.new_page()
+    page.goto(URL + "/#/datasets")
+    for label in ["Runs", "Table III", "Table IV", "Datasets"]:
+        link = page.locator(".topnav a", has_text=label)
+        box = link.bounding_box()
+        assert box and box["x"] >= 0 and box["x"] + box["width"] <= 390, (label, box)
+    page.locator(".topnav a", has_text="Table IV").click()
+    expect(page.locator("#table4-page")).to_be_visible()
+    shot(page, "phone-nav")
+    context.close()

@@ -13,7 +13,8 @@ use crate::{Project, describe, repo_root, venv_bin};
 
 const DATE: &str = "2019-08-01";
 
-/// Sources, a dataset, a forecaster (logistic regression, two seeds) and a tiny agent.
+/// Sources, a dataset, a forecaster (logistic regression, two seeds), a tiny agent and its
+/// Table IV (with Rerun recordings).
 const APP_PIPELINE: &str = r#"
 stages:
   sources:
@@ -102,6 +103,14 @@ stages:
       fires: fires.yaml
     outputs:
       run: build/app/agent
+  table4:
+    uses: rl.evaluate
+    params: {resamples: 200, device: cpu}
+    inputs:
+      run: {from: agent.run}
+      fires: fires.yaml
+    outputs:
+      report: build/app/table4
 "#;
 
 /// The threat pipeline's `forecast` stage on the forecaster of `APP_PIPELINE`.
@@ -295,6 +304,7 @@ fn fixture() -> Project {
 }
 
 fn serve_app(p: &Project) -> Server {
+    let rerun = venv_bin("rerun");
     start(
         p,
         &[
@@ -306,6 +316,8 @@ fn serve_app(p: &Project) -> Server {
             "logistic_regression",
             "--agent-run",
             "build/app/agent",
+            "--rerun",
+            rerun.to_str().unwrap(),
         ],
     )
 }
@@ -574,6 +586,8 @@ fn web_app_end_to_end() {
         cmp["differing"].as_array().unwrap().iter().any(|d| d == "name"),
         "{cmp}"
     );
+    result_pages(&s, &agent_run, &forecaster_run);
+
     let csv = client()
         .get(format!("{}/api/runs.csv", s.base))
         .send()
@@ -622,7 +636,262 @@ fn web_app_end_to_end() {
         "the same place and day is the same job"
     );
 
+    // A card is shown as text: markup in it must not reach the page as markup.
+    let card = p.read("build/app/dataset/card.md");
+    p.write(
+        "build/app/dataset/card.md",
+        &format!("{card}\n## Markup stays text\n\n{HOSTILE_MARKDOWN}\n"),
+    );
+
     browser_flow(&p, &s);
+}
+
+/// Markdown with HTML and script links, appended to the fixture's dataset card: the page
+/// shows it as text (tests/browser/test_app.py checks that nothing of it ran).
+const HOSTILE_MARKDOWN: &str = "<script>window.__pwned = 1</script> <img src=x onerror=\"window.__pwned = 2\"> \
+[a script link](javascript:window.__pwned=3) ![an image](javascript:alert(1)) <b>not bold</b>";
+
+/// A file the server answers, with its status and content type.
+fn fetch(s: &Server, path: &str) -> (u16, String, Vec<u8>) {
+    let r = client().get(format!("{}{path}", s.base)).send().unwrap();
+    let status = r.status().as_u16();
+    let kind = r
+        .headers()
+        .get("content-type")
+        .map(|v| v.to_str().unwrap().to_string())
+        .unwrap_or_default();
+    (status, kind, r.bytes().unwrap().to_vec())
+}
+
+const PNG: &[u8] = b"\x89PNG\r\n\x1a\n";
+
+/// Table III and Table IV of the fixture's runs with their plots and recordings, the
+/// datasets, runs grouped by a parameter and Rerun's viewer; paths that leave an output or a
+/// dataset folder are refused.
+fn result_pages(s: &Server, agent_run: &str, forecaster_run: &str) {
+    let (code, t3) = get(s, "/api/tables/forecast");
+    assert_eq!(code, 200, "{t3}");
+    assert_eq!(
+        t3["run"]["run_id"], forecaster_run,
+        "the only forecast.experiment run"
+    );
+    assert_eq!(t3["output"]["path"], "build/app/forecaster");
+    assert_eq!(t3["results"]["headline"], "leak_free");
+    assert_eq!(t3["results"]["dataset"], "app-ignitions");
+    let row = t3["results"]["results"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["model"] == "logistic_regression" && r["protocol"] == "leak_free")
+        .unwrap_or_else(|| panic!("no logistic regression row: {t3}"));
+    for metric in ["accuracy", "f1", "auroc", "auprc", "brier", "ece"] {
+        let v = row["test"][metric].as_f64().unwrap();
+        let [lo, hi] = [0, 1].map(|k| row["intervals"][metric][k].as_f64().unwrap());
+        assert!(
+            lo <= v + 1e-9 && v <= hi + 1e-9,
+            "{metric}: {v} not in [{lo}, {hi}]"
+        );
+    }
+    assert_eq!(
+        t3["runs"].as_array().unwrap().len(),
+        1,
+        "the runs to pick from: {t3}"
+    );
+    let plots: Vec<&str> = t3["plots"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_str().unwrap())
+        .collect();
+    let roc = plots
+        .iter()
+        .find(|p| p.starts_with("plots/roc_leak_free"))
+        .unwrap_or_else(|| panic!("no ROC plot in {plots:?}"));
+    let (code, kind, png) = fetch(s, &format!("/api/runs/{forecaster_run}/outputs/report/{roc}"));
+    assert_eq!((code, kind.as_str(), &png[..8]), (200, "image/png", PNG));
+    assert_eq!(
+        get(s, &format!("/api/tables/forecast?run={forecaster_run}")).0,
+        200
+    );
+
+    let (code, t4) = get(s, "/api/tables/rl");
+    assert_eq!(code, 200, "{t4}");
+    let eval_run = t4["run"]["run_id"].as_str().unwrap().to_string();
+    assert_eq!(t4["run"]["stage"], "table4");
+    let agents: Vec<&str> = t4["evaluation"]["agents"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["agent"].as_str().unwrap())
+        .collect();
+    for agent in ["ppo", "rule", "none"] {
+        assert!(agents.contains(&agent), "{agent} missing from {agents:?}");
+    }
+    for a in t4["evaluation"]["agents"].as_array().unwrap() {
+        let m = &a["cells_burned"]["mean"];
+        let [lo, v, hi] = ["low", "estimate", "high"].map(|k| m[k].as_f64().unwrap());
+        assert!(lo <= v && v <= hi, "{a}");
+    }
+    assert!(
+        t4["evaluation"]["comparisons"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|c| c["agent"] == "ppo" && c["baseline"] == "none"),
+        "{t4}"
+    );
+    assert!(
+        t4["plots"].as_array().unwrap().iter().any(|p| p == "table4.png"),
+        "{t4}"
+    );
+    // The recordings are artifacts of the run, served under their own file name (Rerun's
+    // viewer tells the format from the URL's end).
+    let recordings = t4["recordings"].as_array().unwrap();
+    assert!(
+        recordings
+            .iter()
+            .any(|r| r["artifact"].as_str().unwrap().starts_with("recording/")),
+        "{t4}"
+    );
+    for r in recordings {
+        let name = r["artifact"].as_str().unwrap().replace('/', "%2F");
+        let file = r["file"].as_str().unwrap();
+        assert!(file.ends_with(".rrd"), "{r}");
+        let (code, _, bytes) = fetch(s, &format!("/api/runs/{eval_run}/artifacts/{name}/{file}"));
+        assert_eq!(code, 200, "{r}");
+        assert_eq!(bytes.len() as u64, r["size"].as_u64().unwrap(), "{r}");
+    }
+
+    // A run of the other kind, an unknown run, a malformed id.
+    for path in [
+        format!("/api/tables/forecast?run={eval_run}"),
+        format!("/api/tables/rl?run={forecaster_run}"),
+        format!("/api/tables/rl?run={agent_run}"),
+        "/api/tables/rl?run=..%2F..%2Fetc".to_string(),
+        "/api/tables/forecast?run=x&other=1".to_string(),
+    ] {
+        let (code, body) = get(s, &path);
+        assert_eq!((code, error_code(&body)), (400, "bad_request"), "{path}: {body}");
+    }
+    let (code, body) = get(s, "/api/tables/forecast?run=20990101T000000000-abcdef");
+    assert_eq!((code, error_code(&body)), (404, "not_found"), "{body}");
+    // A run's files: only inside its outputs, only inside the project.
+    for bad in [
+        "report/..%2F..%2FCargo.toml",
+        "report/..%2F..%2F..%2F..%2Fetc%2Fpasswd",
+        "report/plots%2F..%2F..%2F..%2Fpipelines%2Fapp.yaml",
+    ] {
+        let (code, body) = get(s, &format!("/api/runs/{forecaster_run}/outputs/{bad}"));
+        assert_eq!((code, error_code(&body)), (400, "bad_request"), "{bad}: {body}");
+    }
+    let (code, body) = get(
+        s,
+        &format!("/api/runs/{forecaster_run}/outputs/nope/results.json"),
+    );
+    assert_eq!((code, error_code(&body)), (404, "not_found"), "{body}");
+    let (code, results) = get(
+        s,
+        &format!("/api/runs/{forecaster_run}/outputs/report/results.json"),
+    );
+    assert_eq!((code, &results["headline"]), (200, &t3["results"]["headline"]));
+
+    // Datasets: the list, one with its card, map, statistics and versions.
+    let (code, list) = get(s, "/api/datasets");
+    assert_eq!(code, 200, "{list}");
+    assert!(
+        list["datasets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|d| d["name"] == "app-ignitions" && d["card"] == true),
+        "{list}"
+    );
+    let (code, ds) = get(s, "/api/datasets/app-ignitions");
+    assert_eq!(code, 200, "{ds}");
+    assert!(
+        ds["card"].as_str().unwrap().starts_with("# app-ignitions"),
+        "{ds}"
+    );
+    assert_eq!(ds["manifest"]["name"], "app-ignitions");
+    assert_eq!(ds["versions"][0]["on_disk"], true);
+    assert_eq!(ds["versions"][0]["version"], ds["on_disk"]);
+    let dataset_run = get(s, "/api/runs?q=data.dataset").1["runs"][0]["run_id"].clone();
+    assert_eq!(ds["versions"][0]["run_id"], dataset_run);
+    let features = ds["stats"]["features"].as_array().unwrap();
+    assert!(
+        features
+            .iter()
+            .any(|f| f["split"] == "train" && f["rows"].as_u64() > Some(0)),
+        "{ds}"
+    );
+    assert!(
+        ds["files"].as_array().unwrap().iter().any(|f| f == "map.png"),
+        "{ds}"
+    );
+    let (code, kind, png) = fetch(s, "/api/datasets/app-ignitions/files/map.png");
+    assert_eq!((code, kind.as_str(), &png[..8]), (200, "image/png", PNG));
+    let (code, body) = get(s, "/api/datasets/no-such-dataset");
+    assert_eq!((code, error_code(&body)), (404, "not_found"), "{body}");
+    let (code, body) = get(s, "/api/datasets/bad%20name%3B");
+    assert_eq!((code, error_code(&body)), (400, "bad_request"), "{body}");
+    for bad in [
+        "..%2F..%2FCargo.toml",
+        "..%2F..%2F..%2Fpipelines%2Fapp.yaml",
+        "parquet",
+    ] {
+        let (code, body) = get(s, &format!("/api/datasets/app-ignitions/files/{bad}"));
+        assert!(
+            (code == 400 || code == 404) && body["error"]["code"].is_string(),
+            "{bad}: {code} {body}"
+        );
+    }
+
+    // Runs grouped by a parameter: every run in one group, a mean per metric.
+    let ids = format!("{agent_run},{forecaster_run},{eval_run}");
+    let (code, cmp) = get(s, &format!("/api/compare?ids={ids}&group=name"));
+    assert_eq!(code, 200, "{cmp}");
+    let grouped = &cmp["grouped"];
+    assert_eq!(grouped["param"], "name");
+    let groups = grouped["groups"].as_array().unwrap();
+    assert_eq!(groups.len(), 3, "{grouped}");
+    let mut members: Vec<&str> = groups
+        .iter()
+        .flat_map(|g| g["runs"].as_array().unwrap())
+        .map(|r| r.as_str().unwrap())
+        .collect();
+    members.sort_unstable();
+    let mut want = vec![agent_run, forecaster_run, eval_run.as_str()];
+    want.sort_unstable();
+    assert_eq!(members, want);
+    let agent_group = groups.iter().find(|g| g["runs"][0] == agent_run).unwrap();
+    assert_eq!(agent_group["value"], "\"app-agent\"");
+    let (key, m) = agent_group["metrics"].as_object().unwrap().iter().next().unwrap();
+    assert_eq!(m["n"], 1, "{key}: {m}");
+    assert!(
+        m["mean"].is_number() && m["low"].is_null(),
+        "one run, no interval: {m}"
+    );
+    let (code, body) = get(s, &format!("/api/compare?ids={ids}&grouping=name"));
+    assert_eq!((code, error_code(&body)), (400, "bad_request"), "{body}");
+
+    // Rerun's viewer, from this server, offline.
+    let (code, kind, page) = fetch(s, "/rerun/");
+    assert_eq!((code, kind.as_str()), (200, "text/html; charset=utf-8"));
+    let page = String::from_utf8(page).unwrap();
+    assert!(page.contains("re_viewer.js"), "{page}");
+    assert!(!page.contains("fonts.googleapis") && !page.contains("fonts.gstatic"));
+    let (code, kind, wasm) = fetch(s, "/rerun/re_viewer_bg.wasm");
+    assert_eq!(
+        (code, kind.as_str(), &wasm[..4]),
+        (200, "application/wasm", &b"\0asm"[..])
+    );
+    for bad in [
+        "/rerun/evil.js",
+        "/rerun/..%2F..%2FCargo.toml",
+        "/rerun/index.html%00",
+    ] {
+        assert_eq!(fetch(s, bad).0, 404, "{bad}");
+    }
 }
 
 /// The page in Chromium (tests/browser/test_app.py): click a place, the forecast and the
