@@ -241,22 +241,13 @@ fn with_fresh_dir<R>(out: &Path, build: impl FnOnce(&Path) -> anyhow::Result<R>)
             out.display()
         );
     }
-    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
-    }
-    let tmp = firecast_dataset::tmp_sibling(out);
-    let _ = std::fs::remove_dir_all(&tmp);
-    std::fs::create_dir_all(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-    match build(&tmp) {
-        Ok(r) => {
-            std::fs::rename(&tmp, out).with_context(|| format!("cannot rename into {}", out.display()))?;
-            Ok(r)
-        }
-        Err(e) => {
-            let _ = std::fs::remove_dir_all(&tmp);
-            Err(e)
-        }
-    }
+    // The staging folder is removed when dropped unpublished (a failed build).
+    let staged = firecast_fs::TempPath::dir(out)?;
+    let r = build(staged.path())?;
+    staged
+        .publish()
+        .with_context(|| format!("cannot rename into {}", out.display()))?;
+    Ok(r)
 }
 
 fn parent_dir(path: &Path) -> anyhow::Result<()> {
@@ -594,13 +585,14 @@ pub fn bench_gridmet(settings: &Settings, a: &BenchGridmetArgs) -> anyhow::Resul
             missing.len(),
             gridmet.display()
         );
-        let scratch = firecast_dataset::tmp_sibling(&dir.join("generate"));
-        let _ = std::fs::remove_dir_all(&scratch);
+        // Removed when dropped, whatever happens.
+        let staged = firecast_fs::TempPath::new(&dir.join("generate"))?;
+        let scratch = staged.path();
         std::fs::create_dir_all(&gridmet).with_context(|| format!("cannot create {}", gridmet.display()))?;
         let mut cfg = p.to_config()?;
         cfg.write_incidents = false;
         let bar = progress_bar(settings, "simulated days");
-        firecast_data::synth::generate(&cfg, &scratch, &mut |d, t| {
+        firecast_data::synth::generate(&cfg, scratch, &mut |d, t| {
             bar.set_length(t);
             bar.set_position(d);
         })?;
@@ -610,7 +602,7 @@ pub fn bench_gridmet(settings: &Settings, a: &BenchGridmetArgs) -> anyhow::Resul
             std::fs::rename(scratch.join("gridmet").join(&name), gridmet.join(&name))
                 .with_context(|| format!("moving {name}"))?;
         }
-        let _ = std::fs::remove_dir_all(&scratch);
+        drop(staged);
     }
 
     let mask = firecast_dataset::land::LandMask::from_gridmet_dir(&gridmet)?;

@@ -471,7 +471,7 @@ fn export_dvc(
         );
         return Ok(ExitCode::FAILURE);
     }
-    firecast_pipeline::fsutil::write_atomically(&path, text.as_bytes())?;
+    firecast_fs::write_atomically(&path, text.as_bytes())?;
     let stages: usize = plans.iter().map(|p| p.stages.len()).sum();
     println!(
         "wrote {} ({stages} stages from {} pipelines)",

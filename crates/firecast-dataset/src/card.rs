@@ -489,5 +489,5 @@ pub fn draw_map(table: &WindowTable, grid: &MapGrid, path: &Path) -> Result<(), 
             message: e.to_string(),
         })?;
     }
-    crate::write_atomically(path, &bytes)
+    Ok(firecast_fs::write_atomically(path, &bytes)?)
 }

@@ -472,9 +472,9 @@ pub fn write(
     kv.insert("firecast.dataset.version".to_string(), ds.version.clone());
     kv.insert("firecast.dataset.manifest".to_string(), json(&manifest));
     crate::table::write_window_table(dir, &ds.table, Some(&ds.splits), &kv)?;
-    crate::write_atomically(&dir.join(NORMALIZATION_FILE), json(&norm).as_bytes())?;
+    firecast_fs::write_atomically(&dir.join(NORMALIZATION_FILE), json(&norm).as_bytes())?;
     let stats_doc = serde_json::json!({ "features": stats, "tiers": tiers });
-    crate::write_atomically(&dir.join(STATS_FILE), stats_doc.to_string().as_bytes())?;
+    firecast_fs::write_atomically(&dir.join(STATS_FILE), stats_doc.to_string().as_bytes())?;
     let card = crate::card::render_card(
         ds,
         &crate::card::CardContext {
@@ -486,7 +486,7 @@ pub fn write(
             source_model,
         },
     );
-    crate::write_atomically(&dir.join(CARD_FILE), card.as_bytes())?;
+    firecast_fs::write_atomically(&dir.join(CARD_FILE), card.as_bytes())?;
     crate::card::draw_map(&ds.table, grid, &dir.join(MAP_FILE))?;
     for f in [
         crate::table::SAMPLES_FILE,
@@ -500,7 +500,7 @@ pub fn write(
             .files
             .insert(f.to_string(), crate::hash_file(&dir.join(f))?);
     }
-    crate::write_atomically(&dir.join(MANIFEST_FILE), json(&manifest).as_bytes())?;
+    firecast_fs::write_atomically(&dir.join(MANIFEST_FILE), json(&manifest).as_bytes())?;
     Ok(manifest)
 }
 

@@ -560,9 +560,9 @@ pub fn publish(
     }
     let stored = crate::table::read_window_table(dataset_dir)?;
     let t = &stored.table;
-    let tmp = crate::tmp_sibling(folder);
-    let _ = std::fs::remove_dir_all(&tmp);
-    std::fs::create_dir_all(&tmp).map_err(DatasetError::io("creating", &tmp))?;
+    // The staging folder is removed when dropped unpublished (any error below).
+    let staged = firecast_fs::TempPath::dir(folder)?;
+    let tmp = staged.path().to_path_buf();
 
     let csv_name = "Wildfire_Dataset.csv";
     let csv_path = tmp.join(csv_name);
@@ -660,7 +660,6 @@ pub fn publish(
     };
     let problems = validate_metadata(&meta, &tmp);
     if !problems.is_empty() {
-        let _ = std::fs::remove_dir_all(&tmp);
         return Err(DatasetError::Config {
             key: "kaggle".into(),
             message: format!(
@@ -670,9 +669,11 @@ pub fn publish(
         });
     }
     let text = serde_json::to_string_pretty(&meta).unwrap_or_default();
-    crate::write_atomically(&tmp.join("dataset-metadata.json"), text.as_bytes())?;
+    firecast_fs::write_atomically(&tmp.join("dataset-metadata.json"), text.as_bytes())?;
     files.push("dataset-metadata.json".into());
-    std::fs::rename(&tmp, folder).map_err(DatasetError::io("renaming into place", folder))?;
+    staged
+        .publish()
+        .map_err(|e| DatasetError::io("renaming into place", folder)(e.source))?;
     Ok(PublishReport {
         folder: folder.to_path_buf(),
         files,

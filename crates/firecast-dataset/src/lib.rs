@@ -129,24 +129,22 @@ impl DatasetError {
     }
 }
 
+impl From<firecast_fs::FsError> for DatasetError {
+    fn from(e: firecast_fs::FsError) -> Self {
+        Self::Io {
+            context: e.op,
+            path: e.path,
+            source: e.source,
+        }
+    }
+}
+
 /// BLAKE3 of a file, hex.
 pub fn hash_file(path: &Path) -> Result<String, DatasetError> {
     let mut hasher = blake3::Hasher::new();
     let mut file = std::fs::File::open(path).map_err(DatasetError::io("hashing", path))?;
     std::io::copy(&mut file, &mut hasher).map_err(DatasetError::io("hashing", path))?;
     Ok(hasher.finalize().to_hex().to_string())
-}
-
-/// Writes `bytes` to `path` through a temporary sibling and a rename, so a reader never
-/// sees a half-written file (the artifact store's writer, shared by every crate).
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
-    Ok(firecast_store::write_atomically(path, bytes)?)
-}
-
-/// A hidden temporary sibling of `path` for this process, named like the pipeline's
-/// in-progress outputs so its leftover-cleanup recognises an interrupted one.
-pub fn tmp_sibling(path: &Path) -> PathBuf {
-    firecast_pipeline::fsutil::temp_sibling(path, &std::process::id().to_string())
 }
 
 /// Fisher–Yates with our own draws, so an order never depends on a library's algorithm.

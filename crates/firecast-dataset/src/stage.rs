@@ -82,7 +82,7 @@ pub fn run_ignitions(
     let csv_out = table
         .reject_report_csv(&kept.dropped)
         .map_err(DatasetError::io("writing", reject_report))?;
-    crate::write_atomically(reject_report, &csv_out)?;
+    firecast_fs::write_atomically(reject_report, &csv_out)?;
 
     let mut kv = BTreeMap::new();
     kv.insert("firecast.ignitions.source".into(), file_name(incidents));
@@ -256,7 +256,10 @@ fn write_windows(
 ) -> Result<(), DatasetError> {
     table::write_window_table(out_dir, windows, None, &BTreeMap::new())?;
     let text = serde_json::to_string_pretty(manifest).unwrap_or_default();
-    crate::write_atomically(&out_dir.join(WINDOWS_MANIFEST), text.as_bytes())
+    Ok(firecast_fs::write_atomically(
+        &out_dir.join(WINDOWS_MANIFEST),
+        text.as_bytes(),
+    )?)
 }
 
 fn read_windows_manifest(dir: &Path) -> Result<WindowsManifest, DatasetError> {
@@ -345,7 +348,7 @@ fn stage_err(e: DatasetError) -> StageError {
 
 fn write_json(path: &Path, value: &impl Serialize) -> Result<(), StageError> {
     let text = serde_json::to_string_pretty(value).map_err(|e| StageError::msg(e.to_string()))?;
-    crate::write_atomically(path, text.as_bytes()).map_err(stage_err)
+    firecast_fs::write_atomically(path, text.as_bytes()).map_err(|e| stage_err(e.into()))
 }
 
 const fn port(name: &'static str, required: bool, description: &'static str) -> Port {
@@ -851,7 +854,7 @@ pub fn run_synthesize_with(
             path: out_dir.to_path_buf(),
             message: e.to_string(),
         })?;
-    crate::write_atomically(
+    firecast_fs::write_atomically(
         &out_dir.join(SOURCE_MODEL_FILE),
         firecast_data::synth::model_card().as_bytes(),
     )?;
@@ -919,10 +922,12 @@ impl StageKind for SynthesizeStage {
         let truth = ctx.output("truth").ok().map(Path::to_path_buf);
         // Generate into a scratch directory beside the outputs, then move each part to its
         // declared (temporary) output path; the runner renames those into place.
-        let scratch = crate::tmp_sibling(&gridmet.with_extension("synth"));
-        let _ = std::fs::remove_dir_all(&scratch);
+        // (Removed when dropped, whatever happens.)
+        let staged =
+            firecast_fs::TempPath::new(&gridmet.with_extension("synth")).map_err(|e| stage_err(e.into()))?;
+        let scratch = staged.path();
         let bar = ctx.progress_bar(0, "simulated days");
-        let report = run_synthesize_with(&params, &scratch, truth.is_some(), &mut |done, total| {
+        let report = run_synthesize_with(&params, scratch, truth.is_some(), &mut |done, total| {
             bar.set_length(total);
             bar.set_position(done);
         })
@@ -945,7 +950,7 @@ impl StageKind for SynthesizeStage {
             std::fs::rename(&from, to)
                 .map_err(|e| StageError::msg(format!("moving {}: {e}", from.display())))?;
         }
-        let _ = std::fs::remove_dir_all(&scratch);
+        drop(staged);
         ctx.metric("synthetic_ignitions", 0, report.ignitions as f64);
         ctx.log(format!(
             "{} GRIDMET files on a {}x{} grid, {} ignitions in {} records",

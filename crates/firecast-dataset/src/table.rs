@@ -31,7 +31,7 @@ use parquet::file::properties::WriterProperties;
 use crate::time;
 use crate::truth::TRUE_PROBABILITY_COLUMN;
 use crate::windows::{WindowSample, WindowTable};
-use crate::{DatasetError, Tier, tmp_sibling};
+use crate::{DatasetError, Tier};
 
 /// Version of the two-table layout; bump on any column change that a reader of the previous
 /// version would misread. The optional trailing `true_ignition_probability` column of
@@ -217,9 +217,10 @@ fn write_batches(
     props: &WriterProperties,
     batches: impl Iterator<Item = Result<RecordBatch, String>>,
 ) -> Result<(), DatasetError> {
-    let tmp = tmp_sibling(path);
+    let staged = firecast_fs::TempPath::new(path)?;
+    let tmp = staged.path();
     let err = pq_err(path);
-    let file = File::create(&tmp).map_err(DatasetError::io("creating", &tmp))?;
+    let file = File::create(tmp).map_err(DatasetError::io("creating", tmp))?;
     let mut writer =
         ArrowWriter::try_new(file, schema, Some(props.clone())).map_err(|e| err(e.to_string()))?;
     for batch in batches {
@@ -228,7 +229,9 @@ fn write_batches(
             .map_err(|e| err(e.to_string()))?;
     }
     writer.close().map_err(|e| err(e.to_string()))?;
-    std::fs::rename(&tmp, path).map_err(DatasetError::io("renaming into place", path))
+    staged
+        .publish()
+        .map_err(|e| DatasetError::io("renaming into place", path)(e.source))
 }
 
 /// A table read back, with its split column and key-value metadata.

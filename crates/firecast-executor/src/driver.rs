@@ -2,8 +2,8 @@
 //! job's inputs by content, write its task, and turn a worker's result back into the
 //! job's temporary outputs.
 
+use firecast_pipeline::StageJob;
 use firecast_pipeline::executor::JobOutcome;
-use firecast_pipeline::{StageJob, fsutil};
 use firecast_store::ArtifactStore;
 
 use crate::ExecutorError;
@@ -67,13 +67,13 @@ pub fn collect(
             .outputs
             .get(name)
             .ok_or_else(|| ExecutorError::Integrity(format!("the worker's result lacks output `{name}`")))?;
-        fsutil::remove_path(tmp);
+        firecast_fs::remove_path(tmp);
         if let Some(parent) = tmp.parent() {
             std::fs::create_dir_all(parent)
                 .map_err(|e| ExecutorError::io("cannot create folder", parent, e))?;
         }
         if let Err(e) = cas::get_path(store, stored, tmp) {
-            fsutil::remove_path(tmp);
+            firecast_fs::remove_path(tmp);
             return Err(e);
         }
     }

@@ -16,11 +16,11 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use firecast_pipeline::Shard;
 use firecast_pipeline::executor::{
     Invocation, JobFailure, JobOutcome, RecordingObserver, StageExecutor, StageJob, invoke_merge,
 };
 use firecast_pipeline::stage::SHARD_OUTPUT;
-use firecast_pipeline::{Shard, fsutil};
 use firecast_store::ArtifactStore;
 use serde_json::{Value, json};
 
@@ -383,7 +383,7 @@ impl RayExecutor {
             return Err(fail(format!("stage kind `{}` cannot be sharded", job.stage.kind)));
         }
         let parts_dir = job.root.join(".firecast/shards").join(job.run_id);
-        fsutil::remove_path(&parts_dir);
+        firecast_fs::remove_path(&parts_dir);
         let mut outcome = JobOutcome::default();
         let mut parts = Vec::new();
         let mut workers = Vec::new();
@@ -442,7 +442,7 @@ impl RayExecutor {
                 log: std::mem::take(&mut outcome.log),
             })
         })();
-        fsutil::remove_path(&parts_dir);
+        firecast_fs::remove_path(&parts_dir);
         merged?;
         outcome.warnings.splice(0..0, into_inner(warnings));
         outcome.worker = Some(format!("{count} shards: {}", workers.join("; ")));

@@ -8,7 +8,6 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use firecast_pipeline::executor::{Invocation, RecordingObserver, invoke};
-use firecast_pipeline::fsutil;
 use firecast_pipeline::hash::HashCache;
 use firecast_pipeline::stage::SHARD_OUTPUT;
 use firecast_pipeline::{Shard, StageKinds};
@@ -33,7 +32,7 @@ struct WorkDir(PathBuf);
 
 impl Drop for WorkDir {
     fn drop(&mut self) {
-        fsutil::remove_path(&self.0);
+        firecast_fs::remove_path(&self.0);
     }
 }
 
@@ -136,7 +135,7 @@ fn run(
     if let Ok(entries) = std::fs::read_dir(scratch) {
         for entry in entries.flatten() {
             if entry.file_name().to_string_lossy().starts_with(&prefix) {
-                fsutil::remove_path(&entry.path());
+                firecast_fs::remove_path(&entry.path());
             }
         }
     }
@@ -205,7 +204,7 @@ fn run(
             std::fs::create_dir_all(parent)
                 .map_err(|e| format!("cannot create {}: {e}", parent.display()))?;
         }
-        tmp_outputs.insert(name.clone(), fsutil::temp_sibling(&dest, &task.run_id));
+        tmp_outputs.insert(name.clone(), firecast_fs::temp_path(&dest));
         final_outputs.insert(name.clone(), PathBuf::from(rel));
     }
 

@@ -55,9 +55,10 @@ pub struct Bundle {
 pub fn save(dir: &Path, info: &BundleInfo, model: &Trained) -> Result<(), ForecastError> {
     let parent = dir.parent().unwrap_or(Path::new("."));
     std::fs::create_dir_all(parent).map_err(ForecastError::io("creating", parent))?;
-    let tmp = firecast_pipeline::fsutil::temp_sibling(dir, &std::process::id().to_string());
-    let _ = std::fs::remove_dir_all(&tmp);
-    std::fs::create_dir_all(&tmp).map_err(ForecastError::io("creating", &tmp))?;
+    // The staging folder is removed when dropped unpublished (any error below).
+    let staged =
+        firecast_fs::TempPath::dir(dir).map_err(|e| ForecastError::io("creating", &e.path)(e.source))?;
+    let tmp = staged.path();
     let (file, neural) = match model {
         Trained::Neural(n) => {
             n.save_weights(&tmp.join(WEIGHTS_FILE))?;
@@ -85,10 +86,9 @@ pub fn save(dir: &Path, info: &BundleInfo, model: &Trained) -> Result<(), Foreca
     let json = serde_json::to_vec_pretty(&file).map_err(|e| ForecastError::Model(e.to_string()))?;
     std::fs::write(tmp.join(MODEL_FILE), json)
         .map_err(ForecastError::io("writing", &tmp.join(MODEL_FILE)))?;
-    if dir.exists() {
-        std::fs::remove_dir_all(dir).map_err(ForecastError::io("replacing", dir))?;
-    }
-    std::fs::rename(&tmp, dir).map_err(ForecastError::io("renaming into place", dir))
+    staged
+        .publish()
+        .map_err(|e| ForecastError::io("renaming into place", dir)(e.source))
 }
 
 /// Serialises through JSON (non-neural models are plain data).

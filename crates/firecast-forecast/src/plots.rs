@@ -21,7 +21,7 @@ fn render_err(path: &Path) -> impl FnOnce(firecast_render::RenderError) -> Forec
 
 fn write_json(path: &Path, value: &serde_json::Value) -> Result<(), ForecastError> {
     let bytes = serde_json::to_vec_pretty(value).map_err(|e| ForecastError::Model(e.to_string()))?;
-    firecast_store::write_atomically(path, &bytes).map_err(|e| ForecastError::Data {
+    firecast_fs::write_atomically(path, &bytes).map_err(|e| ForecastError::Data {
         path: path.to_path_buf(),
         message: e.to_string(),
     })
@@ -224,7 +224,7 @@ pub fn write_all(
         )?;
     }
     let path = out.join("predictions.csv");
-    firecast_store::write_atomically(&path, csv.as_bytes()).map_err(|e| ForecastError::Data {
+    firecast_fs::write_atomically(&path, csv.as_bytes()).map_err(|e| ForecastError::Data {
         path: path.clone(),
         message: e.to_string(),
     })?;

@@ -277,7 +277,7 @@ pub fn write_all(out: &Path, result: &ExperimentResult) -> Result<(), ForecastEr
     std::fs::create_dir_all(out).map_err(ForecastError::io("creating", out))?;
     let write = |name: &str, bytes: &[u8]| -> Result<(), ForecastError> {
         let path = out.join(name);
-        firecast_store::write_atomically(&path, bytes).map_err(|e| ForecastError::Data {
+        firecast_fs::write_atomically(&path, bytes).map_err(|e| ForecastError::Data {
             path: path.clone(),
             message: e.to_string(),
         })

@@ -84,6 +84,16 @@ pub enum PipelineError {
     Store(#[from] firecast_store::StoreError),
 }
 
+impl From<firecast_fs::FsError> for PipelineError {
+    fn from(e: firecast_fs::FsError) -> Self {
+        Self::Io {
+            context: e.op,
+            path: e.path,
+            source: e.source,
+        }
+    }
+}
+
 impl PipelineError {
     pub(crate) fn io(context: &'static str, path: &Path, source: std::io::Error) -> Self {
         Self::Io {

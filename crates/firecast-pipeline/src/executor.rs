@@ -264,7 +264,7 @@ pub fn invoke_sharded(
                 kind.name()
             )));
         }
-        crate::fsutil::remove_path(parts_dir);
+        firecast_fs::remove_path(parts_dir);
         std::fs::create_dir_all(parts_dir)?;
         let mut parts = Vec::new();
         for index in 0..count {
@@ -294,7 +294,7 @@ pub fn invoke_sharded(
         total.absorb(report);
         result
     })();
-    crate::fsutil::remove_path(parts_dir);
+    firecast_fs::remove_path(parts_dir);
     (result, total)
 }
 

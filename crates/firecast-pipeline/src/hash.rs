@@ -76,7 +76,7 @@ impl HashCache {
             path: file.clone(),
             message: e.to_string(),
         })?;
-        crate::fsutil::write_atomically(file, &bytes)
+        Ok(firecast_fs::write_atomically(file, &bytes)?)
     }
 
     /// Hash a file or folder.

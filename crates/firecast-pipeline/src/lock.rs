@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::error::PipelineError;
-use crate::fsutil;
 use crate::hash::{ContentHash, HashCache, ManifestEntry};
 
 pub const LOCK_SCHEMA: &str = "firecast-lock/1";
@@ -81,7 +80,7 @@ impl LockFile {
             path: path.to_path_buf(),
             message: e.to_string(),
         })?;
-        fsutil::write_atomically(path, text.as_bytes())
+        Ok(firecast_fs::write_atomically(path, text.as_bytes())?)
     }
 }
 
@@ -163,7 +162,7 @@ impl RunCache {
             path: self.record_path(cache_key),
             message: e.to_string(),
         })?;
-        fsutil::write_atomically(&self.record_path(cache_key), &bytes)?;
+        firecast_fs::write_atomically(&self.record_path(cache_key), &bytes)?;
         Ok(record)
     }
 
@@ -175,27 +174,25 @@ impl RunCache {
         let parent = dest.parent().unwrap_or(&self.dir);
         std::fs::create_dir_all(parent)
             .map_err(|e| PipelineError::io("cannot create cache folder", parent, e))?;
-        let tmp = fsutil::temp_sibling(&dest, &std::process::id().to_string());
-        std::fs::copy(file, &tmp).map_err(|e| PipelineError::io("cannot copy into cache", file, e))?;
-        std::fs::rename(&tmp, &dest).map_err(|e| PipelineError::io("cannot move into cache", &dest, e))
+        let tmp = firecast_fs::TempPath::new(&dest)?;
+        std::fs::copy(file, tmp.path()).map_err(|e| PipelineError::io("cannot copy into cache", file, e))?;
+        tmp.publish()
+            .map_err(|e| PipelineError::io("cannot move into cache", &dest, e.source))
     }
 
     /// Rebuild an output at `dest` from cached objects (through a temporary name).
-    pub fn restore(&self, output: &CachedOutput, dest: &Path, tag: &str) -> Result<(), PipelineError> {
-        let tmp = fsutil::temp_sibling(dest, tag);
-        fsutil::remove_path(&tmp);
-        if let Some(parent) = dest.parent().filter(|p| !p.as_os_str().is_empty()) {
-            std::fs::create_dir_all(parent)
-                .map_err(|e| PipelineError::io("cannot create folder", parent, e))?;
-        }
+    pub fn restore(&self, output: &CachedOutput, dest: &Path) -> Result<(), PipelineError> {
+        firecast_fs::create_parent(dest)?;
+        let staged = firecast_fs::TempPath::new(dest)?;
+        let tmp = staged.path();
         match &output.manifest {
             None => {
-                std::fs::copy(self.object_path(&output.content.hash), &tmp)
+                std::fs::copy(self.object_path(&output.content.hash), tmp)
                     .map_err(|e| PipelineError::io("cannot restore from cache", dest, e))?;
             }
             Some(files) => {
-                std::fs::create_dir_all(&tmp)
-                    .map_err(|e| PipelineError::io("cannot create folder", &tmp, e))?;
+                std::fs::create_dir_all(tmp)
+                    .map_err(|e| PipelineError::io("cannot create folder", tmp, e))?;
                 for file in files {
                     let target = tmp.join(&file.path);
                     if let Some(parent) = target.parent() {
@@ -207,6 +204,6 @@ impl RunCache {
                 }
             }
         }
-        fsutil::move_into_place(&tmp, dest)
+        Ok(staged.publish()?)
     }
 }

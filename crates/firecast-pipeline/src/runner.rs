@@ -13,7 +13,6 @@ use serde::Serialize;
 
 use crate::error::{PipelineError, StageError};
 use crate::executor::{Invocation, JobInput, PendingArtifact, StageExecutor, StageJob};
-use crate::fsutil;
 use crate::hash::{ContentHash, HashCache, hash_json};
 use crate::lock::{CachedOutput, LockEntry, LockFile, LockedFile, RunCache};
 use crate::observer::{LineageRecord, PipelineRunInfo, RunObserver, RunStatus, StageRunInfo};
@@ -670,7 +669,7 @@ impl RunShared<'_> {
                 });
             };
             self.run_cache
-                .restore(entry, &self.engine.root.join(&output.path), &run_id)?;
+                .restore(entry, &self.engine.root.join(&output.path))?;
         }
         reasons.push("restored from the run-cache".into());
         let run = FinishedRun {
@@ -821,12 +820,13 @@ impl RunShared<'_> {
         let mut tmp_outputs = BTreeMap::new();
         for (name, output) in &stage.outputs {
             let dest = root.join(&output.path);
-            fsutil::remove_stale_temps(&dest);
             if let Some(parent) = dest.parent() {
+                // Leftovers of runs whose process is gone.
+                firecast_fs::remove_stale(parent);
                 std::fs::create_dir_all(parent)
                     .map_err(|e| PipelineError::io("cannot create folder", parent, e))?;
             }
-            tmp_outputs.insert(name.clone(), fsutil::temp_sibling(&dest, &run_id));
+            tmp_outputs.insert(name.clone(), firecast_fs::temp_path(&dest));
         }
 
         let info = self.stage_info(stage, previous, &run_id, &cache_key);
@@ -934,7 +934,7 @@ impl RunShared<'_> {
 
         if let Err(error) = result {
             for tmp in tmp_outputs.values() {
-                fsutil::remove_path(tmp);
+                firecast_fs::remove_path(tmp);
             }
             let message = error.to_string();
             self.note(
@@ -966,7 +966,7 @@ impl RunShared<'_> {
         for (name, tmp) in &tmp_outputs {
             let output = &stage.outputs[name];
             let dest = root.join(&output.path);
-            fsutil::move_into_place(tmp, &dest)?;
+            firecast_fs::publish(tmp, &dest)?;
             finals.insert(name.clone(), (dest, output.path.display().to_string()));
         }
         let cached = self.run_cache.save(&cache_key, &finals, &self.hashes)?;
@@ -1071,7 +1071,7 @@ impl RunShared<'_> {
             text.push_str(line);
             text.push('\n');
         }
-        if let Err(e) = fsutil::write_atomically(&path, text.as_bytes()) {
+        if let Err(e) = firecast_fs::write_atomically(&path, text.as_bytes()) {
             self.note(Err(e.to_string().into()), "stage log not written");
         }
     }

@@ -233,7 +233,7 @@ impl ArtifactStore {
     /// Download an artifact to a local file, atomically (temporary name, then rename).
     pub fn get_to_file(&self, uri_or_key: &str, dest: &Path) -> Result<u64, StoreError> {
         let bytes = self.get_bytes(uri_or_key)?;
-        write_atomically(dest, &bytes)?;
+        firecast_fs::write_atomically(dest, &bytes)?;
         Ok(bytes.len() as u64)
     }
 
@@ -295,26 +295,14 @@ fn backend(location: &str, source: object_store::Error) -> StoreError {
     }
 }
 
-/// Write a file so that readers see either nothing or the whole content.
-pub fn write_atomically(dest: &Path, bytes: &[u8]) -> Result<(), StoreError> {
-    let io = |context, source| StoreError::Io {
-        context,
-        path: dest.to_path_buf(),
-        source,
-    };
-    if let Some(parent) = dest.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).map_err(|e| io("cannot create folder for", e))?;
+impl From<firecast_fs::FsError> for StoreError {
+    fn from(e: firecast_fs::FsError) -> Self {
+        Self::Io {
+            context: e.op,
+            path: e.path,
+            source: e.source,
+        }
     }
-    let file_name = dest
-        .file_name()
-        .map(|n| n.to_string_lossy().to_string())
-        .unwrap_or_else(|| "out".into());
-    let tmp = dest.with_file_name(format!(".{file_name}.tmp-{}", std::process::id()));
-    std::fs::write(&tmp, bytes).map_err(|e| io("cannot write", e))?;
-    std::fs::rename(&tmp, dest).map_err(|e| {
-        let _ignored = std::fs::remove_file(&tmp);
-        io("cannot move into place", e)
-    })
 }
 
 #[cfg(test)]

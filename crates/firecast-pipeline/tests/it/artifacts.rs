@@ -116,8 +116,7 @@ fn artifacts_from_outputs_carry_final_names_and_final_bytes() {
     assert_eq!(recorded.len(), 2, "{recorded:?}");
     assert!(recorded.iter().all(|(r, _, _)| *r == run));
     assert!(
-        uris.iter()
-            .all(|u| !u.contains(firecast_pipeline::fsutil::TMP_MARKER)),
+        uris.iter().all(|u| !u.contains(firecast_fs::TEMP_PREFIX)),
         "{uris:?}"
     );
     let keys: Vec<String> = store
