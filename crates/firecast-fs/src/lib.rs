@@ -228,9 +228,10 @@ pub struct TempPath {
 }
 
 impl TempPath {
-    /// Reserve a fresh temporary name beside `dest`, creating `dest`'s parent folders.
+    /// Reserve a fresh temporary name beside `dest`. Nothing is created (not even `dest`'s
+    /// folder: writing into a missing folder fails as it would for `dest`). Infallible
+    /// today; a `Result` so callers need not change if reserving ever touches the disk.
     pub fn new(dest: &Path) -> Result<Self, FsError> {
-        create_parent(dest)?;
         Ok(Self {
             path: temp_path(dest),
             dest: dest.to_path_buf(),
@@ -238,8 +239,9 @@ impl TempPath {
         })
     }
 
-    /// A staging folder: [`TempPath::new`] with the folder created.
+    /// A staging folder: `dest`'s parent folders and the temporary folder are created.
     pub fn dir(dest: &Path) -> Result<Self, FsError> {
+        create_parent(dest)?;
         let staged = Self::new(dest)?;
         std::fs::create_dir(&staged.path)
             .map_err(|e| FsError::new("cannot create folder", &staged.path, e))?;

@@ -123,7 +123,8 @@ pub struct Recording {
     /// A second stream with the same recording id to a live viewer. Separate from the file
     /// so a viewer that goes away never fails the file.
     live: Option<rerun::RecordingStream>,
-    staging: PathBuf,
+    /// Removed when dropped unpublished (after `file`, declared first, is closed).
+    staging: firecast_fs::TempPath,
 }
 
 impl std::fmt::Debug for Recording {
@@ -179,7 +180,16 @@ impl Recording {
                 }
             })
             .collect();
-        let staging = staging_dir.join(format!(".{safe_name}.rrd.partial"));
+        // Leftovers of processes that are gone, then a fresh temporary name.
+        firecast_fs::remove_stale(staging_dir);
+        let staging =
+            firecast_fs::TempPath::new(&staging_dir.join(format!("{safe_name}.rrd"))).map_err(|e| {
+                RecorderError::Io {
+                    context: "cannot create staging folder",
+                    path: e.path,
+                    source: e.source,
+                }
+            })?;
         let recording_id = match recording_id {
             Some(id) => id.to_string(),
             None => rrd::derived_recording_id(application_id, recording_name),
@@ -195,7 +205,7 @@ impl Recording {
             ),
             None => None,
         };
-        let file = rrd::RrdWriter::create(&staging, store_id, recording_name)?;
+        let file = rrd::RrdWriter::create(staging.path(), store_id, recording_name)?;
         Ok(Self {
             file,
             now: rerun::TimePoint::default(),
@@ -294,7 +304,7 @@ impl Recording {
         }
     }
 
-    fn close(mut self) -> Result<PathBuf, RecorderError> {
+    fn close(mut self) -> Result<firecast_fs::TempPath, RecorderError> {
         // A viewer's trouble is not the file's: its error is dropped here (callers that care
         // call `disconnect_viewer` first).
         let _ignored = self.disconnect_viewer(Duration::from_secs(10));
@@ -310,24 +320,24 @@ impl Recording {
         } = self;
         drop(live);
         file.abandon();
-        let _ignored = std::fs::remove_file(&staging);
+        drop(staging);
     }
 
     /// Finish and move the recording to `dest` (never visible half-written).
     pub fn finish_to_file(self, dest: &Path) -> Result<(), RecorderError> {
         let staging = self.close()?;
-        std::fs::rename(&staging, dest).map_err(|source| RecorderError::Io {
+        firecast_fs::publish(staging.path(), dest).map_err(|e| RecorderError::Io {
             context: "cannot move recording into place",
             path: dest.to_path_buf(),
-            source,
+            source: e.source,
         })
     }
 
     /// Finish and upload the recording to the artifact store under `key` (write-once).
     pub fn finish_to_store(self, store: &ArtifactStore, key: &str) -> Result<StoredArtifact, RecorderError> {
         let staging = self.close()?;
-        let stored = store.put_file(key, &staging);
-        let _ignored = std::fs::remove_file(&staging);
+        let stored = store.put_file(key, staging.path());
+        drop(staging);
         Ok(stored?)
     }
 }

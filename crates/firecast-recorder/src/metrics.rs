@@ -3,7 +3,7 @@
 //! stage run that reports a metric it keeps a recording with one entity per metric key and
 //! the metric's step on the `step` timeline. When the run ends (succeeded or failed) the
 //! recording is finished into the artifact store as `runs/<run>/metrics/metrics.rrd` and
-//! registered as the run's `metrics` artifact. Until then it is a `.partial` staging file
+//! registered as the run's `metrics` artifact. Until then it is a staging file (`firecast_fs`'s temporary name)
 //! that is never published, so a killed process leaves nothing that looks finished.
 
 use std::collections::HashMap;

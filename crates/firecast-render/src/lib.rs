@@ -10,7 +10,7 @@
 //! 2. [`render_frame`]: one simulation step ([`FireFrame`]: fire state, helicopter cell,
 //!    drop centres) drawn over a copy of the basemap;
 //! 3. [`write_png`] for stills, [`GifWriter`] for animations. Both write to a hidden
-//!    temporary file (`.<name>.tmp`) in the destination folder and rename it into place,
+//!    temporary file (`firecast_fs`'s scheme) in the destination folder and rename it into place,
 //!    so a reader never sees a half-written file.
 //!
 //! Grids are row-major with row 0 on the **south** edge (as in `firecast-landscape`);

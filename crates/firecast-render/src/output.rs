@@ -1,4 +1,4 @@
-//! PNG stills and animated GIFs, written atomically (hidden temp file, then rename).
+//! PNG stills and animated GIFs, written atomically (`firecast_fs`: hidden temp file, then rename).
 
 use std::borrow::Cow;
 use std::fs::File;
@@ -8,19 +8,6 @@ use std::path::{Path, PathBuf};
 use crate::palette;
 use crate::{RenderError, RgbImage};
 
-/// `dir/.<name>.tmp` next to `path`.
-pub fn temp_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = format!(".{name}.tmp");
-    match path.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => dir.join(tmp),
-        _ => PathBuf::from(tmp),
-    }
-}
-
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> RenderError + '_ {
     move |source| RenderError::Io {
         source,
@@ -28,15 +15,11 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> RenderError + '_ {
     }
 }
 
-/// Flush, sync and rename `tmp` onto `path`.
-fn commit(file: BufWriter<File>, tmp: &Path, path: &Path) -> Result<(), RenderError> {
-    let file = file.into_inner().map_err(|e| RenderError::Io {
-        source: e.into_error(),
-        path: tmp.to_path_buf(),
-    })?;
-    file.sync_all().map_err(io_err(tmp))?;
-    drop(file);
-    std::fs::rename(tmp, path).map_err(io_err(path))
+fn fs_err(e: firecast_fs::FsError) -> RenderError {
+    RenderError::Io {
+        source: e.source,
+        path: e.path,
+    }
 }
 
 /// `image` as 8-bit RGB PNG bytes (the web app serves them without a file).
@@ -79,21 +62,19 @@ fn encode_png_for(image: &RgbImage, path: &Path) -> Result<Vec<u8>, RenderError>
     Ok(bytes)
 }
 
-/// Write `image` as an 8-bit RGB PNG at `path`, atomically: the bytes go to `.<name>.tmp` in
-/// the same folder, which is renamed onto `path` once complete (and removed on failure).
+/// Write `image` as an 8-bit RGB PNG at `path`, atomically: a [`firecast_fs::TempPath`] in
+/// the same folder, renamed onto `path` once complete (and removed on failure).
 pub fn write_png(image: &RgbImage, path: impl AsRef<Path>) -> Result<(), RenderError> {
     let path = path.as_ref();
     let bytes = encode_png_for(image, path)?;
-    let tmp = temp_path(path);
-    let result = File::create(&tmp).map_err(io_err(&tmp)).and_then(|file| {
-        let mut file = BufWriter::new(file);
-        file.write_all(&bytes).map_err(io_err(&tmp))?;
-        commit(file, &tmp, path)
-    });
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    // Not `firecast_fs::write_atomically`: a missing folder is the caller's error here.
+    let tmp = firecast_fs::TempPath::new(path).map_err(fs_err)?;
+    let mut file = File::create(tmp.path()).map_err(io_err(tmp.path()))?;
+    file.write_all(&bytes)
+        .and_then(|()| file.sync_all())
+        .map_err(io_err(tmp.path()))?;
+    drop(file);
+    tmp.publish().map_err(fs_err)
 }
 
 /// Levels of the 6 × 7 × 6 colour cube (red, green, blue).
@@ -203,11 +184,11 @@ impl Quantizer {
 /// changed since the previous frame (disposal "keep"), which is much smaller and faster for
 /// fire spreading over a static basemap.
 ///
-/// The file is written as `.<name>.tmp` and renamed onto the path by [`GifWriter::finish`];
-/// dropping an unfinished writer deletes the temp file.
+/// The file is written to a [`firecast_fs::TempPath`] and renamed onto the path by
+/// [`GifWriter::finish`]; dropping an unfinished writer deletes the temp file.
 pub struct GifWriter {
     path: PathBuf,
-    tmp: PathBuf,
+    tmp: Option<firecast_fs::TempPath>,
     encoder: Option<gif::Encoder<BufWriter<File>>>,
     width: u16,
     height: u16,
@@ -260,8 +241,8 @@ impl GifWriter {
                 });
             }
         };
-        let tmp = temp_path(&path);
-        let file = File::create(&tmp).map_err(io_err(&tmp))?;
+        let tmp = firecast_fs::TempPath::new(&path).map_err(fs_err)?;
+        let file = File::create(tmp.path()).map_err(io_err(tmp.path()))?;
         let gif_err = |source| RenderError::Gif {
             source,
             path: path.clone(),
@@ -270,14 +251,11 @@ impl GifWriter {
             .and_then(|mut e| e.set_repeat(gif::Repeat::Infinite).map(|()| e));
         let encoder = match built {
             Ok(e) => e,
-            Err(e) => {
-                let _ = std::fs::remove_file(&tmp);
-                return Err(gif_err(e));
-            }
+            Err(e) => return Err(gif_err(e)),
         };
         Ok(Self {
             path,
-            tmp,
+            tmp: Some(tmp),
             encoder: Some(encoder),
             width: w,
             height: h,
@@ -350,29 +328,27 @@ impl GifWriter {
 
     /// Write the trailer, sync and rename the temp file onto the path. Returns the path.
     pub fn finish(mut self) -> Result<PathBuf, RenderError> {
-        let result = match self.encoder.take() {
-            Some(encoder) => encoder
-                .into_inner()
-                .map_err(io_err(&self.tmp))
-                .and_then(|mut file| {
-                    file.flush().map_err(io_err(&self.tmp))?;
-                    commit(file, &self.tmp, &self.path)
-                }),
-            None => Ok(()),
+        let (Some(encoder), Some(tmp)) = (self.encoder.take(), self.tmp.take()) else {
+            return Ok(self.path.clone());
         };
-        if result.is_err() {
-            let _ = std::fs::remove_file(&self.tmp);
-        }
-        result.map(|()| self.path.clone())
+        // On any error `tmp` is dropped, which removes the temp file.
+        let mut file = encoder.into_inner().map_err(io_err(tmp.path()))?;
+        file.flush().map_err(io_err(tmp.path()))?;
+        let file = file.into_inner().map_err(|e| RenderError::Io {
+            source: e.into_error(),
+            path: tmp.path().to_path_buf(),
+        })?;
+        file.sync_all().map_err(io_err(tmp.path()))?;
+        drop(file);
+        tmp.publish().map_err(fs_err)?;
+        Ok(self.path.clone())
     }
 }
 
 impl Drop for GifWriter {
     fn drop(&mut self) {
-        if let Some(encoder) = self.encoder.take() {
-            drop(encoder);
-            let _ = std::fs::remove_file(&self.tmp);
-        }
+        // Close the file before its temp name is removed (with `tmp`, after this).
+        drop(self.encoder.take());
     }
 }
 

@@ -646,15 +646,10 @@ impl Trainer {
 
     /// Writes a checkpoint folder atomically (a temporary sibling renamed into place).
     pub fn save(&mut self, dir: &Path) -> Result<(), RlError> {
-        let parent = dir.parent().unwrap_or(Path::new("."));
-        std::fs::create_dir_all(parent)
-            .map_err(|e| RlError::io("creating the checkpoint folder", parent, e))?;
-        let name = dir
-            .file_name()
-            .map_or_else(|| "checkpoint".into(), |n| n.to_string_lossy().into_owned());
-        let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&tmp);
-        std::fs::create_dir_all(&tmp).map_err(|e| RlError::io("creating the checkpoint folder", &tmp, e))?;
+        // The staging folder is removed when dropped unpublished (any error below).
+        let staged = firecast_fs::TempPath::dir(dir)
+            .map_err(|e| RlError::io("creating the checkpoint folder", &e.path, e.source))?;
+        let tmp = staged.path();
         self.policy.vs.save(tmp.join(POLICY_FILE))?;
         let mut named = Vec::new();
         for ((n, m), v) in self
@@ -694,10 +689,9 @@ impl Trainer {
         let state_path = tmp.join(STATE_FILE);
         std::fs::write(&state_path, json)
             .map_err(|e| RlError::io("writing the checkpoint", &state_path, e))?;
-        if dir.exists() {
-            std::fs::remove_dir_all(dir).map_err(|e| RlError::io("replacing the checkpoint", dir, e))?;
-        }
-        std::fs::rename(&tmp, dir).map_err(|e| RlError::io("finishing the checkpoint", dir, e))?;
+        staged
+            .publish()
+            .map_err(|e| RlError::io("finishing the checkpoint", dir, e.source))?;
         self.last_checkpoint = Some(dir.to_path_buf());
         Ok(())
     }

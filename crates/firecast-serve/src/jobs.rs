@@ -348,9 +348,9 @@ impl Jobs {
     /// job's folder through a temporary folder.
     fn publish(&self, dir: &Path) -> Result<HashMap<String, String>, String> {
         let outputs = self.report_outputs();
-        let tmp = dir.with_extension("firecast-tmp");
-        let _ = std::fs::remove_dir_all(&tmp);
-        std::fs::create_dir_all(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;
+        // The staging folder is removed when dropped unpublished (any error below).
+        let staged = firecast_fs::TempPath::dir(dir).map_err(|e| e.to_string())?;
+        let tmp = staged.path();
         let id = dir
             .file_name()
             .and_then(|n| n.to_str())
@@ -365,8 +365,9 @@ impl Jobs {
                 files.insert(key.to_string(), format!("/api/jobs/{id}/files/{name}"));
             }
         }
-        let _ = std::fs::remove_dir_all(dir);
-        std::fs::rename(&tmp, dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        staged
+            .publish()
+            .map_err(|e| format!("{}: {}", dir.display(), e.source))?;
         if files.is_empty() {
             return Err("the pipeline finished but wrote no report".into());
         }

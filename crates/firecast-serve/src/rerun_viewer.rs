@@ -117,36 +117,33 @@ fn extract(cli: &Path, dir: &Path) -> Result<(), String> {
             .spawn()
             .map_err(|e| format!("cannot start {}: {e}", cli.display()))?,
     );
-    let parent = dir.parent().ok_or("the viewer folder has no parent")?;
-    std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
-    let tmp = parent.join(format!(".tmp-rerun-viewer-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&tmp);
-    std::fs::create_dir_all(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;
-    let result = (|| {
-        let deadline = Instant::now() + Duration::from_secs(30);
-        for file in FILES {
-            let bytes = loop {
-                match http_get(web, file) {
-                    Ok(b) => break b,
-                    Err(e) if Instant::now() > deadline => {
-                        return Err(format!("Rerun's web server did not give {file}: {e}"));
-                    }
-                    Err(_) => std::thread::sleep(Duration::from_millis(100)),
-                }
-            };
-            let bytes = if file == "index.html" {
-                offline_page(&bytes)
-            } else {
-                bytes
-            };
-            std::fs::write(tmp.join(file), bytes).map_err(|e| format!("{}: {e}", tmp.display()))?;
-        }
-        std::fs::rename(&tmp, dir).map_err(|e| format!("{}: {e}", dir.display()))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_dir_all(&tmp);
+    if dir.parent().is_none() {
+        return Err("the viewer folder has no parent".into());
     }
-    result
+    // The staging folder is removed when dropped unpublished (any error below).
+    let staged = firecast_fs::TempPath::dir(dir).map_err(|e| e.to_string())?;
+    let tmp = staged.path();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    for file in FILES {
+        let bytes = loop {
+            match http_get(web, file) {
+                Ok(b) => break b,
+                Err(e) if Instant::now() > deadline => {
+                    return Err(format!("Rerun's web server did not give {file}: {e}"));
+                }
+                Err(_) => std::thread::sleep(Duration::from_millis(100)),
+            }
+        };
+        let bytes = if file == "index.html" {
+            offline_page(&bytes)
+        } else {
+            bytes
+        };
+        std::fs::write(tmp.join(file), bytes).map_err(|e| format!("{}: {e}", tmp.display()))?;
+    }
+    staged
+        .publish()
+        .map_err(|e| format!("{}: {}", dir.display(), e.source))
 }
 
 /// A plain HTTP/1.0 GET of `/<file>` from the viewer's loopback server.

@@ -30,7 +30,6 @@
 use std::fs::File;
 use std::io::{self, BufRead, BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::fuel::FuelModel;
 use crate::rothermel::{FuelMoisture, SpreadInputs, SurfaceFuelBed};
@@ -170,54 +169,25 @@ pub fn spread_rate_csv(input: &Path, output: &Path) -> Result<usize, SpreadCsvEr
     };
     let reader = BufReader::new(File::open(input).map_err(read_err)?);
 
-    let file_name = output.file_name().map_or_else(
-        || "spread-rate-output".into(),
-        |n| n.to_string_lossy().into_owned(),
-    );
-    // Unique per process and call, so concurrent runs never share a temporary file.
-    static RUN: AtomicU64 = AtomicU64::new(0);
-    let run = RUN.fetch_add(1, Ordering::Relaxed);
-    let temp_path = output.with_file_name(format!(".{file_name}.{}-{run}.tmp", std::process::id()));
     let write_err = |path: &Path| {
         let path = path.to_path_buf();
         move |source| SpreadCsvError::Write { path, source }
     };
-    let file = File::create(&temp_path).map_err(write_err(&temp_path))?;
-    let temp = TempFile { path: temp_path };
+    // A temporary name unique per process and call (removed on drop unless published), so
+    // concurrent runs never share a temporary file.
+    let temp = firecast_fs::TempPath::new(output).map_err(|e| write_err(&e.path)(e.source))?;
+    let file = File::create(temp.path()).map_err(write_err(temp.path()))?;
     let mut writer = BufWriter::new(file);
 
-    let count = process(reader, input, &mut writer, &temp.path)?;
+    let count = process(reader, input, &mut writer, temp.path())?;
 
     writer
         .into_inner()
         .map_err(|e| e.into_error())
         .and_then(|f| f.sync_all())
-        .map_err(write_err(&temp.path))?;
-    temp.persist(output).map_err(write_err(output))?;
+        .map_err(write_err(temp.path()))?;
+    temp.publish().map_err(|e| write_err(output)(e.source))?;
     Ok(count)
-}
-
-/// A temporary file path removed on drop unless persisted (renamed into place).
-struct TempFile {
-    path: PathBuf,
-}
-
-impl TempFile {
-    fn persist(mut self, target: &Path) -> io::Result<()> {
-        std::fs::rename(&self.path, target)?;
-        // Renamed: nothing left to clean up.
-        self.path = PathBuf::new();
-        Ok(())
-    }
-}
-
-impl Drop for TempFile {
-    fn drop(&mut self) {
-        if !self.path.as_os_str().is_empty() {
-            // Best effort: the original error is what the caller needs to see.
-            let _ = std::fs::remove_file(&self.path);
-        }
-    }
 }
 
 /// Column positions resolved from the header.

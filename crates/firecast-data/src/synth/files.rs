@@ -1,7 +1,7 @@
 //! GRIDMET-style yearly files (`<short>_<YYYY>.nc`, and the true ignition probability
 //! `truth/ignition_probability_<YYYY>.nc` in the same layout): schema, packing, atomic writing.
 
-use std::fs::{self, File};
+use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
@@ -378,11 +378,11 @@ enum Encoding {
     FloatLonLat,
 }
 
-/// Writes one variable-year to `.<name>.tmp-<pid>` and renames it to `<name>` on
+/// Writes one variable-year to a [`firecast_fs::TempPath`] and renames it to `<name>` on
 /// [`GridmetWriter::finish`]; dropping it unfinished removes the temporary file.
 pub(crate) struct GridmetWriter {
     writer: Option<ClassicWriter<BufWriter<File>>>,
-    tmp: PathBuf,
+    tmp: Option<firecast_fs::TempPath>,
     dest: PathBuf,
     encoding: Encoding,
     n_lat: usize,
@@ -390,13 +390,9 @@ pub(crate) struct GridmetWriter {
     bytes: Vec<u8>,
 }
 
-/// The temporary name used while `dest` is being written.
-pub(crate) fn temp_path(dest: &Path) -> PathBuf {
-    let name = dest
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    dest.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+/// A temporary name beside `dest` (removed when dropped unpublished).
+pub(crate) fn temp_path(dest: &Path) -> Result<firecast_fs::TempPath, SynthError> {
+    firecast_fs::TempPath::new(dest).map_err(|e| SynthError::io(&e.path, e.source))
 }
 
 impl GridmetWriter {
@@ -412,17 +408,17 @@ impl GridmetWriter {
         version: Version,
     ) -> Result<Self, SynthError> {
         let dest = dir.join(content.file_name(year));
-        let tmp = temp_path(&dest);
+        let tmp = temp_path(&dest)?;
         let schema = schema(content, vintage, window, days.len(), seed);
         let encoding = match (content, vintage) {
             (Content::Weather(v), Vintage::PackedLatLon) => Encoding::Packed(packing(v)),
             (Content::Truth, Vintage::PackedLatLon) => Encoding::FloatLatLon,
             (_, Vintage::FloatLonLat) => Encoding::FloatLonLat,
         };
-        let file = File::create(&tmp).map_err(|e| SynthError::io(&tmp, e))?;
+        let file = File::create(tmp.path()).map_err(|e| SynthError::io(tmp.path(), e))?;
         let mut me = Self {
             writer: None,
-            tmp,
+            tmp: Some(tmp),
             dest,
             encoding,
             n_lat: window.n_lat,
@@ -506,23 +502,27 @@ impl GridmetWriter {
             ));
         };
         let buf = w.finish().map_err(|e| SynthError::netcdf(&self.dest, e))?;
+        let Some(tmp) = self.tmp.take() else {
+            return Err(SynthError::netcdf(
+                &self.dest,
+                super::netcdf3::NcWriteError::Sequence("writer already finished".into()),
+            ));
+        };
         let file = buf
             .into_inner()
-            .map_err(|e| SynthError::io(&self.tmp, e.into_error()))?;
-        file.sync_all().map_err(|e| SynthError::io(&self.tmp, e))?;
+            .map_err(|e| SynthError::io(tmp.path(), e.into_error()))?;
+        file.sync_all().map_err(|e| SynthError::io(tmp.path(), e))?;
         drop(file);
-        fs::rename(&self.tmp, &self.dest).map_err(|e| SynthError::io(&self.dest, e))?;
+        tmp.publish().map_err(|e| SynthError::io(&self.dest, e.source))?;
         Ok(self.dest.clone())
     }
 }
 
 impl Drop for GridmetWriter {
     fn drop(&mut self) {
-        if self.writer.is_some() {
-            // Unfinished (an error happened): never leave the partial file behind.
-            self.writer = None;
-            let _ = fs::remove_file(&self.tmp);
-        }
+        // Unfinished (an error happened): close the file; dropping `tmp` (after this)
+        // removes the partial file.
+        self.writer = None;
     }
 }
 

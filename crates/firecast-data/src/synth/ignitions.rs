@@ -22,7 +22,7 @@
 //! twice (a second IRWIN record from another unit 3 to 110 minutes later and 80–700 m away).
 
 use std::cmp::Ordering;
-use std::fs::{self, File};
+use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
@@ -698,9 +698,10 @@ fn col(name: &str) -> usize {
 
 /// Writes `set` as a WFIGS CSV at `path` (via a temporary file renamed into place).
 pub(crate) fn write_csv(set: &IncidentSet, path: &Path) -> Result<PathBuf, SynthError> {
-    let tmp = temp_path(path);
+    let staged = temp_path(path)?;
+    let tmp = staged.path();
     let result = (|| -> Result<(), SynthError> {
-        let file = File::create(&tmp).map_err(|e| SynthError::io(&tmp, e))?;
+        let file = File::create(tmp).map_err(|e| SynthError::io(tmp, e))?;
         let mut w = csv::WriterBuilder::new().from_writer(BufWriter::with_capacity(1 << 20, file));
         let csv_err = |e: csv::Error| SynthError::Csv {
             path: path.to_path_buf(),
@@ -762,18 +763,16 @@ pub(crate) fn write_csv(set: &IncidentSet, path: &Path) -> Result<PathBuf, Synth
             row[c("GlobalID")] = r.global.clone();
             w.write_record(&row).map_err(csv_err)?;
         }
-        let buf = w.into_inner().map_err(|e| SynthError::io(&tmp, e.into_error()))?;
+        let buf = w.into_inner().map_err(|e| SynthError::io(tmp, e.into_error()))?;
         let file = buf
             .into_inner()
-            .map_err(|e| SynthError::io(&tmp, e.into_error()))?;
-        file.sync_all().map_err(|e| SynthError::io(&tmp, e))?;
+            .map_err(|e| SynthError::io(tmp, e.into_error()))?;
+        file.sync_all().map_err(|e| SynthError::io(tmp, e))?;
         Ok(())
     })();
-    if let Err(e) = result {
-        let _ = fs::remove_file(&tmp);
-        return Err(e);
-    }
-    fs::rename(&tmp, path).map_err(|e| SynthError::io(path, e))?;
+    // On an error `staged` is dropped, which removes the partial file.
+    result?;
+    staged.publish().map_err(|e| SynthError::io(path, e.source))?;
     Ok(path.to_path_buf())
 }
 

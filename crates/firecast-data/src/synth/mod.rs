@@ -262,7 +262,8 @@ fn validate(config: &SynthConfig) -> Result<(), SynthError> {
 /// and `truth/` with [`SynthConfig::write_truth`]).
 ///
 /// `progress(done, total)` is called after every simulated day (warm-up included). Every file
-/// is written to `.<name>.tmp-<pid>` in its directory and renamed when complete.
+/// is written to a temporary name (`firecast_fs`'s scheme) in its directory and renamed when
+/// complete.
 pub fn generate(
     config: &SynthConfig,
     out_dir: &Path,
