@@ -102,7 +102,21 @@ enum BenchCommand {
     Serve(cmd_serve::BenchServeArgs),
 }
 
+/// Exit status of an error at this edge: the command could not be carried out (bad
+/// arguments, settings or inputs, or the environment refused: a file, the registry). `1` is
+/// returned by commands whose work ran and failed (a stage, a check, a benchmark's goals);
+/// clap exits `2` for usage errors too; a panic (a bug) exits 101 after the hook's message.
+const EXIT_ERROR: u8 = 2;
+
 fn main() -> ExitCode {
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        default_hook(info);
+        eprintln!(
+            "error: internal error in firecast {} (a bug, not your input): please report it with the command that led here",
+            env!("CARGO_PKG_VERSION")
+        );
+    }));
     let cli = Cli::parse();
     match run(cli) {
         Ok(code) => code,
@@ -117,7 +131,7 @@ fn main() -> ExitCode {
             // Each cause once: many library errors carry their source's text in their own message,
             // which anyhow's `{:#}` would print a second time.
             eprintln!("error: {}", firecast_pipeline::chain_text(error.as_ref()));
-            ExitCode::from(2)
+            ExitCode::from(EXIT_ERROR)
         }
     }
 }
