@@ -4,6 +4,8 @@
 //!   `behave` engine implements it, over the standard fuel models of [`fuel`].
 //! - [`concord`]: the Concord / FireCastRL single-particle compatibility kernel, quirks
 //!   included, with a corrected variant.
+//! - [`behavior`]: fire behaviour grids over a LANDFIRE landscape (surface fire, as FlamMap
+//!   computes it), written as GeoTIFFs with a JSON summary.
 //! - [`spread_csv`]: the CSV front end of `firecast sim spread-rate`.
 //! - [`automaton`]: the Concord/FireCastRL cellular automaton on a `firecast_landscape`
 //!   grid, driven by either kernel.
@@ -12,6 +14,7 @@
 
 pub mod agents;
 pub mod automaton;
+pub mod behavior;
 pub mod bench;
 pub mod concord;
 pub mod env;

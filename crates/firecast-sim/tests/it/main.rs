@@ -4,6 +4,7 @@
 
 mod agents;
 mod automaton;
+mod flammap_parity;
 mod behave_oracles;
 mod common;
 mod concord_kernel;

@@ -1,0 +1,664 @@
+//! Fire behaviour grids: the behave kernel ([`crate::rothermel`]) at every cell of a LANDFIRE
+//! landscape, as FlamMap's "basic fire behaviour" computes it for a surface fire.
+//!
+//! Per cell, with one set of moistures and one 20-ft wind for the whole landscape:
+//!
+//! - **Fuel**: the cell's FBFM40 or FBFM13 model (`docs/spec/fire-model.md §B8`); a fuel bed is
+//!   prepared once per model.
+//! - **Slope and aspect**: slope in percent, the upslope direction the aspect plus 180°
+//!   (LANDFIRE's aspect is the direction the slope faces); aspect −1 (flat) is taken as 0, as
+//!   it enters a FlamMap `.lcp`, so its upslope is south (FlamMap's direction on those cells).
+//!   With no wind and no slope the direction is the upslope one, as FlamMap reports it. With
+//!   [`SlopeMode::LcpWholeDegrees`] the slope goes through what a FlamMap `.lcp` file keeps:
+//!   percent → degrees, rounded to a whole degree, back to percent.
+//! - **Wind**: the 20-ft wind is reduced to midflame with FlamMap's (and FARSITE's) wind
+//!   adjustment factor: under canopy (canopy cover > 0 and canopy height > 0) Albini &
+//!   Baughman's (1979) sheltered form with crown ratio 1, WAF = 0.555 / (√(CC/3 · H) ·
+//!   ln((20 + 0.36·H)/(0.13·H))), CC a fraction and H the canopy height in ft; otherwise the
+//!   unsheltered form on the fuel-bed depth δ, 1.83 / ln((20 + 0.36·δ)/(0.13·δ))
+//!   (`docs/spec/fire-model.md §B7`, "Wind height"). This follows pyretechnics, which
+//!   reproduces FlamMap; it is not checked against FlamMap here (the Worcester run has no
+//!   wind). The wind blows toward `wind_from_deg + 180°`; wind and slope combine as vectors
+//!   (behave's method, `docs/spec/fire-model.md §B6`).
+//! - **Outputs**: head rate of spread (ch/h), flame length (ft), Byram fireline intensity
+//!   (Btu/ft/s), direction of maximum spread (degrees clockwise from north), and fire type.
+//!
+//! **Crown fire is not modelled yet**: fire type is 0 (no fire: non-burnable, or a fuel past
+//! extinction) or 1 (surface) wherever the inputs have data; every cell FlamMap would call
+//! passive or active crown fire gets its surface values here.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use firecast_landscape::gridio::{GridPlacement, encode_geotiff_f32};
+use firecast_landscape::landfire::{FuelLayer, LANDFIRE_NODATA, LandfireLandscape};
+use rayon::prelude::*;
+
+use crate::fuel::FuelModel;
+use crate::rothermel::{FuelMoisture, SpreadInputs, SurfaceFuelBed, WindLimit};
+
+/// How slope enters the kernel.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SlopeMode {
+    /// The landscape's slope as read (LANDFIRE's percent layer).
+    #[default]
+    AsGiven,
+    /// As a FlamMap `.lcp` landscape stores it: whole degrees (percent → degrees, rounded
+    /// half away from zero, → percent).
+    LcpWholeDegrees,
+}
+
+/// The fuel layer to read, in params.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FuelChoice {
+    #[default]
+    Fbfm40,
+    Fbfm13,
+}
+
+impl FuelChoice {
+    pub fn layer(self) -> FuelLayer {
+        match self {
+            Self::Fbfm40 => FuelLayer::Fbfm40,
+            Self::Fbfm13 => FuelLayer::Fbfm13,
+        }
+    }
+}
+
+/// Fuel moistures in percent.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MoisturePercent {
+    pub dead_1h: f64,
+    pub dead_10h: f64,
+    pub dead_100h: f64,
+    pub live_herbaceous: f64,
+    pub live_woody: f64,
+}
+
+impl MoisturePercent {
+    /// Parse `D1,D10,D100,HERB,WOODY` (percent).
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let values: Vec<f64> = text
+            .split(',')
+            .map(|v| v.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("moisture `{text}` is not five numbers D1,D10,D100,HERB,WOODY (percent)"))?;
+        let [dead_1h, dead_10h, dead_100h, live_herbaceous, live_woody] = values[..] else {
+            return Err(format!(
+                "moisture `{text}` has {} values; give five: D1,D10,D100,HERB,WOODY (percent)",
+                values.len()
+            ));
+        };
+        Ok(Self {
+            dead_1h,
+            dead_10h,
+            dead_100h,
+            live_herbaceous,
+            live_woody,
+        })
+    }
+
+    /// The kernel's fractions.
+    pub fn fractions(&self) -> FuelMoisture {
+        FuelMoisture::from_percent(
+            self.dead_1h,
+            self.dead_10h,
+            self.dead_100h,
+            self.live_herbaceous,
+            self.live_woody,
+        )
+    }
+}
+
+/// Everything a behaviour run takes besides the landscape: the `sim.behavior` params and
+/// what `firecast sim behavior` resolves its flags into.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BehaviorParams {
+    /// Which fuel layer to read.
+    #[serde(default)]
+    pub fuel: FuelChoice,
+    /// Fuel moistures, percent, the same for every fuel model.
+    pub moisture: MoisturePercent,
+    /// 20-ft wind speed, mi/h.
+    #[serde(default)]
+    pub wind_20ft_mph: f64,
+    /// Direction the wind comes from, degrees clockwise from north (grid north).
+    #[serde(default)]
+    pub wind_from_deg: f64,
+    /// How slope enters the kernel.
+    #[serde(default)]
+    pub slope: SlopeMode,
+    /// Rothermel's effective-wind limit (behave's default, and FlamMap's here: off).
+    #[serde(default)]
+    pub wind_limit: bool,
+}
+
+/// A params value out of range: `field` names it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field} = {value}: {message}")]
+pub struct ParamError {
+    pub field: &'static str,
+    pub value: f64,
+    pub message: &'static str,
+}
+
+impl BehaviorParams {
+    /// Check ranges: dead moistures 1–100 %, live 30–300 % (the live range behave's
+    /// curing and extinction cover), wind 0–100 mi/h, direction 0–360°.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let m = &self.moisture;
+        let checks: [(&'static str, f64, f64, f64, &'static str); 7] = [
+            (
+                "moisture.dead_1h",
+                m.dead_1h,
+                1.0,
+                100.0,
+                "dead moisture must be 1-100 %",
+            ),
+            (
+                "moisture.dead_10h",
+                m.dead_10h,
+                1.0,
+                100.0,
+                "dead moisture must be 1-100 %",
+            ),
+            (
+                "moisture.dead_100h",
+                m.dead_100h,
+                1.0,
+                100.0,
+                "dead moisture must be 1-100 %",
+            ),
+            (
+                "moisture.live_herbaceous",
+                m.live_herbaceous,
+                30.0,
+                300.0,
+                "live moisture must be 30-300 %",
+            ),
+            (
+                "moisture.live_woody",
+                m.live_woody,
+                30.0,
+                300.0,
+                "live moisture must be 30-300 %",
+            ),
+            (
+                "wind_20ft_mph",
+                self.wind_20ft_mph,
+                0.0,
+                100.0,
+                "wind speed must be 0-100 mi/h",
+            ),
+            (
+                "wind_from_deg",
+                self.wind_from_deg,
+                0.0,
+                360.0,
+                "wind direction must be 0-360 degrees",
+            ),
+        ];
+        for (field, value, lo, hi, message) in checks {
+            if !(value.is_finite() && (lo..=hi).contains(&value)) {
+                return Err(ParamError {
+                    field,
+                    value,
+                    message,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Fire type codes, as FlamMap writes them (2 passive and 3 active crown are not produced).
+pub const FIRE_TYPE_NONE: f32 = 0.0;
+pub const FIRE_TYPE_SURFACE: f32 = 1.0;
+
+/// The grids of one run, row 0 north, `nodata` where an input layer (fuel, slope, aspect) has
+/// none; direction is `nodata` also where nothing spreads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BehaviorGrids {
+    pub width: usize,
+    pub height: usize,
+    pub nodata: f32,
+    pub ros_chph: Vec<f32>,
+    pub flame_length_ft: Vec<f32>,
+    pub fireline_intensity_btu_ft_s: Vec<f32>,
+    /// Degrees clockwise from grid north, in [0, 360).
+    pub max_spread_dir_deg: Vec<f32>,
+    pub fire_type: Vec<f32>,
+    /// Midflame wind speed used, mi/h.
+    pub midflame_wind_mph: Vec<f32>,
+}
+
+/// The grid files, their names and units.
+pub const GRID_FILES: [(&str, &str); 5] = [
+    ("ros_chph.tif", "head rate of spread, ch/h"),
+    ("flame_length_ft.tif", "flame length, ft"),
+    (
+        "fireline_intensity_btu_ft_s.tif",
+        "Byram fireline intensity, Btu/ft/s",
+    ),
+    (
+        "max_spread_direction_deg.tif",
+        "direction of maximum spread, degrees clockwise from north",
+    ),
+    (
+        "fire_type.tif",
+        "fire type: 0 none, 1 surface (crown fire not modelled yet)",
+    ),
+];
+
+impl BehaviorGrids {
+    fn layers(&self) -> [&[f32]; 5] {
+        [
+            &self.ros_chph,
+            &self.flame_length_ft,
+            &self.fireline_intensity_btu_ft_s,
+            &self.max_spread_dir_deg,
+            &self.fire_type,
+        ]
+    }
+}
+
+/// Slope (percent) as a FlamMap `.lcp` keeps it: whole degrees, back to percent.
+pub fn lcp_slope_percent(slope_percent: f64) -> f64 {
+    let degrees = (slope_percent / 100.0).atan().to_degrees().round();
+    degrees.to_radians().tan() * 100.0
+}
+
+/// FlamMap's wind adjustment factor (see the module documentation). `canopy_cover` a fraction,
+/// heights in ft.
+pub fn wind_adjustment_factor(fuel_bed_depth_ft: f64, canopy_height_ft: f64, canopy_cover: f64) -> f64 {
+    if canopy_cover > 0.0 && canopy_height_ft > 0.0 {
+        let h = canopy_height_ft;
+        0.555 / ((canopy_cover / 3.0 * h).sqrt() * ((20.0 + 0.36 * h) / (0.13 * h)).ln())
+    } else if fuel_bed_depth_ft > 0.0 {
+        let d = fuel_bed_depth_ft;
+        1.83 / ((20.0 + 0.36 * d) / (0.13 * d)).ln()
+    } else {
+        0.0
+    }
+}
+
+/// Compute the surface fire behaviour of every cell. The landscape must have been read with
+/// the fuel layer `params.fuel` names; params must be valid ([`BehaviorParams::validate`]).
+pub fn surface_behavior_grids(
+    land: &LandfireLandscape,
+    params: &BehaviorParams,
+) -> Result<BehaviorGrids, crate::RothermelError> {
+    let moisture = params.moisture.fractions();
+    let mut beds: BTreeMap<u16, (SurfaceFuelBed, f64)> = BTreeMap::new();
+    for code in land.fuel.iter().flatten() {
+        // The reader only lets through codes the fuel table holds; any other is nodata here.
+        if let std::collections::btree_map::Entry::Vacant(slot) = beds.entry(*code)
+            && let Some(model) = FuelModel::by_number(*code)
+        {
+            slot.insert((SurfaceFuelBed::new(model, &moisture)?, model.depth_ft));
+        }
+    }
+    let (width, height) = (land.grid.width, land.grid.height);
+    let nodata = LANDFIRE_NODATA as f32;
+    let limit = if params.wind_limit {
+        WindLimit::Rothermel
+    } else {
+        WindLimit::Off
+    };
+    let wind_toward = (params.wind_from_deg + 180.0).rem_euclid(360.0);
+    let cell = |i: usize| -> [f32; 6] {
+        let none = [nodata; 6];
+        let (Some(code), slope, aspect) = (land.fuel[i], land.slope_percent[i], land.aspect_deg[i]) else {
+            return none;
+        };
+        if slope.is_nan() || aspect.is_nan() {
+            return none;
+        }
+        let Some((bed, depth)) = beds.get(&code) else {
+            return none;
+        };
+        let mut slope = f64::from(slope);
+        if params.slope == SlopeMode::LcpWholeDegrees {
+            slope = lcp_slope_percent(slope);
+        }
+        // LANDFIRE's flat aspect −1 enters an `.lcp` as 0 (north-facing), so FlamMap's upslope
+        // there is south; it reports that direction even where the slope rounds to 0.
+        let upslope = (f64::from(aspect.max(0.0)) + 180.0).rem_euclid(360.0);
+        let cover = land
+            .canopy_cover_pct
+            .as_ref()
+            .map_or(0.0, |c| f64::from(c[i]) / 100.0);
+        let canopy_ft = land
+            .canopy_height_m
+            .as_ref()
+            .map_or(0.0, |c| f64::from(c[i]) / 0.3048);
+        let (cover, canopy_ft) = if cover.is_nan() || canopy_ft.is_nan() {
+            (0.0, 0.0)
+        } else {
+            (cover, canopy_ft)
+        };
+        let midflame = params.wind_20ft_mph * wind_adjustment_factor(*depth, canopy_ft, cover);
+        let inputs = SpreadInputs {
+            midflame_wind_mph: midflame,
+            slope_percent: slope,
+            wind_dir_from_upslope_deg: (wind_toward - upslope).rem_euclid(360.0),
+        };
+        let fire = bed.spread_with_limit(&inputs, limit);
+        if fire.head_ros_ftmin > 0.0 {
+            let dir = (upslope + fire.dir_max_spread_from_upslope_deg).rem_euclid(360.0);
+            [
+                fire.head_ros_chph() as f32,
+                fire.flame_length_ft as f32,
+                fire.fireline_intensity_btu_ft_s as f32,
+                dir as f32,
+                FIRE_TYPE_SURFACE,
+                midflame as f32,
+            ]
+        } else {
+            [0.0, 0.0, 0.0, nodata, FIRE_TYPE_NONE, midflame as f32]
+        }
+    };
+    let values: Vec<[f32; 6]> = (0..width * height).into_par_iter().map(cell).collect();
+    let column = |k: usize| values.iter().map(|v| v[k]).collect::<Vec<f32>>();
+    Ok(BehaviorGrids {
+        width,
+        height,
+        nodata,
+        ros_chph: column(0),
+        flame_length_ft: column(1),
+        fireline_intensity_btu_ft_s: column(2),
+        max_spread_dir_deg: column(3),
+        fire_type: column(4),
+        midflame_wind_mph: column(5),
+    })
+}
+
+/// Minimum, maximum and mean of a grid over the cells that burn.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Range {
+    pub min: f64,
+    pub max: f64,
+    pub mean: f64,
+}
+
+fn range_over(values: &[f32], mask: &[bool]) -> Option<Range> {
+    let (mut min, mut max, mut sum, mut n) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0usize);
+    for (v, m) in values.iter().zip(mask) {
+        if *m {
+            let v = f64::from(*v);
+            min = min.min(v);
+            max = max.max(v);
+            sum += v;
+            n += 1;
+        }
+    }
+    (n > 0).then(|| Range {
+        min,
+        max,
+        mean: sum / n as f64,
+    })
+}
+
+/// The JSON summary written beside the grids.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct BehaviorSummary {
+    pub landscape: PathBuf,
+    pub width: usize,
+    pub height: usize,
+    pub crs: String,
+    pub params: BehaviorParams,
+    pub wind_adjustment: &'static str,
+    pub crown_fire: &'static str,
+    /// Cells without data in fuel, slope or aspect (written as `nodata`).
+    pub nodata_cells: usize,
+    pub nodata_value: f32,
+    /// Nodata cells per input layer, by layer name.
+    pub layer_nodata_cells: BTreeMap<String, usize>,
+    /// Cells by fire type among cells with data: `none`, `surface`.
+    pub fire_type_cells: BTreeMap<&'static str, usize>,
+    /// Of the `none` cells: non-burnable codes, and burnable fuel that does not spread
+    /// (past its moisture of extinction).
+    pub nonburnable_cells: usize,
+    pub extinct_cells: usize,
+    /// Cells by fuel code among cells with data.
+    pub fuel_cells: BTreeMap<u16, usize>,
+    /// Ranges over the burning cells.
+    pub ros_chph: Option<Range>,
+    pub flame_length_ft: Option<Range>,
+    pub fireline_intensity_btu_ft_s: Option<Range>,
+    pub midflame_wind_mph: Option<Range>,
+    /// The files written, with what each holds.
+    pub files: BTreeMap<&'static str, &'static str>,
+}
+
+/// Summarise a run.
+pub fn summarize(
+    land: &LandfireLandscape,
+    params: &BehaviorParams,
+    grids: &BehaviorGrids,
+) -> BehaviorSummary {
+    let burning: Vec<bool> = grids.fire_type.iter().map(|t| *t == FIRE_TYPE_SURFACE).collect();
+    let nodata_cells = grids.fire_type.iter().filter(|t| **t == grids.nodata).count();
+    let surface = burning.iter().filter(|b| **b).count();
+    let none = grids.fire_type.iter().filter(|t| **t == FIRE_TYPE_NONE).count();
+    let mut fuel_cells: BTreeMap<u16, usize> = BTreeMap::new();
+    let mut nonburnable = 0;
+    for (code, t) in land.fuel.iter().zip(&grids.fire_type) {
+        if let Some(code) = code
+            && *t != grids.nodata
+        {
+            *fuel_cells.entry(*code).or_default() += 1;
+            if FuelModel::by_number(*code).is_some_and(|m| !m.burnable) {
+                nonburnable += 1;
+            }
+        }
+    }
+    BehaviorSummary {
+        landscape: land
+            .files
+            .values()
+            .next()
+            .and_then(|p| p.parent())
+            .map(Path::to_path_buf)
+            .unwrap_or_default(),
+        width: grids.width,
+        height: grids.height,
+        crs: land.grid.crs.clone(),
+        params: params.clone(),
+        wind_adjustment: "FlamMap/FARSITE: sheltered Albini & Baughman (1979), crown ratio 1, where canopy \
+                          cover and height > 0; else unsheltered on the fuel-bed depth",
+        crown_fire: "not modelled yet: every burning cell is reported as surface fire (type 1)",
+        nodata_cells,
+        nodata_value: grids.nodata,
+        layer_nodata_cells: land
+            .report
+            .layers
+            .iter()
+            .map(|l| (l.layer.to_string(), l.nodata_cells))
+            .collect(),
+        fire_type_cells: BTreeMap::from([("none", none), ("surface", surface)]),
+        nonburnable_cells: nonburnable,
+        extinct_cells: none - nonburnable,
+        fuel_cells,
+        ros_chph: range_over(&grids.ros_chph, &burning),
+        flame_length_ft: range_over(&grids.flame_length_ft, &burning),
+        fireline_intensity_btu_ft_s: range_over(&grids.fireline_intensity_btu_ft_s, &burning),
+        midflame_wind_mph: range_over(&grids.midflame_wind_mph, &burning),
+        files: GRID_FILES
+            .iter()
+            .copied()
+            .chain([("summary.json", "this summary")])
+            .collect(),
+    }
+}
+
+/// Errors of a behaviour run.
+#[derive(Debug, thiserror::Error)]
+pub enum BehaviorError {
+    #[error(transparent)]
+    Landscape(#[from] firecast_landscape::landfire::LandfireError),
+    #[error("{0}")]
+    Params(#[from] ParamError),
+    #[error(transparent)]
+    Kernel(#[from] crate::RothermelError),
+    #[error("{0}")]
+    Encode(#[from] firecast_landscape::LandscapeError),
+    #[error("cannot write {path}: {source}")]
+    Io { source: std::io::Error, path: PathBuf },
+}
+
+/// Read the landscape, compute the grids and write them with the summary into `out` (a
+/// folder): staged in a temporary sibling folder and renamed into place, so `out` is either
+/// the old folder or the complete new one. Nothing is written when an input is bad.
+pub fn run_behavior(
+    landscape_dir: &Path,
+    params: &BehaviorParams,
+    out: &Path,
+) -> Result<BehaviorSummary, BehaviorError> {
+    params.validate()?;
+    let land = LandfireLandscape::read_dir(landscape_dir, params.fuel.layer())?;
+    let grids = surface_behavior_grids(&land, params)?;
+    let mut summary = summarize(&land, params, &grids);
+    summary.landscape = landscape_dir.to_path_buf();
+    write_outputs(&land, &grids, &summary, out)?;
+    Ok(summary)
+}
+
+/// Write the grids (float32 GeoTIFFs with the landscape's georeference, nodata 32767) and
+/// `summary.json` into `out`, atomically as a folder.
+pub fn write_outputs(
+    land: &LandfireLandscape,
+    grids: &BehaviorGrids,
+    summary: &BehaviorSummary,
+    out: &Path,
+) -> Result<(), BehaviorError> {
+    let placement = GridPlacement {
+        width: grids.width,
+        height: grids.height,
+        origin_x: land.grid.origin_x,
+        origin_y: land.grid.origin_y,
+        pixel_dx: land.grid.pixel_dx,
+        pixel_dy: land.grid.pixel_dy,
+        geokeys: land.grid.geokeys.clone(),
+    };
+    let mut files = Vec::new();
+    for ((name, _), data) in GRID_FILES.iter().zip(grids.layers()) {
+        files.push((
+            *name,
+            encode_geotiff_f32(&placement, data, Some(f64::from(grids.nodata)))?,
+        ));
+    }
+    let json = serde_json::to_vec_pretty(summary).map_err(|e| BehaviorError::Io {
+        source: std::io::Error::other(e),
+        path: out.join("summary.json"),
+    })?;
+    files.push(("summary.json", json));
+    publish_folder(out, &files)
+}
+
+/// Stage `files` in a temporary sibling of `out` and rename it into place (an existing `out`
+/// is renamed aside first and removed after).
+fn publish_folder(out: &Path, files: &[(&str, Vec<u8>)]) -> Result<(), BehaviorError> {
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| BehaviorError::Io { source, path }
+    };
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    let parent = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent).map_err(io(&parent))?;
+    let stamp = format!("{}-{}", std::process::id(), unique());
+    let stage = parent.join(format!(".firecast-tmp-{name}-{stamp}"));
+    std::fs::create_dir(&stage).map_err(io(&stage))?;
+    let result = (|| {
+        for (file, bytes) in files {
+            let path = stage.join(file);
+            std::fs::write(&path, bytes).map_err(io(&path))?;
+        }
+        let aside = parent.join(format!(".firecast-tmp-{name}-old-{stamp}"));
+        let had_old = out.exists();
+        if had_old {
+            std::fs::rename(out, &aside).map_err(io(out))?;
+        }
+        if let Err(source) = std::fs::rename(&stage, out) {
+            if had_old {
+                let _ = std::fs::rename(&aside, out);
+            }
+            return Err(BehaviorError::Io {
+                source,
+                path: out.to_path_buf(),
+            });
+        }
+        if had_old {
+            let _ = std::fs::remove_dir_all(&aside).or_else(|_| std::fs::remove_file(&aside));
+        }
+        Ok(())
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_dir_all(&stage);
+    }
+    result
+}
+
+fn unique() -> u64 {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    COUNTER.fetch_add(1, Ordering::Relaxed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lcp_rounding_goes_through_whole_degrees() {
+        assert_eq!(lcp_slope_percent(0.0), 0.0);
+        // 23 % is 12.95°, kept as 13° = 23.087 %.
+        assert!((lcp_slope_percent(23.0) - 23.0868).abs() < 1e-4);
+        assert!((lcp_slope_percent(100.0) - 100.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn wind_adjustment_matches_the_unsheltered_spec_value() {
+        // docs/spec/fire-model.md §B9: unsheltered WAF 0.362 for GR2 (depth 1 ft).
+        assert!((wind_adjustment_factor(1.0, 0.0, 0.0) - 0.362).abs() < 5e-4);
+        let sheltered = wind_adjustment_factor(1.0, 60.0, 0.5);
+        assert!(sheltered > 0.0 && sheltered < 0.2, "{sheltered}");
+        assert_eq!(wind_adjustment_factor(0.0, 0.0, 0.0), 0.0);
+    }
+
+    #[test]
+    fn params_are_strict_and_checked() {
+        let ok: BehaviorParams = serde_json::from_value(serde_json::json!({
+            "moisture": {"dead_1h": 6, "dead_10h": 8, "dead_100h": 10, "live_herbaceous": 75, "live_woody": 60}
+        }))
+        .expect("valid");
+        assert!(ok.validate().is_ok());
+        assert_eq!(ok.fuel, FuelChoice::Fbfm40);
+        let unknown = serde_json::from_value::<BehaviorParams>(serde_json::json!({
+            "moisture": {"dead_1h": 6, "dead_10h": 8, "dead_100h": 10, "live_herbaceous": 75, "live_woody": 60},
+            "wind": 3
+        }));
+        assert!(unknown.is_err());
+        let mut bad = ok.clone();
+        bad.wind_20ft_mph = -1.0;
+        assert_eq!(bad.validate().expect_err("negative").field, "wind_20ft_mph");
+        bad = ok;
+        bad.moisture.live_woody = 10.0;
+        assert_eq!(bad.validate().expect_err("dry live").field, "moisture.live_woody");
+        assert!(MoisturePercent::parse("6,8,10,75").is_err());
+        assert_eq!(
+            MoisturePercent::parse("6, 8,10,75,60").expect("five").live_woody,
+            60.0
+        );
+    }
+}
