@@ -113,6 +113,7 @@ pub fn stage_kinds() -> StageKinds {
     kinds.register(firecast_episodes::EpisodesStage);
     kinds.register(firecast_episodes::RenderStage);
     kinds.register(firecast_episodes::EnsembleStage);
+    kinds.register(firecast_episodes::BehaviorStage);
     kinds.register(firecast_report::ReportStage);
     firecast_dataset::stage::register(&mut kinds);
     kinds.register(firecast_forecast::stage::ExperimentStage);

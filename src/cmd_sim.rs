@@ -1,4 +1,4 @@
-//! `firecast sim spread-rate|run` and `firecast bench sim`.
+//! `firecast sim spread-rate|run|behavior` and `firecast bench sim`.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -31,6 +31,111 @@ pub enum SimCommand {
     },
     /// Simulate fires with a helitack agent; print the paper's Table IV columns.
     Run(Box<RunArgs>),
+    /// Surface fire behaviour grids over a LANDFIRE landscape, as FlamMap's basic fire
+    /// behaviour computes them: head rate of spread (ch/h), flame length (ft), fireline
+    /// intensity (Btu/ft/s), direction of maximum spread (degrees from north) and fire type,
+    /// as float32 GeoTIFFs with the landscape's georeference, plus summary.json. Crown fire is
+    /// not modelled yet (every burning cell is surface fire).
+    Behavior(BehaviorArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct BehaviorArgs {
+    /// LANDFIRE landscape folder: one GeoTIFF per layer, found by LANDFIRE's file names
+    /// (F40/FBFM40, F13/FBFM13, SlpP or SlpD, Asp, Elev, CC, CH, CBH, CBD), up to two levels deep.
+    #[arg(long, value_name = "DIR")]
+    pub landscape: PathBuf,
+    /// Fuel layer: fbfm40 or fbfm13.
+    #[arg(long, default_value = "fbfm40", value_name = "LAYER")]
+    pub fuel: String,
+    /// Fuel moisture, percent: D1,D10,D100,HERB,WOODY (e.g. 6,8,10,75,60).
+    #[arg(long, value_name = "D1,D10,D100,HERB,WOODY")]
+    pub moisture: String,
+    /// 20-ft wind speed, mi/h (reduced to midflame per cell as FlamMap does).
+    #[arg(long, default_value_t = 0.0, value_name = "MPH")]
+    pub wind_mph: f64,
+    /// Direction the wind comes from, degrees clockwise from north.
+    #[arg(long, default_value_t = 0.0, value_name = "DEG")]
+    pub wind_from_deg: f64,
+    /// Slope as given (LANDFIRE percent) or `lcp`: rounded to whole degrees as a FlamMap .lcp
+    /// keeps it (what FlamMap's own outputs reflect).
+    #[arg(long, default_value = "as-given", value_name = "as-given|lcp")]
+    pub slope: String,
+    /// Apply Rothermel's effective wind limit (off in behave and here by default).
+    #[arg(long)]
+    pub wind_limit: bool,
+    /// Output folder (replaced atomically).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+/// Resolve `sim behavior`'s flags into the typed params the stage kind takes.
+fn behavior_params(args: &BehaviorArgs) -> anyhow::Result<firecast_sim::behavior::BehaviorParams> {
+    use firecast_sim::behavior::{BehaviorParams, FuelChoice, MoisturePercent, SlopeMode};
+    let fuel = match args.fuel.to_ascii_lowercase().as_str() {
+        "fbfm40" => FuelChoice::Fbfm40,
+        "fbfm13" => FuelChoice::Fbfm13,
+        other => anyhow::bail!("--fuel {other}: expected fbfm40 or fbfm13"),
+    };
+    let slope = match args.slope.as_str() {
+        "as-given" => SlopeMode::AsGiven,
+        "lcp" => SlopeMode::LcpWholeDegrees,
+        other => anyhow::bail!("--slope {other}: expected as-given or lcp"),
+    };
+    let moisture = MoisturePercent::parse(&args.moisture).map_err(|e| anyhow::anyhow!("--moisture: {e}"))?;
+    let params = BehaviorParams {
+        fuel,
+        moisture,
+        wind_20ft_mph: args.wind_mph,
+        wind_from_deg: args.wind_from_deg,
+        slope,
+        wind_limit: args.wind_limit,
+    };
+    params.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
+    Ok(params)
+}
+
+fn sim_behavior(settings: &Settings, args: &BehaviorArgs) -> anyhow::Result<ExitCode> {
+    let params = behavior_params(args)?;
+    let landscape = settings.root.join(&args.landscape);
+    let out = settings.root.join(&args.out);
+    let started = Instant::now();
+    let summary = firecast_sim::behavior::run_behavior(&landscape, &params, &out)?;
+    let seconds = started.elapsed().as_secs_f64();
+    if settings.json {
+        output::print_json(&serde_json::json!({ "summary": summary, "out": args.out, "seconds": seconds }))?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    let cells = |k: &str| summary.fire_type_cells.get(k).copied().unwrap_or(0);
+    println!(
+        "{} x {} cells ({}): {} surface fire, {} no fire ({} non-burnable, {} past extinction), {} nodata",
+        summary.width,
+        summary.height,
+        summary.crs,
+        cells("surface"),
+        cells("none"),
+        summary.nonburnable_cells,
+        summary.extinct_cells,
+        summary.nodata_cells
+    );
+    for (name, range) in [
+        ("rate of spread, ch/h", summary.ros_chph),
+        ("flame length, ft", summary.flame_length_ft),
+        (
+            "fireline intensity, Btu/ft/s",
+            summary.fireline_intensity_btu_ft_s,
+        ),
+    ] {
+        if let Some(r) = range {
+            println!(
+                "  {name:<30} min {:>10.4}  mean {:>10.4}  max {:>10.4}",
+                r.min, r.mean, r.max
+            );
+        }
+    }
+    println!("crown fire: not modelled yet (every burning cell is surface fire)");
+    println!("wrote {} in {seconds:.2} s", args.out.display());
+    Ok(ExitCode::SUCCESS)
 }
 
 #[derive(Debug, Args)]
@@ -120,6 +225,7 @@ pub fn run(settings: &Settings, command: SimCommand) -> anyhow::Result<ExitCode>
             Ok(ExitCode::SUCCESS)
         }
         SimCommand::Run(args) => sim_run(settings, &args),
+        SimCommand::Behavior(args) => sim_behavior(settings, &args),
     }
 }
 

@@ -286,3 +286,210 @@ fn sim_run_takes_its_wind_from_gridmet() {
         describe(&out)
     );
 }
+
+/// Copy the Worcester LANDFIRE clip (EPL-2.0 fixture) into a project folder.
+fn copy_worcester(p: &Project, rel: &str) -> std::path::PathBuf {
+    let src = crate::repo_root().join("crates/firecast-landscape/tests/fixtures/landfire-worcester/landfire");
+    let dest = p.path(rel);
+    for layer in std::fs::read_dir(&src).unwrap() {
+        let layer = layer.unwrap().path();
+        let into = dest.join(layer.file_name().unwrap());
+        std::fs::create_dir_all(&into).unwrap();
+        for file in std::fs::read_dir(&layer).unwrap() {
+            let file = file.unwrap().path();
+            std::fs::copy(&file, into.join(file.file_name().unwrap())).unwrap();
+        }
+    }
+    dest
+}
+
+#[test]
+fn sim_behavior_writes_georeferenced_grids_and_a_summary() {
+    let p = Project::new();
+    copy_worcester(&p, "landfire");
+    let out = p.json(&[
+        "sim",
+        "behavior",
+        "--landscape",
+        "landfire",
+        "--moisture",
+        "6,8,10,75,60",
+        "--slope",
+        "lcp",
+        "--out",
+        "out/behavior",
+    ]);
+    let summary = &out["summary"];
+    // FlamMap: 220,846 surface + 1,525 crown cells burn; 108,586 cells are nodata.
+    assert_eq!(summary["fire_type_cells"]["surface"], 222_371);
+    assert_eq!(summary["nodata_cells"], 108_586);
+    assert_eq!(summary["width"], 549);
+    assert_eq!(summary["crs"], "EPSG:5070");
+    assert!(summary["crown_fire"].as_str().unwrap().contains("not modelled"));
+    let ros_max = summary["ros_chph"]["max"].as_f64().unwrap();
+    // FlamMap's fastest cell (48.2 ch/h) is a crown fire; the fastest surface fire is 36 ch/h.
+    assert!((30.0..40.0).contains(&ros_max), "{ros_max}");
+    for name in [
+        "ros_chph.tif",
+        "flame_length_ft.tif",
+        "fireline_intensity_btu_ft_s.tif",
+        "max_spread_direction_deg.tif",
+        "fire_type.tif",
+        "summary.json",
+    ] {
+        assert!(p.path("out/behavior").join(name).is_file(), "{name}");
+    }
+    // No staging folder is left beside the output.
+    let left: Vec<_> = std::fs::read_dir(p.path("out"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(left, ["behavior"]);
+
+    // An independent reader: Pillow from the project's venv (rasterio and GDAL are not
+    // installed there) reads the float32 band and the GeoTIFF tags.
+    let python = venv_bin("python");
+    let has_pil = python.exists()
+        && std::process::Command::new(&python)
+            .args(["-c", "import PIL, numpy"])
+            .status()
+            .is_ok_and(|s| s.success());
+    if has_pil {
+        let flammap =
+            crate::repo_root().join("crates/firecast-landscape/tests/fixtures/landfire-worcester/flammap");
+        let script = r#"
+import sys, numpy as np
+from PIL import Image
+out, flammap = sys.argv[1], sys.argv[2]
+im = Image.open(out + "/ros_chph.tif")
+assert im.mode == "F" and im.size == (549, 613), (im.mode, im.size)
+t = im.tag_v2
+assert tuple(t[33550]) == (30.0, 30.0, 0.0), t[33550]
+assert tuple(t[33922]) == (0.0, 0.0, 0.0, 1833825.0, 2617605.0, 0.0), t[33922]
+keys = list(t[34735])
+assert 5070 in keys[keys.index(3072):keys.index(3072) + 4], keys
+assert t[42113].strip("\x00") == "32767", t[42113]
+ours = np.array(im, dtype=np.float64)
+ref = np.array(Image.open(flammap + "/ROS_ch_hr.tif"), dtype=np.float64)
+ft = np.array(Image.open(flammap + "/fire_type.tif"))
+surface = ft == 1
+rel = np.abs(ours[surface] / ref[surface] - 1)
+assert rel.max() < 0.005, rel.max()
+assert (ours[ft == 0] != 0).sum() == 108586
+print("ok", surface.sum(), rel.max())
+"#;
+        let check = std::process::Command::new(&python)
+            .args(["-c", script])
+            .arg(p.path("out/behavior"))
+            .arg(&flammap)
+            .output()
+            .unwrap();
+        assert!(check.status.success(), "{}", describe(&check));
+        assert!(
+            String::from_utf8_lossy(&check.stdout).starts_with("ok 220846"),
+            "{}",
+            describe(&check)
+        );
+    }
+
+    // Bad input: nothing is written, and the message names the problem.
+    for (args, expect) in [
+        (vec!["--moisture", "6,8,10"], "five"),
+        (
+            vec!["--moisture", "6,8,10,75,60", "--wind-mph=-3"],
+            "wind_20ft_mph",
+        ),
+        (
+            vec!["--moisture", "6,8,10,75,60", "--fuel", "fbfm99"],
+            "fbfm40 or fbfm13",
+        ),
+    ] {
+        let mut full = vec!["sim", "behavior", "--landscape", "landfire", "--out", "out/bad"];
+        full.extend(args);
+        let bad = p.firecast().args(&full).output().unwrap();
+        assert!(!bad.status.success(), "{}", describe(&bad));
+        assert!(
+            String::from_utf8_lossy(&bad.stderr).contains(expect),
+            "{}",
+            describe(&bad)
+        );
+        assert!(!p.path("out/bad").exists());
+    }
+    std::fs::remove_file(p.path("landfire/LF2020_Asp_220_CONUS/LC20_Asp_220.tif")).unwrap();
+    let bad = p
+        .firecast()
+        .args([
+            "sim",
+            "behavior",
+            "--landscape",
+            "landfire",
+            "--moisture",
+            "6,8,10,75,60",
+            "--out",
+            "out/bad",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("no aspect layer"),
+        "{}",
+        describe(&bad)
+    );
+    assert!(!p.path("out/bad").exists());
+}
+
+#[test]
+fn sim_behavior_stage_in_a_pipeline() {
+    let p = Project::new();
+    copy_worcester(&p, "data/landfire");
+    p.write(
+        "pipelines/behavior.yaml",
+        r#"
+stages:
+  behavior:
+    uses: sim.behavior
+    params:
+      moisture: {dead_1h: 6, dead_10h: 8, dead_100h: 10, live_herbaceous: 75, live_woody: 60}
+      slope: lcp_whole_degrees
+    inputs:
+      landscape: data/landfire
+    outputs:
+      grids: build/behavior
+"#,
+    );
+    let outcomes = p.run_pipeline("pipelines/behavior.yaml", &[]);
+    assert_eq!(outcomes["behavior"], "ran");
+    let summary: serde_json::Value = serde_json::from_str(&p.read("build/behavior/summary.json")).unwrap();
+    assert_eq!(summary["fire_type_cells"]["surface"], 222_371);
+    assert_eq!(summary["params"]["wind_20ft_mph"], 0.0);
+    assert_eq!(
+        p.run_pipeline("pipelines/behavior.yaml", &[])["behavior"],
+        "up_to_date"
+    );
+
+    // Strict params: an unknown key and an out-of-range moisture are refused before running.
+    for (from, to, expect) in [
+        (
+            "slope: lcp_whole_degrees",
+            "slope: lcp_whole_degrees\n      gusts: 3",
+            "gusts",
+        ),
+        ("live_woody: 60", "live_woody: 5", "live_woody"),
+    ] {
+        p.write(
+            "pipelines/bad.yaml",
+            &p.read("pipelines/behavior.yaml").replace(from, to),
+        );
+        let bad = p
+            .firecast()
+            .args(["pipeline", "run", "pipelines/bad.yaml"])
+            .output()
+            .unwrap();
+        assert!(!bad.status.success(), "{}", describe(&bad));
+        assert!(
+            String::from_utf8_lossy(&bad.stderr).contains(expect),
+            "{}",
+            describe(&bad)
+        );
+    }
+}

@@ -8,6 +8,7 @@
 //! `sim.episodes` pipeline stage. [`record_episode`] draws one episode of any policy (a
 //! trained PPO agent, say) the same way, with the helicopter's path.
 
+mod behavior_stage;
 pub mod ensemble;
 mod stage;
 mod weather;
@@ -22,6 +23,7 @@ use firecast_sim::{
 };
 use serde::{Deserialize, Serialize};
 
+pub use behavior_stage::BehaviorStage;
 pub use stage::{
     EnsembleParams, EnsembleStage, EpisodesStage, RenderStage, prepare_ensemble, write_ensemble,
 };
