@@ -1,6 +1,8 @@
 //! Episodes end to end: numbers, GIF, Rerun recording, determinism, scenario strictness.
 #![allow(clippy::unwrap_used)]
 
+mod behavior_png;
+
 use std::path::Path;
 
 use firecast_episodes::{AgentKind, EpisodeError, LandscapeSpec, Outputs, Scenario, WeatherSpec};
