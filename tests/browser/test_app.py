@@ -244,6 +244,8 @@ def test_datasets(page):
     expect(card.locator("h2.md-h").first).to_contain_text("app-ignitions", timeout=30_000)
     expect(card.locator("table").first).to_be_visible()
     loaded(page, "#dataset-map-img")
+    # The map's colours are named beside it.
+    expect(page.locator("#dataset-map-legend")).to_contain_text("positive")
     expect(page.locator("#stats-table tbody tr").first).to_be_visible()
     rows = page.locator("#stats-table tbody tr").count()
     page.locator("#stats-split").select_option("train")

@@ -864,7 +864,7 @@ fn result_pages(s: &Server, agent_run: &str, forecaster_run: &str) {
     want.sort_unstable();
     assert_eq!(members, want);
     let agent_group = groups.iter().find(|g| g["runs"][0] == agent_run).unwrap();
-    assert_eq!(agent_group["value"], "\"app-agent\"");
+    assert_eq!(agent_group["value"], "app-agent");
     let (key, m) = agent_group["metrics"].as_object().unwrap().iter().next().unwrap();
     assert_eq!(m["n"], 1, "{key}: {m}");
     assert!(

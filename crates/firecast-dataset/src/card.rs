@@ -430,14 +430,24 @@ impl MapGrid {
     }
 }
 
+/// The map's colours, for a legend beside it (the web app's dataset page).
+pub const MAP_LEGEND: [(&str, [u8; 3]); 5] = [
+    ("positive (an ignition)", [214, 39, 40]),
+    ("far negative", [31, 119, 180]),
+    ("near negative", [255, 127, 14]),
+    ("yearly negative (same place, earlier year)", [148, 103, 189]),
+    ("imported negative", [120, 140, 170]),
+];
+
 fn tier_colour(tier: Tier) -> [u8; 3] {
-    match tier {
-        Tier::Positive | Tier::ImportedPositive => [214, 39, 40],
-        Tier::Far => [31, 119, 180],
-        Tier::Near => [255, 127, 14],
-        Tier::Yearly => [148, 103, 189],
-        Tier::ImportedNegative => [120, 140, 170],
-    }
+    let entry = match tier {
+        Tier::Positive | Tier::ImportedPositive => 0,
+        Tier::Far => 1,
+        Tier::Near => 2,
+        Tier::Yearly => 3,
+        Tier::ImportedNegative => 4,
+    };
+    MAP_LEGEND[entry].1
 }
 
 /// Draws the samples over the grid's data mask and writes a PNG (atomically).

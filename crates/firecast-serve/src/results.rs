@@ -192,6 +192,19 @@ fn dataset_dir(root: &Path, row: &DatasetRow) -> Option<PathBuf> {
     inside(root, &dir).ok()
 }
 
+/// The files that are the dataset: its folder's when it has a manifest (`dataset.json`),
+/// else only the registered file (a lone Parquet file shares its folder with others).
+fn dataset_files(root: &Path, row: &DatasetRow, dir: &Path) -> Vec<String> {
+    if dir.join("dataset.json").is_file() {
+        return files_with(dir, dir, &["png", "md", "json", "parquet", "csv"]);
+    }
+    let loc = root.join(row.location.trim_start_matches("file://"));
+    match (inside(dir, &loc), loc.file_name()) {
+        (Ok(real), Some(name)) if real.is_file() => vec![name.to_string_lossy().into_owned()],
+        _ => Vec::new(),
+    }
+}
+
 /// Whether the files on disk are this version: a dataset folder's `dataset.json` names its
 /// version; a lone Parquet file is taken as the newest registered version.
 fn on_disk_version(dir: &Path) -> Option<String> {
@@ -240,12 +253,16 @@ pub fn dataset(runs: &Runs, root: &Path, name: &str) -> Result<serde_json::Value
     };
     let dir = dataset_dir(root, latest);
     let disk = dir.as_deref().and_then(on_disk_version);
-    let read = |f: &str| dir.as_ref().and_then(|d| std::fs::read_to_string(d.join(f)).ok());
-    let json = |f: &str| read(f).and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
     let files = dir
         .as_ref()
-        .map(|d| files_with(d, d, &["png", "md", "json", "parquet", "csv"]))
+        .map(|d| dataset_files(root, latest, d))
         .unwrap_or_default();
+    let read = |f: &str| {
+        dir.as_ref()
+            .filter(|_| files.iter().any(|x| x == f))
+            .and_then(|d| std::fs::read_to_string(d.join(f)).ok())
+    };
+    let json = |f: &str| read(f).and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
     let schema: serde_json::Value = serde_json::from_str(&latest.schema_json)
         .unwrap_or(serde_json::Value::String(latest.schema_json.clone()));
     Ok(serde_json::json!({
@@ -265,6 +282,14 @@ pub fn dataset(runs: &Runs, root: &Path, name: &str) -> Result<serde_json::Value
         "card": read("card.md"),
         "manifest": json("dataset.json"),
         "stats": json("stats.json"),
+        "map_legend": files.iter().any(|f| f == "map.png").then(|| {
+            firecast_dataset::card::MAP_LEGEND
+                .iter()
+                .map(|(label, [r, g, b])| {
+                    serde_json::json!({"label": label, "color": format!("#{r:02x}{g:02x}{b:02x}")})
+                })
+                .collect::<Vec<_>>()
+        }),
         "files": files,
     }))
 }
@@ -279,7 +304,7 @@ pub fn dataset_file(runs: &Runs, root: &Path, name: &str, file: &str) -> Result<
         .ok_or_else(|| ApiError::not_found(format!("no dataset `{name}` in the registry")))?;
     let dir = dataset_dir(root, latest)
         .ok_or_else(|| ApiError::not_found(format!("dataset `{name}` has no folder in the project")))?;
-    let listed = files_with(&dir, &dir, &["png", "md", "json", "parquet", "csv"]);
+    let listed = dataset_files(root, latest, &dir);
     if !listed.iter().any(|f| f == file) {
         return Err(ApiError::not_found(format!(
             "dataset `{name}` has no file `{}`",
@@ -330,9 +355,11 @@ pub fn group(details: &[RunDetails], param: &str) -> serde_json::Value {
     for d in details {
         let mut flat = BTreeMap::new();
         crate::runs::flatten("", &d.run.params, &mut flat);
-        let value = flat
-            .get(param)
-            .map_or_else(|| "(not set)".to_string(), |v| v.to_string());
+        let value = match flat.get(param) {
+            None => "(not set)".to_string(),
+            Some(serde_json::Value::String(text)) => text.clone(),
+            Some(other) => other.to_string(),
+        };
         groups.entry(value).or_default().push(d);
     }
     let out: Vec<serde_json::Value> = groups

@@ -18,8 +18,11 @@ pub struct Runs {
     cache: Mutex<Option<Cached>>,
     /// Pages as sent, by query, for the registry state they were made from: the runs table
     /// polled by many pages costs one lookup while nothing is written.
-    pages: Mutex<HashMap<String, ((SystemTime, u64), axum::body::Bytes)>>,
+    pages: Mutex<HashMap<String, (Stamp, axum::body::Bytes)>>,
 }
+
+/// The registry file's modification time and size (with its WAL's).
+type Stamp = (SystemTime, u64);
 
 /// Pages kept at most (then the cache starts over).
 const PAGES_KEPT: usize = 256;
@@ -309,14 +312,33 @@ pub(crate) fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<St
             }
         }
         serde_json::Value::Array(items) if !items.is_empty() && items.iter().any(|i| i.is_object()) => {
-            for (i, x) in items.iter().enumerate() {
-                flatten(&format!("{prefix}[{i}]"), x, out);
+            // Elements by their own name where they have one (`models[xgboost].kind`), so two
+            // runs listing models in another order compare model by model.
+            let labels = element_labels(items);
+            for (label, x) in labels.iter().zip(items) {
+                flatten(&format!("{prefix}[{label}]"), x, out);
             }
         }
         other => {
             out.insert(prefix.to_string(), other.clone());
         }
     }
+}
+
+/// Labels of a list's elements: their `name`, else their `kind`, when every element has one
+/// and no two share it; else their positions.
+fn element_labels(items: &[serde_json::Value]) -> Vec<String> {
+    for key in ["name", "kind"] {
+        let labels: Vec<String> = items
+            .iter()
+            .filter_map(|i| i.get(key).and_then(|v| v.as_str()).map(str::to_string))
+            .collect();
+        let unique: std::collections::BTreeSet<&String> = labels.iter().collect();
+        if labels.len() == items.len() && unique.len() == labels.len() {
+            return labels;
+        }
+    }
+    (0..items.len()).map(|i| i.to_string()).collect()
 }
 
 /// The rows as CSV (RFC 4180 quoting).
@@ -413,7 +435,26 @@ mod tests {
             &mut out,
         );
         assert_eq!(out.get("ppo.gamma"), Some(&serde_json::json!(0.99)));
-        assert_eq!(out.get("models[0].kind"), Some(&serde_json::json!("x")));
+        assert_eq!(out.get("models[x].kind"), Some(&serde_json::json!("x")));
+        // By name, never by position: the same models listed in another order match.
+        let mut a = BTreeMap::new();
+        let mut b = BTreeMap::new();
+        flatten(
+            "",
+            &serde_json::json!({"models": [{"kind": "lr"}, {"kind": "xgb", "depth": 3}]}),
+            &mut a,
+        );
+        flatten(
+            "",
+            &serde_json::json!({"models": [{"kind": "xgb", "depth": 3}, {"kind": "lr"}]}),
+            &mut b,
+        );
+        assert_eq!(a, b);
+        assert_eq!(a.get("models[xgb].depth"), Some(&serde_json::json!(3)));
+        // Without names, positions.
+        let mut c = BTreeMap::new();
+        flatten("", &serde_json::json!({"m": [{"a": 1}, {"a": 2}]}), &mut c);
+        assert_eq!(c.get("m[1].a"), Some(&serde_json::json!(2)));
         assert_eq!(out.get("seeds"), Some(&serde_json::json!([0, 1])));
     }
 

@@ -3468,7 +3468,9 @@ function pageDataset(root, name, scope) {
     const mapFig = hasMap ? h('figure', { class: 'dataset-map', id: 'dataset-map' },
       h('button', { type: 'button', class: 'plot-open', title: 'Enlarge the map', onclick: () => openLightbox(scope, fileUrl('map.png'), `${name}: where the samples are`) },
         h('img', { src: fileUrl('map.png'), alt: `Map of the samples of ${name}`, id: 'dataset-map-img' })),
-      h('figcaption', null, 'Where the samples are')) : null;
+      h('figcaption', null, 'Where the samples are',
+        Array.isArray(d.map_legend) ? h('div', { class: 'legend', id: 'dataset-map-legend' },
+          d.map_legend.map((e) => h('span', null, h('i', { class: 'sw dot', style: { background: String(e.color || '#888') } }), String(e.label || '')))) : null)) : null;
     const head = h('section', { class: 'card', id: 'dataset-head' }, h('div', { class: mapFig ? 'dataset-head-grid' : null }, facts, mapFig));
 
     // The card.
@@ -3656,7 +3658,7 @@ function drawWhiskers(canvas, items, opts = {}) {
   }
 }
 
-/** A group's value as the server wrote it (JSON text): strings without their quotes. */
+/** A group's value as text (older servers sent strings with their JSON quotes). */
 function groupLabel(v) {
   const s = String(v);
   if (s.length >= 2 && s.startsWith('"') && s.endsWith('"')) {
