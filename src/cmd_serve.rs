@@ -96,7 +96,7 @@ pub fn run(settings: &Settings, args: &ServeArgs) -> anyhow::Result<ExitCode> {
         rerun_cli: args
             .rerun
             .clone()
-            .unwrap_or_else(|| firecast_serve::rerun_viewer::default_cli(&root)),
+            .unwrap_or_else(|| firecast_serve::rerun_viewer::default_cli(root)),
     };
     let json = settings.json;
     firecast_serve::serve(config, |addr| {

@@ -91,7 +91,32 @@ fn free_port() -> Result<u16, String> {
         .map_err(|e| format!("no free loopback port: {e}"))
 }
 
+/// The `rerun` executable itself: pip's `bin/rerun` is a Python script that starts the
+/// binary shipped in `rerun_sdk/rerun_cli/` as its child, and stopping the script would leave
+/// that child serving. Other paths are taken as given.
+fn real_binary(cli: &Path) -> PathBuf {
+    let is_script = std::fs::read(cli).is_ok_and(|b| b.starts_with(b"#!"));
+    let venv = cli.parent().and_then(Path::parent);
+    if let (true, Some(venv)) = (is_script, venv) {
+        let lib = venv.join("lib");
+        let mut found: Vec<PathBuf> = std::fs::read_dir(&lib)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .map(|e| e.path().join("site-packages/rerun_sdk/rerun_cli/rerun"))
+            .filter(|p| p.is_file())
+            .collect();
+        found.sort();
+        if let Some(binary) = found.pop() {
+            return binary;
+        }
+    }
+    cli.to_path_buf()
+}
+
 fn extract(cli: &Path, dir: &Path) -> Result<(), String> {
+    let binary = real_binary(cli);
+    let cli = binary.as_path();
     let version = Command::new(cli)
         .arg("--version")
         .output()
@@ -203,6 +228,22 @@ pub fn content_type(file: &str) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_pip_script_leads_to_the_binary_it_starts() {
+        let venv = tempfile::tempdir().expect("temp dir");
+        let bin = venv.path().join("bin");
+        let real = venv
+            .path()
+            .join("lib/python3.11/site-packages/rerun_sdk/rerun_cli");
+        std::fs::create_dir_all(&bin).expect("bin");
+        std::fs::create_dir_all(&real).expect("lib");
+        std::fs::write(bin.join("rerun"), "#!/usr/bin/python\n").expect("script");
+        std::fs::write(real.join("rerun"), b"\x7fELF").expect("binary");
+        assert_eq!(real_binary(&bin.join("rerun")), real.join("rerun"));
+        // A binary is itself.
+        assert_eq!(real_binary(&real.join("rerun")), real.join("rerun"));
+    }
 
     #[test]
     fn the_page_loses_its_font_links() {

@@ -560,59 +560,19 @@ pub fn write_outputs(
     publish_folder(out, &files)
 }
 
-/// Stage `files` in a temporary sibling of `out` and rename it into place (an existing `out`
-/// is renamed aside first and removed after).
+/// Stage `files` in a temporary sibling of `out` and publish it (`firecast_fs`: an existing
+/// `out` is replaced whole; a failure leaves the old one and no staging folder).
 fn publish_folder(out: &Path, files: &[(&str, Vec<u8>)]) -> Result<(), BehaviorError> {
-    let io = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| BehaviorError::Io { source, path }
+    let fs_err = |e: firecast_fs::FsError| BehaviorError::Io {
+        path: e.path,
+        source: e.source,
     };
-    let name = out
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let parent = match out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&parent).map_err(io(&parent))?;
-    let stamp = format!("{}-{}", std::process::id(), unique());
-    let stage = parent.join(format!(".firecast-tmp-{name}-{stamp}"));
-    std::fs::create_dir(&stage).map_err(io(&stage))?;
-    let result = (|| {
-        for (file, bytes) in files {
-            let path = stage.join(file);
-            std::fs::write(&path, bytes).map_err(io(&path))?;
-        }
-        let aside = parent.join(format!(".firecast-tmp-{name}-old-{stamp}"));
-        let had_old = out.exists();
-        if had_old {
-            std::fs::rename(out, &aside).map_err(io(out))?;
-        }
-        if let Err(source) = std::fs::rename(&stage, out) {
-            if had_old {
-                let _ = std::fs::rename(&aside, out);
-            }
-            return Err(BehaviorError::Io {
-                source,
-                path: out.to_path_buf(),
-            });
-        }
-        if had_old {
-            let _ = std::fs::remove_dir_all(&aside).or_else(|_| std::fs::remove_file(&aside));
-        }
-        Ok(())
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_dir_all(&stage);
+    let stage = firecast_fs::TempPath::dir(out).map_err(fs_err)?;
+    for (file, bytes) in files {
+        let path = stage.path().join(file);
+        std::fs::write(&path, bytes).map_err(|source| BehaviorError::Io { source, path })?;
     }
-    result
-}
-
-fn unique() -> u64 {
-    use std::sync::atomic::{AtomicU64, Ordering};
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    COUNTER.fetch_add(1, Ordering::Relaxed)
+    stage.publish().map_err(fs_err)
 }
 
 #[cfg(test)]
