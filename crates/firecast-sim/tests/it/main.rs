@@ -4,11 +4,11 @@
 
 mod agents;
 mod automaton;
-mod flammap_parity;
 mod behave_oracles;
 mod common;
 mod concord_kernel;
 mod env;
+mod flammap_parity;
 mod identities;
 mod perf;
 mod properties;
