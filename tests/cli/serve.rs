@@ -337,6 +337,10 @@ fn web_app_end_to_end() {
     assert_eq!(cov["first_date"], "2018-01-01");
     assert_eq!(cov["last_date"], "2019-12-31");
     assert_eq!(cov["agents"][0]["id"], "ppo");
+    // The fixture's agent has no window around the helicopter: the page says what that means
+    // on the live map.
+    let note = cov["agents"][0]["reason"].as_str().unwrap_or_default();
+    assert!(note.contains("whole map scaled"), "{note}");
     assert_eq!(cov["agents"][0]["available"], true, "{cov}");
     let png = client()
         .get(format!("{}/api/basemap.png", s.base))

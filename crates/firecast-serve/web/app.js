@@ -1505,9 +1505,16 @@ function pageFire(root, params, scope) {
         h('span', null, h('i', { class: 'sw line', style: { background: '#ffffff', boxShadow: '0 0 0 1px #333' } }), 'its path'),
         h('span', null, h('i', { class: 'sw dot', style: { background: 'transparent', border: '2px solid #0a3fa8' } }), 'drop'));
       const body = h('div', { class: 'panel-body' }, canvas, legendEl, stats, runState, chart);
+      // What the server says about the chosen agent (e.g. which map the PPO agent learned on).
+      const agentNote = h('div', { class: 'muted small agent-note', id: `agent-note-${side}` });
+      const showNote = () => {
+        const a = agents.find((x) => x.id === sel.value);
+        agentNote.textContent = a && a.available && a.id === 'ppo' ? (a.reason || '') : '';
+      };
+      showNote();
       const el = h('section', { class: 'card fire-panel', id: `fire-${side}`, 'data-testid': `fire-${side}`, style: { '--panel-color': color } },
         h('div', { class: 'panel-head' }, h('h2', null, side === 'left' ? 'Left' : 'Right'), sel),
-        msgBox, body);
+        agentNote, msgBox, body);
 
       const overlay = document.createElement('canvas');
       overlay.width = W;
@@ -1822,6 +1829,7 @@ function pageFire(root, params, scope) {
 
       sel.addEventListener('change', () => {
         st.agents[side] = sel.value;
+        showNote();
         ctrl.updateUrl();
         p.start();
         const other = ctrl.panels[otherSide];
