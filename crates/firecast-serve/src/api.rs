@@ -149,7 +149,7 @@ impl AppState {
 
     fn agents(&self) -> serde_json::Value {
         let ppo = match self.agent_run() {
-            Some(run) => (true, agent_note(&run)),
+            Some(run) => (true, agent_note(&run, &self.cfg.root)),
             None => (
                 false,
                 format!(
@@ -175,20 +175,19 @@ impl AppState {
 
 /// What the page says about the PPO agent: its run, and whether it sees a window around the
 /// helicopter (any map size) or the whole map scaled (lost on maps larger than its fires).
-fn agent_note(run: &std::path::Path) -> String {
+fn agent_note(run: &std::path::Path, root: &std::path::Path) -> String {
+    let shown = run.strip_prefix(root).unwrap_or(run).display();
     let summary: Option<serde_json::Value> = std::fs::read_to_string(run.join("summary.json"))
         .ok()
         .and_then(|t| serde_json::from_str(&t).ok());
     let windowed = summary.as_ref().is_some_and(|s| !s["policy"]["window"].is_null());
     if windowed {
         format!(
-            "trained PPO agent ({}): sees a window around the helicopter, so it plays this 240 × 160 map at the scale it learned",
-            run.display()
+            "trained PPO agent ({shown}): sees a window around the helicopter, so it plays this 240 × 160 map at the scale it learned"
         )
     } else {
         format!(
-            "trained PPO agent ({}): sees its whole map scaled; trained on smaller fires, it may not find this 240 × 160 fire. A threat report trains one with a window around the helicopter for this map, which then plays here",
-            run.display()
+            "trained PPO agent ({shown}): sees its whole map scaled; trained on smaller fires, it may not find this 240 × 160 fire. A threat report trains one with a window around the helicopter for this map, which then plays here"
         )
     }
 }
