@@ -33,9 +33,9 @@ pub enum SimCommand {
     Run(Box<RunArgs>),
     /// Surface fire behaviour grids over a LANDFIRE landscape, as FlamMap's basic fire
     /// behaviour computes them: head rate of spread (ch/h), flame length (ft), fireline
-    /// intensity (Btu/ft/s), direction of maximum spread (degrees from north) and fire type,
-    /// as float32 GeoTIFFs with the landscape's georeference, plus summary.json. Crown fire is
-    /// not modelled yet (every burning cell is surface fire).
+    /// intensity (Btu/ft/s), direction of maximum spread (degrees from north) and fire type
+    /// (0 none, 1 surface, 2 passive crown, 3 active crown), as float32 GeoTIFFs with the
+    /// landscape's georeference, plus summary.json.
     Behavior(BehaviorArgs),
 }
 
@@ -64,6 +64,12 @@ pub struct BehaviorArgs {
     /// Apply Rothermel's effective wind limit (off in behave and here by default).
     #[arg(long)]
     pub wind_limit: bool,
+    /// Crown fire method: finney (FlamMap's default), scott-reinhardt, or none.
+    #[arg(long, default_value = "finney", value_name = "finney|scott-reinhardt|none")]
+    pub crown: String,
+    /// Foliar moisture content, percent (30-300; FlamMap's default 100).
+    #[arg(long, default_value_t = 100.0, value_name = "PCT")]
+    pub foliar_moisture: f64,
     /// Output folder (replaced atomically).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
@@ -82,6 +88,8 @@ fn behavior_params(args: &BehaviorArgs) -> anyhow::Result<firecast_sim::behavior
         "lcp" => SlopeMode::LcpWholeDegrees,
         other => anyhow::bail!("--slope {other}: expected as-given or lcp"),
     };
+    let crown = firecast_sim::crown::CrownMethod::parse(&args.crown)
+        .ok_or_else(|| anyhow::anyhow!("--crown {}: expected finney, scott-reinhardt or none", args.crown))?;
     let moisture = MoisturePercent::parse(&args.moisture).map_err(|e| anyhow::anyhow!("--moisture: {e}"))?;
     let params = BehaviorParams {
         fuel,
@@ -90,6 +98,8 @@ fn behavior_params(args: &BehaviorArgs) -> anyhow::Result<firecast_sim::behavior
         wind_from_deg: args.wind_from_deg,
         slope,
         wind_limit: args.wind_limit,
+        crown,
+        foliar_moisture_pct: args.foliar_moisture,
     };
     params.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok(params)
@@ -108,11 +118,14 @@ fn sim_behavior(settings: &Settings, args: &BehaviorArgs) -> anyhow::Result<Exit
     }
     let cells = |k: &str| summary.fire_type_cells.get(k).copied().unwrap_or(0);
     println!(
-        "{} x {} cells ({}): {} surface fire, {} no fire ({} non-burnable, {} past extinction), {} nodata",
+        "{} x {} cells ({}): {} surface fire, {} passive crown, {} active crown, {} no fire ({} non-burnable, \
+         {} past extinction), {} nodata",
         summary.width,
         summary.height,
         summary.crs,
         cells("surface"),
+        cells("passive_crown"),
+        cells("active_crown"),
         cells("none"),
         summary.nonburnable_cells,
         summary.extinct_cells,
@@ -133,7 +146,11 @@ fn sim_behavior(settings: &Settings, args: &BehaviorArgs) -> anyhow::Result<Exit
             );
         }
     }
-    println!("crown fire: not modelled yet (every burning cell is surface fire)");
+    println!(
+        "crown fire: {} (foliar moisture {} %)",
+        summary.params.crown.name(),
+        summary.params.foliar_moisture_pct
+    );
     println!("wrote {} in {seconds:.2} s", args.out.display());
     Ok(ExitCode::SUCCESS)
 }

@@ -316,19 +316,25 @@ fn sim_behavior_writes_georeferenced_grids_and_a_summary() {
         "6,8,10,75,60",
         "--slope",
         "lcp",
+        "--foliar-moisture",
+        "120",
         "--out",
         "out/behavior",
     ]);
     let summary = &out["summary"];
-    // FlamMap: 220,846 surface + 1,525 crown cells burn; 108,586 cells are nodata.
-    assert_eq!(summary["fire_type_cells"]["surface"], 222_371);
+    // FlamMap: 220,846 surface, 1,518 passive and 7 active crown cells; 108,586 nodata.
+    assert_eq!(summary["fire_type_cells"]["surface"], 220_846);
+    assert_eq!(summary["fire_type_cells"]["passive_crown"], 1_518);
+    assert_eq!(summary["fire_type_cells"]["active_crown"], 7);
     assert_eq!(summary["nodata_cells"], 108_586);
     assert_eq!(summary["width"], 549);
     assert_eq!(summary["crs"], "EPSG:5070");
-    assert!(summary["crown_fire"].as_str().unwrap().contains("not modelled"));
+    assert_eq!(summary["params"]["crown"], "finney");
+    assert_eq!(summary["params"]["foliar_moisture_pct"], 120.0);
+    assert!(summary["crown_fire"].as_str().unwrap().starts_with("Finney"));
     let ros_max = summary["ros_chph"]["max"].as_f64().unwrap();
-    // FlamMap's fastest cell (48.2 ch/h) is a crown fire; the fastest surface fire is 36 ch/h.
-    assert!((30.0..40.0).contains(&ros_max), "{ros_max}");
+    // FlamMap's fastest cell, 48.2 ch/h, is a crown fire cell.
+    assert!((47.0..49.5).contains(&ros_max), "{ros_max}");
     for name in [
         "ros_chph.tif",
         "flame_length_ft.tif",
@@ -375,6 +381,10 @@ ft = np.array(Image.open(flammap + "/fire_type.tif"))
 surface = ft == 1
 rel = np.abs(ours[surface] / ref[surface] - 1)
 assert rel.max() < 0.005, rel.max()
+ours_type = np.array(Image.open(out + "/fire_type.tif"))
+assert (ours_type[ft >= 1] == ft[ft >= 1]).all()
+crown = ft >= 2
+assert np.abs(ours[crown] / ref[crown] - 1).max() < 0.005
 assert (ours[ft == 0] != 0).sum() == 108586
 print("ok", surface.sum(), rel.max())
 "#;
@@ -402,6 +412,14 @@ print("ok", surface.sum(), rel.max())
         (
             vec!["--moisture", "6,8,10,75,60", "--fuel", "fbfm99"],
             "fbfm40 or fbfm13",
+        ),
+        (
+            vec!["--moisture", "6,8,10,75,60", "--crown", "rothermel"],
+            "finney, scott-reinhardt or none",
+        ),
+        (
+            vec!["--moisture", "6,8,10,75,60", "--foliar-moisture", "400"],
+            "foliar_moisture_pct",
         ),
     ] {
         let mut full = vec!["sim", "behavior", "--landscape", "landfire", "--out", "out/bad"];
@@ -451,6 +469,8 @@ stages:
     params:
       moisture: {dead_1h: 6, dead_10h: 8, dead_100h: 10, live_herbaceous: 75, live_woody: 60}
       slope: lcp_whole_degrees
+      crown: finney
+      foliar_moisture_pct: 120
     inputs:
       landscape: data/landfire
     outputs:
@@ -460,7 +480,8 @@ stages:
     let outcomes = p.run_pipeline("pipelines/behavior.yaml", &[]);
     assert_eq!(outcomes["behavior"], "ran");
     let summary: serde_json::Value = serde_json::from_str(&p.read("build/behavior/summary.json")).unwrap();
-    assert_eq!(summary["fire_type_cells"]["surface"], 222_371);
+    assert_eq!(summary["fire_type_cells"]["surface"], 220_846);
+    assert_eq!(summary["fire_type_cells"]["active_crown"], 7);
     assert_eq!(summary["params"]["wind_20ft_mph"], 0.0);
     assert_eq!(
         p.run_pipeline("pipelines/behavior.yaml", &[])["behavior"],
@@ -475,6 +496,12 @@ stages:
             "gusts",
         ),
         ("live_woody: 60", "live_woody: 5", "live_woody"),
+        ("crown: finney", "crown: van-wagner", "van-wagner"),
+        (
+            "foliar_moisture_pct: 120",
+            "foliar_moisture_pct: 10",
+            "foliar_moisture_pct",
+        ),
     ] {
         p.write(
             "pipelines/bad.yaml",

@@ -1,7 +1,8 @@
 //! `sim.behavior`: fire behaviour grids over a LANDFIRE landscape folder
 //! ([`firecast_sim::behavior`]): rate of spread, flame length, fireline intensity, direction of
-//! maximum spread and fire type as float32 GeoTIFFs, plus `summary.json`. Surface fire only;
-//! crown fire is not modelled yet.
+//! maximum spread and fire type (surface, passive or active crown fire; params `crown:
+//! finney | scott-reinhardt | none`, `foliar_moisture_pct`) as float32 GeoTIFFs, plus
+//! `summary.json`.
 
 use firecast_pipeline::{ParamsError, Port, Ports, StageContext, StageError, StageKind, typed_params};
 use firecast_sim::behavior::{BehaviorParams, run_behavior};
@@ -30,11 +31,11 @@ impl StageKind for BehaviorStage {
     }
 
     fn version(&self) -> u32 {
-        1
+        2
     }
 
     fn summary(&self) -> &'static str {
-        "surface fire behaviour grids over a LANDFIRE landscape (GeoTIFFs and a summary)"
+        "surface and crown fire behaviour grids over a LANDFIRE landscape (GeoTIFFs and a summary)"
     }
 
     fn ports(&self) -> Ports {

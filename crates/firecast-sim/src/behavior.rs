@@ -23,9 +23,12 @@
 //! - **Outputs**: head rate of spread (ch/h), flame length (ft), Byram fireline intensity
 //!   (Btu/ft/s), direction of maximum spread (degrees clockwise from north), and fire type.
 //!
-//! **Crown fire is not modelled yet**: fire type is 0 (no fire: non-burnable, or a fuel past
-//! extinction) or 1 (surface) wherever the inputs have data; every cell FlamMap would call
-//! passive or active crown fire gets its surface values here.
+//! - **Crown fire** ([`crate::crown`], `docs/spec/fire-model.md §B11`): where the cell has a
+//!   canopy (cover and height > 0) and the surface intensity reaches Van Wagner's critical
+//!   intensity, the fire is passive (2) or active (3) crown fire, by Finney's method (FlamMap's
+//!   default) or Scott & Reinhardt's; Rothermel's (1991) crown rate is fuel model 10 at the
+//!   cell's slope with the 20-ft wind × 0.4, times 3.34, with the same moistures. Fire type is
+//!   0 (no fire: non-burnable, or a fuel past extinction), 1 surface, 2 passive, 3 active.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -34,6 +37,7 @@ use firecast_landscape::gridio::{GridPlacement, encode_geotiff_f32};
 use firecast_landscape::landfire::{FuelLayer, LANDFIRE_NODATA, LandfireLandscape};
 use rayon::prelude::*;
 
+use crate::crown::{Canopy, CrownMethod, SurfaceHead};
 use crate::fuel::FuelModel;
 use crate::rothermel::{FuelMoisture, SpreadInputs, SurfaceFuelBed, WindLimit};
 
@@ -135,6 +139,16 @@ pub struct BehaviorParams {
     /// Rothermel's effective-wind limit (behave's default, and FlamMap's here: off).
     #[serde(default)]
     pub wind_limit: bool,
+    /// Crown fire method: `finney` (FlamMap's default), `scott-reinhardt`, or `none`.
+    #[serde(default)]
+    pub crown: CrownMethod,
+    /// Foliar moisture content, percent (FlamMap's default 100 %).
+    #[serde(default = "default_foliar_moisture")]
+    pub foliar_moisture_pct: f64,
+}
+
+fn default_foliar_moisture() -> f64 {
+    100.0
 }
 
 /// A params value out of range: `field` names it.
@@ -148,10 +162,11 @@ pub struct ParamError {
 
 impl BehaviorParams {
     /// Check ranges: dead moistures 1–100 %, live 30–300 % (the live range behave's
-    /// curing and extinction cover), wind 0–100 mi/h, direction 0–360°.
+    /// curing and extinction cover), foliar moisture 30–300 %, wind 0–100 mi/h, direction
+    /// 0–360°.
     pub fn validate(&self) -> Result<(), ParamError> {
         let m = &self.moisture;
-        let checks: [(&'static str, f64, f64, f64, &'static str); 7] = [
+        let checks: [(&'static str, f64, f64, f64, &'static str); 8] = [
             (
                 "moisture.dead_1h",
                 m.dead_1h,
@@ -188,6 +203,13 @@ impl BehaviorParams {
                 "live moisture must be 30-300 %",
             ),
             (
+                "foliar_moisture_pct",
+                self.foliar_moisture_pct,
+                30.0,
+                300.0,
+                "foliar moisture must be 30-300 %",
+            ),
+            (
                 "wind_20ft_mph",
                 self.wind_20ft_mph,
                 0.0,
@@ -215,9 +237,10 @@ impl BehaviorParams {
     }
 }
 
-/// Fire type codes, as FlamMap writes them (2 passive and 3 active crown are not produced).
+/// Fire type codes, as FlamMap writes them.
 pub const FIRE_TYPE_NONE: f32 = 0.0;
 pub const FIRE_TYPE_SURFACE: f32 = 1.0;
+pub use crate::crown::{FIRE_TYPE_ACTIVE, FIRE_TYPE_PASSIVE};
 
 /// The grids of one run, row 0 north, `nodata` where an input layer (fuel, slope, aspect) has
 /// none; direction is `nodata` also where nothing spreads.
@@ -250,7 +273,7 @@ pub const GRID_FILES: [(&str, &str); 5] = [
     ),
     (
         "fire_type.tif",
-        "fire type: 0 none, 1 surface (crown fire not modelled yet)",
+        "fire type: 0 none, 1 surface, 2 passive crown, 3 active crown",
     ),
 ];
 
@@ -310,6 +333,10 @@ pub fn surface_behavior_grids(
         WindLimit::Off
     };
     let wind_toward = (params.wind_from_deg + 180.0).rem_euclid(360.0);
+    // Rothermel's (1991) crown rate is fuel model 10's, with the same moistures.
+    let fm10 = FuelModel::by_number(10).expect("fuel model 10 is in the table");
+    let fm10 = SurfaceFuelBed::new(fm10, &moisture)?;
+    let layer = |layer: &Option<Vec<f32>>, i: usize| layer.as_ref().map_or(f64::NAN, |c| f64::from(c[i]));
     let cell = |i: usize| -> [f32; 6] {
         let none = [nodata; 6];
         let (Some(code), slope, aspect) = (land.fuel[i], land.slope_percent[i], land.aspect_deg[i]) else {
@@ -350,6 +377,61 @@ pub fn surface_behavior_grids(
         let fire = bed.spread_with_limit(&inputs, limit);
         if fire.head_ros_ftmin > 0.0 {
             let dir = (upslope + fire.dir_max_spread_from_upslope_deg).rem_euclid(360.0);
+            let canopy = Canopy {
+                cover_pct: layer(&land.canopy_cover_pct, i),
+                height_m: layer(&land.canopy_height_m, i),
+                base_height_m: layer(&land.canopy_base_height_m, i),
+                bulk_density_kg_m3: layer(&land.canopy_bulk_density_kg_m3, i),
+            };
+            let canopy_known = [
+                canopy.cover_pct,
+                canopy.height_m,
+                canopy.base_height_m,
+                canopy.bulk_density_kg_m3,
+            ]
+            .iter()
+            .all(|v| v.is_finite());
+            if params.crown != CrownMethod::None && canopy_known && canopy.has_canopy() {
+                let crown_wind = params.wind_20ft_mph * crate::crown::CROWN_WIND_REDUCTION;
+                let crown_inputs = SpreadInputs {
+                    midflame_wind_mph: crown_wind,
+                    ..inputs
+                };
+                let fm10_fire = fm10.spread_with_limit(&crown_inputs, limit);
+                let r_active = crate::crown::ROTHERMEL_CROWN_FACTOR * fm10_fire.head_ros_ftmin * FT_TO_M;
+                let surface = SurfaceHead {
+                    ros_m_min: fire.head_ros_ftmin * FT_TO_M,
+                    intensity_btu_ft_s: fire.fireline_intensity_btu_ft_s,
+                };
+                let waf = if params.wind_20ft_mph > 0.0 {
+                    midflame / params.wind_20ft_mph
+                } else {
+                    wind_adjustment_factor(*depth, canopy_ft, cover)
+                };
+                let r_sa = |r_crit: f64| surface_rate_at_critical_wind(bed, &fm10, slope, waf, r_crit, limit);
+                if let Some(crown) = crate::crown::crown_fire(
+                    params.crown,
+                    surface,
+                    canopy,
+                    params.foliar_moisture_pct,
+                    r_active,
+                    r_sa,
+                ) {
+                    let dir = if crown.crown_spread {
+                        (upslope + fm10_fire.dir_max_spread_from_upslope_deg).rem_euclid(360.0)
+                    } else {
+                        dir
+                    };
+                    return [
+                        (crown.ros_m_min / FT_TO_M * 60.0 / 66.0) as f32,
+                        crown.flame_length_ft as f32,
+                        crown.intensity_btu_ft_s as f32,
+                        dir as f32,
+                        crown.fire_type,
+                        midflame as f32,
+                    ];
+                }
+            }
             [
                 fire.head_ros_chph() as f32,
                 fire.flame_length_ft as f32,
@@ -375,6 +457,51 @@ pub fn surface_behavior_grids(
         fire_type: column(4),
         midflame_wind_mph: column(5),
     })
+}
+
+const FT_TO_M: f64 = 0.3048;
+
+/// Scott & Reinhardt's R'_SA, m/min: the surface head rate (wind blowing upslope) at the 20-ft
+/// wind for which Rothermel's crown rate 3.34 · R₁₀ (wind × 0.4, upslope) reaches `r_crit`
+/// (m/min), found by bisection; `waf` reduces the 20-ft wind to the surface fuel's midflame.
+fn surface_rate_at_critical_wind(
+    bed: &SurfaceFuelBed,
+    fm10: &SurfaceFuelBed,
+    slope_percent: f64,
+    waf: f64,
+    r_crit_m_min: f64,
+    limit: WindLimit,
+) -> f64 {
+    let upslope = |wind: f64| SpreadInputs {
+        midflame_wind_mph: wind,
+        slope_percent,
+        wind_dir_from_upslope_deg: 0.0,
+    };
+    let crown_rate = |u20: f64| {
+        crate::crown::ROTHERMEL_CROWN_FACTOR
+            * fm10
+                .spread_with_limit(&upslope(u20 * crate::crown::CROWN_WIND_REDUCTION), limit)
+                .head_ros_ftmin
+            * FT_TO_M
+    };
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    if crown_rate(lo) >= r_crit_m_min {
+        hi = 0.0;
+    } else {
+        while crown_rate(hi) < r_crit_m_min && hi < 1e4 {
+            lo = hi;
+            hi *= 2.0;
+        }
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if crown_rate(mid) < r_crit_m_min {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+    }
+    bed.spread_with_limit(&upslope(hi * waf), limit).head_ros_ftmin * FT_TO_M
 }
 
 /// Minimum, maximum and mean of a grid over the cells that burn.
@@ -418,7 +545,8 @@ pub struct BehaviorSummary {
     pub nodata_value: f32,
     /// Nodata cells per input layer, by layer name.
     pub layer_nodata_cells: BTreeMap<String, usize>,
-    /// Cells by fire type among cells with data: `none`, `surface`.
+    /// Cells by fire type among cells with data: `none`, `surface`, `passive_crown`,
+    /// `active_crown`.
     pub fire_type_cells: BTreeMap<&'static str, usize>,
     /// Of the `none` cells: non-burnable codes, and burnable fuel that does not spread
     /// (past its moisture of extinction).
@@ -441,9 +569,18 @@ pub fn summarize(
     params: &BehaviorParams,
     grids: &BehaviorGrids,
 ) -> BehaviorSummary {
-    let burning: Vec<bool> = grids.fire_type.iter().map(|t| *t == FIRE_TYPE_SURFACE).collect();
+    let burning: Vec<bool> = grids
+        .fire_type
+        .iter()
+        .map(|t| *t != FIRE_TYPE_NONE && *t != grids.nodata)
+        .collect();
     let nodata_cells = grids.fire_type.iter().filter(|t| **t == grids.nodata).count();
-    let surface = burning.iter().filter(|b| **b).count();
+    let count = |code: f32| grids.fire_type.iter().filter(|t| **t == code).count();
+    let (surface, passive, active) = (
+        count(FIRE_TYPE_SURFACE),
+        count(FIRE_TYPE_PASSIVE),
+        count(FIRE_TYPE_ACTIVE),
+    );
     let none = grids.fire_type.iter().filter(|t| **t == FIRE_TYPE_NONE).count();
     let mut fuel_cells: BTreeMap<u16, usize> = BTreeMap::new();
     let mut nonburnable = 0;
@@ -471,7 +608,19 @@ pub fn summarize(
         params: params.clone(),
         wind_adjustment: "FlamMap/FARSITE: sheltered Albini & Baughman (1979), crown ratio 1, where canopy \
                           cover and height > 0; else unsheltered on the fuel-bed depth",
-        crown_fire: "not modelled yet: every burning cell is reported as surface fire (type 1)",
+        crown_fire: match params.crown {
+            CrownMethod::Finney => {
+                "Finney (FlamMap's default): Van Wagner (1977) initiation, Rothermel (1991) crown rate \
+                 (fuel model 10, 20-ft wind x 0.4, x 3.34), crown fraction burned by Van Wagner's \
+                 (1993) exponential form; passive cells spread at the surface rate"
+            }
+            CrownMethod::ScottReinhardt => {
+                "Scott & Reinhardt (2001): Van Wagner (1977) initiation, Rothermel (1991) crown rate, \
+                 crown fraction burned linear between the initiation rate and the surface rate at the \
+                 critical wind for active crowning; passive ROS = R + CFB (R_active - R)"
+            }
+            CrownMethod::None => "none: every burning cell is reported as surface fire (type 1)",
+        },
         nodata_cells,
         nodata_value: grids.nodata,
         layer_nodata_cells: land
@@ -480,7 +629,12 @@ pub fn summarize(
             .iter()
             .map(|l| (l.layer.to_string(), l.nodata_cells))
             .collect(),
-        fire_type_cells: BTreeMap::from([("none", none), ("surface", surface)]),
+        fire_type_cells: BTreeMap::from([
+            ("none", none),
+            ("surface", surface),
+            ("passive_crown", passive),
+            ("active_crown", active),
+        ]),
         nonburnable_cells: nonburnable,
         extinct_cells: none - nonburnable,
         fuel_cells,

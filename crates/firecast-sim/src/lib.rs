@@ -17,6 +17,7 @@ pub mod automaton;
 pub mod behavior;
 pub mod bench;
 pub mod concord;
+pub mod crown;
 pub mod env;
 pub mod fuel;
 pub mod random;

@@ -50,6 +50,9 @@ fn ros_beside_flammap_png() {
         wind_from_deg: 0.0,
         slope: SlopeMode::LcpWholeDegrees,
         wind_limit: false,
+        // Surface fire everywhere: the picture compares FlamMap's surface cells.
+        crown: firecast_sim::crown::CrownMethod::None,
+        foliar_moisture_pct: 120.0,
     };
     let ours = surface_behavior_grids(&land, &params).unwrap();
     let (w, h, flammap) = read_band_f32(&fixtures.join("flammap/ROS_ch_hr.tif")).unwrap();
