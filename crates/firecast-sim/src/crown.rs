@@ -13,10 +13,10 @@
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum CrownMethod {
-    /// Finney (1998), FARSITE's and FlamMap's default (§B11.3).
+    /// Finney (1998), FARSITE's and FlamMap's default (`docs/spec/fire-model.md §B11.3`).
     #[default]
     Finney,
-    /// Scott & Reinhardt (2001) (§B11.4).
+    /// Scott & Reinhardt (2001) (`docs/spec/fire-model.md §B11.4`).
     ScottReinhardt,
     /// No crown fire: every burning cell is surface fire.
     None,
