@@ -1,0 +1,13 @@
+//! firecast-spread: fire spread engines beside the FireCastRL automaton, and their verification.
+//!
+//! - [`mtt`]: minimum travel time on the grid (Dijkstra over a large stencil, as FlamMap's MTT
+//!   and Cell2Fire do), the travel time along each move taken from the elliptical rate of
+//!   spread of every cell it crosses (behave's Rothermel kernel, wind and slope per cell);
+//!   arrival time per cell in hours, deterministic.
+//! - [`verify`]: constant-condition cases in the manner of ELMFIRE's V&V suite, measured
+//!   against the exact ellipse (docs/spec/fire-model.md §A13) for both engines.
+
+pub mod mtt;
+pub mod verify;
+
+pub use mtt::{MttConfig, MttError, MttGrid, arrival_times_h};
