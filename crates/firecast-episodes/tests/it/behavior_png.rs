@@ -81,7 +81,7 @@ fn ros_beside_flammap_png() {
                         _ if fire_type[i] == 1.0 => {
                             diff_color(f64::from(ours.ros_chph[i]) / f64::from(flammap[i]) - 1.0)
                         }
-                        // FlamMap's crown cells: black (crown fire is not modelled yet).
+                        // FlamMap's crown cells: black (this picture compares surface fire).
                         _ if fire_type[i] >= 2.0 => [0, 0, 0],
                         _ => [255, 255, 255],
                     }
