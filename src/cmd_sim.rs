@@ -1,4 +1,4 @@
-//! `firecast sim spread-rate|run|behavior` and `firecast bench sim`.
+//! `firecast sim spread-rate|run|behavior|verify` and `firecast bench sim`.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -37,6 +37,79 @@ pub enum SimCommand {
     /// (0 none, 1 surface, 2 passive crown, 3 active crown), as float32 GeoTIFFs with the
     /// landscape's georeference, plus summary.json.
     Behavior(BehaviorArgs),
+    /// Spread verified against Rothermel's ellipse (docs/results/spread-verification.md): point
+    /// fires in uniform fuel under constant wind or slope, read after 1, 2 and 4 h; head, flank
+    /// and back rates, L/B and area as ratios to the kernel's ellipse, for the FireCastRL
+    /// automaton and the minimum-travel-time engine. Exits 1 if a resolved MTT row fails.
+    Verify(VerifyArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct VerifyArgs {
+    /// Run the test suite's small subset instead of every case.
+    #[arg(long)]
+    pub quick: bool,
+    /// Engines to run.
+    #[arg(long, value_enum, default_value_t = VerifyEngines::Both)]
+    pub engine: VerifyEngines,
+    /// MTT stencil radius in cells (1-8).
+    #[arg(long, default_value_t = firecast_spread::mtt::DEFAULT_STENCIL_RADIUS,
+          value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub stencil_radius: u32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum VerifyEngines {
+    Both,
+    Mtt,
+    Automaton,
+}
+
+fn sim_verify(settings: &Settings, args: &VerifyArgs) -> anyhow::Result<ExitCode> {
+    use firecast_spread::verify::{self, Engine, VerifyOptions};
+    let cases = if args.quick {
+        verify::quick_cases()
+    } else {
+        verify::all_cases()
+    };
+    let engines: &[Engine] = match args.engine {
+        VerifyEngines::Both => &[Engine::Automaton, Engine::Mtt],
+        VerifyEngines::Mtt => &[Engine::Mtt],
+        VerifyEngines::Automaton => &[Engine::Automaton],
+    };
+    let rows = verify::run(
+        &cases,
+        engines,
+        &VerifyOptions {
+            stencil_radius: args.stencil_radius,
+        },
+    );
+    let mtt_fail = rows
+        .iter()
+        .filter(|r| r.engine == Engine::Mtt && r.resolved && !r.pass)
+        .count();
+    if settings.json {
+        output::print_json(&serde_json::json!({ "rows": rows, "mtt_failures": mtt_fail }))?;
+    } else {
+        println!("{}", verify::exact_table(&cases));
+        println!("{}", verify::markdown_table(&rows));
+        for &e in engines {
+            let of = |f: &dyn Fn(&verify::Row) -> bool| rows.iter().filter(|r| r.engine == e && f(r)).count();
+            println!(
+                "{}: {} pass, {} fail, {} not resolved (the fire's shortest radius under {} cells)",
+                e.name(),
+                of(&|r| r.pass),
+                of(&|r| r.resolved && !r.pass),
+                of(&|r| !r.resolved),
+                verify::RESOLVED_CELLS
+            );
+        }
+    }
+    Ok(if mtt_fail == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
 }
 
 #[derive(Debug, Args)]
@@ -243,6 +316,7 @@ pub fn run(settings: &Settings, command: SimCommand) -> anyhow::Result<ExitCode>
         }
         SimCommand::Run(args) => sim_run(settings, &args),
         SimCommand::Behavior(args) => sim_behavior(settings, &args),
+        SimCommand::Verify(args) => sim_verify(settings, &args),
     }
 }
 

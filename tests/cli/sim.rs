@@ -520,3 +520,20 @@ stages:
         );
     }
 }
+
+#[test]
+fn sim_verify_quick_passes_for_mtt_and_rejects_a_bad_radius() {
+    let p = Project::new();
+    let out = p.json(&["sim", "verify", "--quick", "--engine", "mtt"]);
+    assert_eq!(out["mtt_failures"], 0);
+    let rows = out["rows"].as_array().unwrap();
+    assert!(rows.iter().all(|r| r["engine"] == "mtt"));
+    assert!(rows.iter().any(|r| r["resolved"] == true && r["pass"] == true));
+
+    let bad = p
+        .firecast()
+        .args(["sim", "verify", "--stencil-radius", "9"])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(2), "{}", describe(&bad));
+}

@@ -5,7 +5,7 @@
 //!   spread of every cell it crosses (behave's Rothermel kernel, wind and slope per cell);
 //!   arrival time per cell in hours, deterministic.
 //! - [`verify`]: constant-condition cases in the manner of ELMFIRE's V&V suite, measured
-//!   against the exact ellipse (docs/spec/fire-model.md §A13) for both engines.
+//!   against the exact ellipse (docs/spec/fire-model.md §B7, §B10.1) for both engines.
 
 pub mod mtt;
 pub mod verify;

@@ -1,11 +1,11 @@
 //! Minimum travel time (MTT) on the grid: Dijkstra's algorithm over a stencil of moves
 //! (dx, dy) with |dx|, |dy| ≤ r and gcd(dx, dy) = 1, as FlamMap's MTT and Cell2Fire spread a
 //! fire. The travel time of a move is the time to cross the straight segment between the two
-//! cell centres at the elliptical rate of spread (docs/spec/fire-model.md §A13) of every cell
+//! cell centres at the elliptical rate of spread (docs/spec/fire-model.md §B7, §B10.1) of every cell
 //! it crosses: the segment is cut into 2·max(|dx|, |dy|) equal pieces, each crossed at the
 //! rate of the cell its midpoint lies in. A move through a non-burnable cell, or off the grid,
 //! is not taken. In uniform conditions the fastest path is the straight ray, so the front
-//! after time t is the kernel's ellipse up to the stencil's angular resolution (§A13).
+//! after time t is the kernel's ellipse up to the stencil's angular resolution (docs/spec/fire-model.md §B10.1).
 //!
 //! Deterministic: ties in the queue are broken by cell index.
 

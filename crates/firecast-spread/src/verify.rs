@@ -9,7 +9,7 @@
 //! (the mean of both sides) and against it, over t; length and breadth are the front's extent
 //! along and across the head direction; the area is the front polygon's. The burnt cells'
 //! area (cells reached by t × cell area) is printed beside it. The exact values are the
-//! kernel's ellipse with the ignition at its rear focus (docs/spec/fire-model.md §A13).
+//! kernel's ellipse with the ignition at its rear focus (docs/spec/fire-model.md §B7, §B10.1).
 
 use std::f64::consts::PI;
 
