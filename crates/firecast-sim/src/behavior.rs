@@ -751,6 +751,25 @@ mod tests {
     }
 
     #[test]
+    fn critical_wind_surface_rate_by_construction() {
+        // With fuel model 10 as the surface fuel and its wind reduced by 0.4 too, the surface
+        // rate at O'_active is Rothermel's R10 there: R'_active / 3.34.
+        let moisture = MoisturePercent::parse("6,8,10,75,60").expect("five").fractions();
+        let fm10 = SurfaceFuelBed::new(FuelModel::by_number(10).expect("FM10"), &moisture).expect("bed");
+        for (slope, r_crit) in [(0.0, 20.0), (30.0, 12.0), (80.0, 40.0)] {
+            let r_sa = surface_rate_at_critical_wind(&fm10, &fm10, slope, 0.4, r_crit, WindLimit::Off);
+            assert!(
+                (r_sa / (r_crit / 3.34) - 1.0).abs() < 1e-9,
+                "{slope} {r_crit} {r_sa}"
+            );
+        }
+        // Slope alone past the threshold: the critical wind is 0.
+        let steep = surface_rate_at_critical_wind(&fm10, &fm10, 100.0, 0.4, 0.5, WindLimit::Off);
+        let calm = fm10.spread(&SpreadInputs::upslope(0.0, 100.0)).head_ros_ftmin * FT_TO_M;
+        assert_eq!(steep, calm);
+    }
+
+    #[test]
     fn params_are_strict_and_checked() {
         let ok: BehaviorParams = serde_json::from_value(serde_json::json!({
             "moisture": {"dead_1h": 6, "dead_10h": 8, "dead_100h": 10, "live_herbaceous": 75, "live_woody": 60}
@@ -758,6 +777,16 @@ mod tests {
         .expect("valid");
         assert!(ok.validate().is_ok());
         assert_eq!(ok.fuel, FuelChoice::Fbfm40);
+        assert_eq!((ok.crown, ok.foliar_moisture_pct), (CrownMethod::Finney, 100.0));
+        let mut dry = ok.clone();
+        dry.foliar_moisture_pct = 20.0;
+        assert_eq!(dry.validate().expect_err("FMC").field, "foliar_moisture_pct");
+        let crown = serde_json::from_value::<BehaviorParams>(serde_json::json!({
+            "moisture": {"dead_1h": 6, "dead_10h": 8, "dead_100h": 10, "live_herbaceous": 75, "live_woody": 60},
+            "crown": "scott-reinhardt"
+        }))
+        .expect("crown method");
+        assert_eq!(crown.crown, CrownMethod::ScottReinhardt);
         let unknown = serde_json::from_value::<BehaviorParams>(serde_json::json!({
             "moisture": {"dead_1h": 6, "dead_10h": 8, "dead_100h": 10, "live_herbaceous": 75, "live_woody": 60},
             "wind": 3
