@@ -224,6 +224,12 @@ fn sim_behavior(settings: &Settings, args: &BehaviorArgs) -> anyhow::Result<Exit
         summary.params.crown.name(),
         summary.params.foliar_moisture_pct
     );
+    if !summary.crown_fire_missing_layers.is_empty() {
+        println!(
+            "  no crown fire anywhere: the landscape has no {} layer",
+            summary.crown_fire_missing_layers.join(", no ")
+        );
+    }
     println!("wrote {} in {seconds:.2} s", args.out.display());
     Ok(ExitCode::SUCCESS)
 }

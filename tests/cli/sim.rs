@@ -433,6 +433,25 @@ print("ok", surface.sum(), rel.max())
         );
         assert!(!p.path("out/bad").exists());
     }
+    // Without a canopy bulk density layer no cell crowns, and the summary says why.
+    std::fs::remove_file(p.path("landfire/LF2022_CBD_230_CONUS/LC22_CBD_230.tif")).unwrap();
+    let no_cbd = p.json(&[
+        "sim",
+        "behavior",
+        "--landscape",
+        "landfire",
+        "--moisture",
+        "6,8,10,75,60",
+        "--out",
+        "out/no-cbd",
+    ]);
+    let summary = &no_cbd["summary"];
+    assert_eq!(
+        summary["crown_fire_missing_layers"],
+        serde_json::json!(["canopy bulk density"])
+    );
+    assert_eq!(summary["fire_type_cells"]["passive_crown"], 0);
+    assert_eq!(summary["fire_type_cells"]["surface"], 222_371);
     std::fs::remove_file(p.path("landfire/LF2020_Asp_220_CONUS/LC20_Asp_220.tif")).unwrap();
     let bad = p
         .firecast()

@@ -540,6 +540,9 @@ pub struct BehaviorSummary {
     pub params: BehaviorParams,
     pub wind_adjustment: &'static str,
     pub crown_fire: &'static str,
+    /// Canopy layers the landscape lacks: with any missing, no cell can crown.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub crown_fire_missing_layers: Vec<&'static str>,
     /// Cells without data in fuel, slope or aspect (written as `nodata`).
     pub nodata_cells: usize,
     pub nodata_value: f32,
@@ -629,6 +632,19 @@ pub fn summarize(
             .iter()
             .map(|l| (l.layer.to_string(), l.nodata_cells))
             .collect(),
+        crown_fire_missing_layers: if params.crown == CrownMethod::None {
+            Vec::new()
+        } else {
+            [
+                ("canopy cover", land.canopy_cover_pct.is_none()),
+                ("canopy height", land.canopy_height_m.is_none()),
+                ("canopy base height", land.canopy_base_height_m.is_none()),
+                ("canopy bulk density", land.canopy_bulk_density_kg_m3.is_none()),
+            ]
+            .into_iter()
+            .filter_map(|(name, missing)| missing.then_some(name))
+            .collect()
+        },
         fire_type_cells: BTreeMap::from([
             ("none", none),
             ("surface", surface),
