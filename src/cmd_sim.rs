@@ -56,6 +56,10 @@ pub struct VerifyArgs {
     #[arg(long, default_value_t = firecast_spread::mtt::DEFAULT_STENCIL_RADIUS,
           value_parser = clap::value_parser!(u32).range(1..=8))]
     pub stencil_radius: u32,
+    /// Also draw GR2 at 15 and 4 mi/h (22.5°, 60 m cells) as a PNG map here: the exact
+    /// ellipses, the MTT fronts and the automaton's burnt cells after 1, 2 and 4 h.
+    #[arg(long, value_name = "FILE")]
+    pub png: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -77,13 +81,14 @@ fn sim_verify(settings: &Settings, args: &VerifyArgs) -> anyhow::Result<ExitCode
         VerifyEngines::Mtt => &[Engine::Mtt],
         VerifyEngines::Automaton => &[Engine::Automaton],
     };
-    let rows = verify::run(
-        &cases,
-        engines,
-        &VerifyOptions {
-            stencil_radius: args.stencil_radius,
-        },
-    );
+    let opts = VerifyOptions {
+        stencil_radius: args.stencil_radius,
+    };
+    let rows = verify::run(&cases, engines, &opts);
+    if let Some(png) = &args.png {
+        firecast_spread::picture::write_picture(png, &opts)
+            .with_context(|| format!("cannot draw the verification picture: {}", png.display()))?;
+    }
     let mtt_fail = rows
         .iter()
         .filter(|r| r.engine == Engine::Mtt && r.resolved && !r.pass)

@@ -549,6 +549,22 @@ fn sim_verify_quick_passes_for_mtt_and_rejects_a_bad_radius() {
     assert!(rows.iter().all(|r| r["engine"] == "mtt"));
     assert!(rows.iter().any(|r| r["resolved"] == true && r["pass"] == true));
 
+    // The picture: a PNG, written where asked.
+    let png = p.path("pictures/verify.png");
+    std::fs::create_dir_all(png.parent().unwrap()).unwrap();
+    p.json(&[
+        "sim",
+        "verify",
+        "--quick",
+        "--engine",
+        "mtt",
+        "--png",
+        png.to_str().unwrap(),
+    ]);
+    let bytes = std::fs::read(&png).unwrap();
+    assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG");
+    assert!(bytes.len() > 50_000, "{} bytes", bytes.len());
+
     let bad = p
         .firecast()
         .args(["sim", "verify", "--stencil-radius", "9"])

@@ -825,6 +825,8 @@ enum Kind {
     Step(Vec<(f64, f64)>),
     Scatter(Vec<(f64, f64)>),
     Band(Vec<(f64, f64, f64)>),
+    /// Squares of the given side centred on the points.
+    Cells(Vec<(f64, f64)>, f64),
     HLine(f64),
     VLine(f64),
     Segment((f64, f64), (f64, f64)),
@@ -838,7 +840,7 @@ impl Kind {
     /// Drawing layer above the bands (layer 0): reference lines, then lines, then markers.
     fn layer(&self) -> u8 {
         match self {
-            Kind::Band(_) => 0,
+            Kind::Band(_) | Kind::Cells(..) => 0,
             Kind::HLine(_) | Kind::VLine(_) | Kind::Segment(..) => 1,
             Kind::Line(_) | Kind::Step(_) => 2,
             Kind::Scatter(_) => 3,
@@ -847,11 +849,11 @@ impl Kind {
 }
 
 /// One thing drawn on a [`Chart`]: build it with [`Series::line`], [`Series::step`],
-/// [`Series::scatter`], [`Series::band`] or a reference line ([`Series::hline`],
+/// [`Series::scatter`], [`Series::band`], [`Series::cells`] or a reference line ([`Series::hline`],
 /// [`Series::vline`], [`Series::segment`]), then set options.
 ///
 /// Drawing order, bottom to top: bands (including those attached with
-/// [`Series::with_band`]), reference lines, lines and steps, scatter markers; within a
+/// [`Series::with_band`], and cells), reference lines, lines and steps, scatter markers; within a
 /// layer, the order series were added.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Series {
@@ -871,7 +873,7 @@ const BAND_ALPHA: f32 = 0.25;
 impl Series {
     fn of(kind: Kind) -> Self {
         let reference = kind.is_reference();
-        let alpha = if matches!(kind, Kind::Band(_)) {
+        let alpha = if matches!(kind, Kind::Band(_) | Kind::Cells(..)) {
             BAND_ALPHA
         } else {
             1.0
@@ -910,6 +912,13 @@ impl Series {
     /// drawn); interpolated linearly between points.
     pub fn band(points: impl IntoIterator<Item = (f64, f64, f64)>) -> Self {
         Self::of(Kind::Band(points.into_iter().collect()))
+    }
+
+    /// Translucent squares of side `size` (data units) centred on the points, drawn in the
+    /// band layer (e.g. the cells of a grid that a fire has reached), their edges on whole
+    /// pixels; neighbours meet without a seam and overlapping squares are not blended twice.
+    pub fn cells(centres: impl IntoIterator<Item = (f64, f64)>, size: f64) -> Self {
+        Self::of(Kind::Cells(centres.into_iter().collect(), size.abs()))
     }
 
     /// A dashed horizontal reference line across the plot at `y` (e.g. prevalence).
@@ -982,6 +991,10 @@ impl Series {
             Kind::Band(b) => {
                 xs.extend(b.iter().map(|q| q.0));
                 ys.extend(b.iter().flat_map(|q| [q.1, q.2]));
+            }
+            Kind::Cells(p, size) => {
+                xs.extend(p.iter().flat_map(|q| [q.0 - size / 2.0, q.0 + size / 2.0]));
+                ys.extend(p.iter().flat_map(|q| [q.1 - size / 2.0, q.1 + size / 2.0]));
             }
             Kind::HLine(y) => ys.push(*y),
             Kind::VLine(x) => xs.push(*x),
@@ -1192,6 +1205,21 @@ fn band_px(area: &PlotArea, band: &[(f64, f64, f64)]) -> Vec<(f64, f64, f64)> {
 
 /// The band layer: plain bands and bands attached to lines.
 fn draw_bands(img: &mut RgbImage, area: &PlotArea, s: &Series, color: [u8; 3]) {
+    if let Kind::Cells(centres, size) = &s.kind {
+        let mut mask = area.mask();
+        let h = size / 2.0;
+        for &(x, y) in centres {
+            let (xa, ya) = area.to_px(x - h, y + h);
+            let (xb, yb) = area.to_px(x + h, y - h);
+            if xa.is_finite() && ya.is_finite() && xb.is_finite() && yb.is_finite() {
+                // Whole pixels, so that neighbours meet without a seam.
+                let (xa, xb, ya, yb) = (xa.round(), xb.round(), ya.round(), yb.round());
+                mask.rect(xa.min(xb), ya.min(yb), xa.max(xb), ya.max(yb));
+            }
+        }
+        mask.composite(img, color, s.alpha);
+        return;
+    }
     let (band, alpha, step) = match (&s.kind, &s.band) {
         (Kind::Band(b), _) => (b, s.alpha, false),
         (k, Some(b)) => (b, BAND_ALPHA, matches!(k, Kind::Step(_))),
@@ -1259,7 +1287,7 @@ fn draw_series(img: &mut RgbImage, area: &PlotArea, s: &Series, color: [u8; 3]) 
             mask.polyline(&[area.to_px(p.0, p.1), area.to_px(q.0, q.1)], hw, dash);
             &[]
         }
-        Kind::Band(_) => &[],
+        Kind::Band(_) | Kind::Cells(..) => &[],
     };
     if let Some((marker, size)) = s.marker {
         for &(x, y) in vertices {
@@ -1320,20 +1348,20 @@ fn draw_legend(
             x0 + inner + swatch_w,
             row_top + m.line,
         );
-        let has_band = series.band.is_some() || matches!(series.kind, Kind::Band(_));
+        let has_band = series.band.is_some() || matches!(series.kind, Kind::Band(_) | Kind::Cells(..));
         if has_band {
             let half = m.cap as f64 / 2.0 + 1.0;
             let mut band = Mask::new(mask.x0, mask.y0, mask.x0 + mask.w, mask.y0 + mask.h);
             band.rect(sx0, cy - half, sx1, cy + half);
             let alpha = match series.kind {
-                Kind::Band(_) => series.alpha,
+                Kind::Band(_) | Kind::Cells(..) => series.alpha,
                 _ => BAND_ALPHA,
             };
             band.composite(img, *color, alpha);
         }
         let line_w = series.width.min(m.cap as f64 / 2.0);
         match series.kind {
-            Kind::Band(_) | Kind::Scatter(_) => {}
+            Kind::Band(_) | Kind::Cells(..) | Kind::Scatter(_) => {}
             _ => {
                 let y = snap(cy, line_w);
                 let dash = series.dashed.then(|| dash_pattern(line_w));

@@ -6,8 +6,11 @@
 //!   arrival time per cell in hours, deterministic.
 //! - [`verify`]: constant-condition cases in the manner of ELMFIRE's V&V suite, measured
 //!   against the exact ellipse (docs/spec/fire-model.md §B7, §B10.1) for both engines.
+//! - [`picture`]: one representative case drawn as a map (ellipses, MTT fronts, the
+//!   automaton's burnt cells), `firecast sim verify --png`.
 
 pub mod mtt;
+pub mod picture;
 pub mod verify;
 
 pub use mtt::{MttConfig, MttError, MttGrid, arrival_times_h};

@@ -71,7 +71,8 @@ pub struct Case {
 }
 
 impl Case {
-    fn new(fuel: u16, wind_mph: f64, wind_angle_deg: f64, slope_pct: f64, cell_m: f64) -> Self {
+    /// A case in the standard moisture (6/7/8/60/90 %), named after its fuel and wind.
+    pub fn new(fuel: u16, wind_mph: f64, wind_angle_deg: f64, slope_pct: f64, cell_m: f64) -> Self {
         let code = FuelModel::by_number(fuel).map_or("NB", |m| m.code);
         let name = if wind_mph > 0.0 {
             format!("{code} {wind_mph} mi/h {wind_angle_deg}°")
@@ -166,7 +167,8 @@ impl Exact {
     }
 }
 
-fn exact(case: &Case) -> Exact {
+/// The kernel's ellipse for a case (the exact values of the table).
+pub fn exact(case: &Case) -> Exact {
     let model = FuelModel::by_number(case.fuel);
     let Some(model) = model else {
         return Exact {
@@ -244,7 +246,7 @@ impl Default for VerifyOptions {
 }
 
 /// A uniform landscape sized for the case's 5-hour ellipse, and the ignition cell.
-fn landscape(case: &Case, ex: &Exact) -> (Landscape, (usize, usize)) {
+pub fn landscape(case: &Case, ex: &Exact) -> (Landscape, (usize, usize)) {
     let t = RUN_H * 60.0;
     let (fwd, back, half) = if ex.spreads() {
         (ex.head_m_min * t, ex.back_m_min * t, ex.semi_minor_m_min * t)
@@ -385,6 +387,52 @@ fn front_distance(
     }
 }
 
+/// Rays of the reading, one per degree.
+const RAYS: usize = 360;
+
+/// The front at `t_h` along [`RAYS`] rays from the ignition, the first along the head and
+/// then turning clockwise, as (along the head, across it to the right) in metres; and whether
+/// a ray met the grid's edge first.
+fn front_uv(
+    field: &[f64],
+    w: usize,
+    h: usize,
+    ign: (usize, usize),
+    head_azimuth_deg: f64,
+    cell_m: f64,
+    t_h: f64,
+) -> (Vec<(f64, f64)>, bool) {
+    let mut pts = Vec::with_capacity(RAYS);
+    let mut edge = false;
+    for k in 0..RAYS {
+        // ψ from the head direction; the ray's azimuth is head + ψ.
+        let psi = (k as f64) * 360.0 / RAYS as f64;
+        let az = (head_azimuth_deg + psi).to_radians();
+        let (d, e) = front_distance(field, w, h, ign, (az.sin(), az.cos()), t_h);
+        edge |= e;
+        let d = d * cell_m;
+        pts.push((d * psi.to_radians().cos(), d * psi.to_radians().sin()));
+    }
+    (pts, edge)
+}
+
+/// The front polygon the table reads at `t_h` (the same rays), as (east, north) metres from
+/// the ignition.
+pub fn front_polygon(
+    field: &[f64],
+    land: &Landscape,
+    ign: (usize, usize),
+    head_azimuth_deg: f64,
+    cell_m: f64,
+    t_h: f64,
+) -> Vec<(f64, f64)> {
+    let (pts, _) = front_uv(field, land.width, land.height, ign, head_azimuth_deg, cell_m, t_h);
+    let (s, c) = head_azimuth_deg.to_radians().sin_cos();
+    pts.into_iter()
+        .map(|(u, v)| (u * s + v * c, u * c - v * s))
+        .collect()
+}
+
 /// Reads the fire at time `t_h` off an arrival-time field.
 pub fn measure(
     field: &[f64],
@@ -410,18 +458,7 @@ pub fn measure(
             edge: false,
         };
     }
-    const RAYS: usize = 360;
-    let mut pts = Vec::with_capacity(RAYS);
-    let mut edge = false;
-    for k in 0..RAYS {
-        // ψ from the head direction; the ray's azimuth is head + ψ.
-        let psi = (k as f64) * 360.0 / RAYS as f64;
-        let az = (head_azimuth_deg + psi).to_radians();
-        let (d, e) = front_distance(field, w, h, ign, (az.sin(), az.cos()), t_h);
-        edge |= e;
-        let d = d * cell_m;
-        pts.push((d * psi.to_radians().cos(), d * psi.to_radians().sin()));
-    }
+    let (pts, edge) = front_uv(field, w, h, ign, head_azimuth_deg, cell_m, t_h);
     let at = |deg: usize| pts[deg * RAYS / 360].0.hypot(pts[deg * RAYS / 360].1);
     let (umin, umax) = pts
         .iter()
@@ -458,40 +495,55 @@ pub fn run_case(case: &Case, engines: &[Engine], opts: &VerifyOptions) -> Vec<Ro
     let mut rows = Vec::new();
     for &engine in engines {
         let field = arrival_field(engine, case, &land, ign, opts);
-        for t in TIMES_H {
-            let m = measure(&field, &land, ign, ex.head_azimuth_deg, case.cell_m, t);
-            let shortest = ex.head_m_min.min(ex.flank_m_min).min(ex.back_m_min) * t * 60.0;
-            let resolved = !ex.spreads() || shortest >= RESOLVED_CELLS * case.cell_m;
-            let (ratios, pass) = if ex.spreads() {
-                let r = [
-                    m.head_m_min / ex.head_m_min,
-                    m.flank_m_min / ex.flank_m_min,
-                    m.back_m_min / ex.back_m_min,
-                    m.length_to_breadth / ex.length_to_breadth,
-                    m.area_ha / ex.area_ha(t),
-                ];
-                let pass = !m.edge
-                    && resolved
-                    && r[..4].iter().all(|q| (q - 1.0).abs() <= RATE_TOL)
-                    && (r[4] - 1.0).abs() <= AREA_TOL;
-                (Some(r), pass)
-            } else {
-                // No spread: nothing beyond the ignition cell.
-                (None, m.cells_burnt <= 1)
-            };
-            rows.push(Row {
-                case: case.name.clone(),
-                cell_m: case.cell_m,
-                time_h: t,
-                engine,
-                exact: ex,
-                exact_area_ha: ex.area_ha(t),
-                measured: m,
-                ratios,
-                resolved,
-                pass,
-            });
-        }
+        rows.extend(rows_of(case, engine, &field, &land, ign));
+    }
+    rows
+}
+
+/// The rows at 1, 2 and 4 hours of one engine's arrival-time field on the case's landscape
+/// ([`landscape`]).
+pub fn rows_of(
+    case: &Case,
+    engine: Engine,
+    field: &[f64],
+    land: &Landscape,
+    ign: (usize, usize),
+) -> Vec<Row> {
+    let ex = exact(case);
+    let mut rows = Vec::new();
+    for t in TIMES_H {
+        let m = measure(field, land, ign, ex.head_azimuth_deg, case.cell_m, t);
+        let shortest = ex.head_m_min.min(ex.flank_m_min).min(ex.back_m_min) * t * 60.0;
+        let resolved = !ex.spreads() || shortest >= RESOLVED_CELLS * case.cell_m;
+        let (ratios, pass) = if ex.spreads() {
+            let r = [
+                m.head_m_min / ex.head_m_min,
+                m.flank_m_min / ex.flank_m_min,
+                m.back_m_min / ex.back_m_min,
+                m.length_to_breadth / ex.length_to_breadth,
+                m.area_ha / ex.area_ha(t),
+            ];
+            let pass = !m.edge
+                && resolved
+                && r[..4].iter().all(|q| (q - 1.0).abs() <= RATE_TOL)
+                && (r[4] - 1.0).abs() <= AREA_TOL;
+            (Some(r), pass)
+        } else {
+            // No spread: nothing beyond the ignition cell.
+            (None, m.cells_burnt <= 1)
+        };
+        rows.push(Row {
+            case: case.name.clone(),
+            cell_m: case.cell_m,
+            time_h: t,
+            engine,
+            exact: ex,
+            exact_area_ha: ex.area_ha(t),
+            measured: m,
+            ratios,
+            resolved,
+            pass,
+        });
     }
     rows
 }

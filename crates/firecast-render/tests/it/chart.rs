@@ -600,3 +600,31 @@ fn example_pngs() {
         assert!(dir.join(format!("{name}.png")).exists());
     }
 }
+
+/// Cells: translucent squares of a data-unit side, in the band layer, one blend where they
+/// touch, and a swatch in the legend.
+#[test]
+fn cells_fill_their_squares_once() {
+    let centres = [(0.5, 0.5), (1.5, 0.5), (0.5, 1.5)];
+    let (img, area) = Chart::new(400, 300)
+        .grid(false)
+        .x_range(0.0, 4.0)
+        .y_range(0.0, 3.0)
+        .series(Series::cells(centres, 1.0).color(RED).alpha(0.5).label("burnt"))
+        .render_with_area();
+    let expected = [238, 138, 158];
+    let inside = |x: f64, y: f64| {
+        let (px, py) = area.pixel_of(x, y).unwrap();
+        img.pixel(px, py).unwrap()
+    };
+    // Square centres, and the shared edge between the first two: the same half blend.
+    assert_eq!(inside(0.5, 0.5), expected);
+    assert_eq!(inside(1.5, 0.5), expected);
+    assert_eq!(inside(1.0, 0.5), expected);
+    // The empty cell and beyond stay white.
+    assert_eq!(inside(1.5, 1.5), WHITE);
+    assert_eq!(inside(3.0, 0.5), WHITE);
+    // A swatch of the same colour in the legend (top right).
+    let swatch = bbox(&img, |c| c == expected).unwrap();
+    assert!(swatch.2 > area.right - 150, "{swatch:?}");
+}
