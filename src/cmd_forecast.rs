@@ -140,6 +140,7 @@ fn run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
         stage,
         Some(format!("experiment {} ({})", spec.name, file.display())),
         args.force,
+        None,
     )?;
     let result = read_result(&settings.root.join(&out))?;
     if settings.json {

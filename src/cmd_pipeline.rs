@@ -119,7 +119,7 @@ pub fn stage_kinds() -> StageKinds {
     kinds.register(firecast_forecast::stage::ExperimentStage);
     kinds.register(firecast_forecast::stage::EvaluateStage);
     kinds.register(firecast_forecast::stage::PredictStage);
-    kinds.register(firecast_rl::stage::TrainStage);
+    kinds.register(firecast_rl::stage::TrainStage::default());
     kinds.register(firecast_rl::stage::EvaluateStage);
     kinds.register(firecast_rl::ensemble::EnsembleStage);
     kinds
@@ -527,6 +527,7 @@ pub(crate) fn run_one_stage(
     stage: serde_json::Value,
     description: Option<String>,
     force: bool,
+    kinds: Option<StageKinds>,
 ) -> anyhow::Result<(String, f64, String)> {
     let mut pipeline = serde_json::json!({ "stages": { name: stage } });
     if let Some(d) = description {
@@ -534,8 +535,10 @@ pub(crate) fn run_one_stage(
     }
     let text = serde_json::to_string(&pipeline)?;
     let expanded = firecast_pipeline::spec::parse(&settings.root, file, &text, &[])?;
-    let plan = firecast_pipeline::plan::plan(&expanded, &stage_kinds())?;
-    let engine = tracked_engine(settings)?;
+    let kinds = kinds.unwrap_or_else(stage_kinds);
+    let plan = firecast_pipeline::plan::plan(&expanded, &kinds)?;
+    let mut engine = tracked_engine(settings)?;
+    engine.kinds = kinds;
     let opts = firecast_pipeline::RunOptions {
         force,
         dry_run: false,

@@ -96,8 +96,9 @@ pub fn run(settings: &Settings, args: &ReportArgs) -> anyhow::Result<ExitCode> {
         "outputs": outputs,
     });
     let file = settings.root.join("firecast-report.yaml");
-    let (outcome, secs, run_id) =
-        crate::cmd_pipeline::run_one_stage(settings, &file, "report", "report", stage, None, args.force)?;
+    let (outcome, secs, run_id) = crate::cmd_pipeline::run_one_stage(
+        settings, &file, "report", "report", stage, None, args.force, None,
+    )?;
     let json_path = settings.root.join(&out).join("report.json");
     let report: firecast_report::model::ThreatReport = serde_json::from_slice(
         &std::fs::read(&json_path).with_context(|| format!("reading {}", json_path.display()))?,

@@ -157,13 +157,11 @@ fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
     if let Some(f) = &fires {
         stage["inputs"] = serde_json::json!({"fires": f.display().to_string()});
     }
-    if let Some(n) = args.stop_after {
-        // SAFETY of set_var: single-threaded at this point (before the runner starts).
-        #[allow(unsafe_code)]
-        unsafe {
-            std::env::set_var(firecast_rl::stage::STOP_AFTER_ENV, n.to_string());
-        }
-    }
+    // An interruption asked for travels in the stage kind itself, typed.
+    let mut kinds = crate::cmd_pipeline::stage_kinds();
+    kinds.register(firecast_rl::stage::TrainStage {
+        stop_after: args.stop_after,
+    });
     // A resumed or interrupted run must run, whatever the cache says.
     let (outcome, secs, run_id) = crate::cmd_pipeline::run_one_stage(
         settings,
@@ -173,6 +171,7 @@ fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
         stage,
         None,
         args.force || args.fresh || has_checkpoint,
+        Some(kinds),
     )?;
     let summary: firecast_rl::run::TrainSummary = serde_json::from_slice(&std::fs::read(
         settings.root.join(&out).join(firecast_rl::run::SUMMARY_FILE),
@@ -273,8 +272,16 @@ fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode
         "inputs": inputs,
         "outputs": {"report": out.display().to_string()},
     });
-    let (outcome, secs, run_id) =
-        crate::cmd_pipeline::run_one_stage(settings, &fires, "rl evaluate", &name, stage, None, args.force)?;
+    let (outcome, secs, run_id) = crate::cmd_pipeline::run_one_stage(
+        settings,
+        &fires,
+        "rl evaluate",
+        &name,
+        stage,
+        None,
+        args.force,
+        None,
+    )?;
     let report: firecast_rl::evaluate::EvalReport =
         serde_json::from_slice(&std::fs::read(settings.root.join(&out).join("evaluation.json"))?)?;
     if settings.json {

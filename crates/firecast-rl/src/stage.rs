@@ -30,10 +30,6 @@ fn params_error(e: RlError) -> ParamsError {
     }
 }
 
-/// Environment variable: stop every seed after this many steps (an interruption, for
-/// testing resumption); the stage fails and keeps its checkpoints.
-pub const STOP_AFTER_ENV: &str = "FIRECAST_RL_STOP_AFTER";
-
 struct StageSink<'a, 'b> {
     ctx: &'a StageContext<'b>,
     bar: indicatif::ProgressBar,
@@ -59,8 +55,13 @@ impl RunSink for StageSink<'_, '_> {
     }
 }
 
+/// The `rl.train` stage kind. `stop_after` interrupts every seed after that many steps (for
+/// testing resumption: `rl train --stop-after N`); the stage then fails and keeps its
+/// checkpoints. Pipelines register it with `stop_after: None`.
 #[derive(Debug, Default)]
-pub struct TrainStage;
+pub struct TrainStage {
+    pub stop_after: Option<u64>,
+}
 
 impl StageKind for TrainStage {
     fn name(&self) -> &'static str {
@@ -115,7 +116,7 @@ impl StageKind for TrainStage {
             let device = crate::parse_device(&spec.device).map_err(stage_error)?;
             firecast_learn::set_threads(spec.threads);
             let work = crate::run::work_dir(ctx.root(), &spec, fires_abs.as_deref()).map_err(stage_error)?;
-            let stop_after = std::env::var(STOP_AFTER_ENV).ok().and_then(|v| v.parse().ok());
+            let stop_after = self.stop_after;
             let bar = ctx.progress_bar(spec.ppo().map_err(stage_error)?.total_timesteps, "steps");
             let sink = StageSink { ctx, bar };
             let result = crate::run::train(
@@ -141,7 +142,8 @@ impl StageKind for TrainStage {
                 Ok(s) => s,
                 Err(RlError::Interrupted) => {
                     return Err(StageError::msg(format!(
-                        "stopped as asked ({STOP_AFTER_ENV}); checkpoints are in {}: run the stage again to resume",
+                        "stopped as asked (after {} steps a seed); checkpoints are in {}: run the stage again to resume",
+                        stop_after.unwrap_or_default(),
                         work.display()
                     )));
                 }
