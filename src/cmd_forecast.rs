@@ -138,9 +138,11 @@ fn run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
         "experiment",
         &spec.name,
         stage,
-        Some(format!("experiment {} ({})", spec.name, file.display())),
-        args.force,
-        None,
+        crate::cmd_pipeline::OneStage {
+            description: Some(format!("experiment {} ({})", spec.name, file.display())),
+            force: args.force,
+            kinds: None,
+        },
     )?;
     let result = read_result(&settings.root.join(&out))?;
     if settings.json {

@@ -517,6 +517,17 @@ pub(crate) fn relative_to_root(settings: &Settings, path: &Path) -> PathBuf {
         .unwrap_or(abs)
 }
 
+/// How [`run_one_stage`] runs its stage.
+#[derive(Default)]
+pub(crate) struct OneStage {
+    /// The one-stage pipeline's description.
+    pub description: Option<String>,
+    /// Run even when up to date.
+    pub force: bool,
+    /// Stage kinds to run it with (default: [`stage_kinds`]), e.g. one configured by flags.
+    pub kinds: Option<StageKinds>,
+}
+
 /// Runs one stage as a one-stage pipeline (cached, registered, uploaded like any other) and
 /// returns (outcome label, seconds, pipeline run id). `what` names it in the failure message.
 pub(crate) fn run_one_stage(
@@ -525,10 +536,13 @@ pub(crate) fn run_one_stage(
     what: &str,
     name: &str,
     stage: serde_json::Value,
-    description: Option<String>,
-    force: bool,
-    kinds: Option<StageKinds>,
+    how: OneStage,
 ) -> anyhow::Result<(String, f64, String)> {
+    let OneStage {
+        description,
+        force,
+        kinds,
+    } = how;
     let mut pipeline = serde_json::json!({ "stages": { name: stage } });
     if let Some(d) = description {
         pipeline["description"] = serde_json::Value::String(d);

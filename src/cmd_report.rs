@@ -97,7 +97,15 @@ pub fn run(settings: &Settings, args: &ReportArgs) -> anyhow::Result<ExitCode> {
     });
     let file = settings.root.join("firecast-report.yaml");
     let (outcome, secs, run_id) = crate::cmd_pipeline::run_one_stage(
-        settings, &file, "report", "report", stage, None, args.force, None,
+        settings,
+        &file,
+        "report",
+        "report",
+        stage,
+        crate::cmd_pipeline::OneStage {
+            force: args.force,
+            ..Default::default()
+        },
     )?;
     let json_path = settings.root.join(&out).join("report.json");
     let report: firecast_report::model::ThreatReport = serde_json::from_slice(

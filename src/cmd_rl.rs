@@ -169,9 +169,11 @@ fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
         "rl train",
         &spec.name,
         stage,
-        None,
-        args.force || args.fresh || has_checkpoint,
-        Some(kinds),
+        crate::cmd_pipeline::OneStage {
+            description: None,
+            force: args.force || args.fresh || has_checkpoint,
+            kinds: Some(kinds),
+        },
     )?;
     let summary: firecast_rl::run::TrainSummary = serde_json::from_slice(&std::fs::read(
         settings.root.join(&out).join(firecast_rl::run::SUMMARY_FILE),
@@ -278,9 +280,10 @@ fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode
         "rl evaluate",
         &name,
         stage,
-        None,
-        args.force,
-        None,
+        crate::cmd_pipeline::OneStage {
+            force: args.force,
+            ..Default::default()
+        },
     )?;
     let report: firecast_rl::evaluate::EvalReport =
         serde_json::from_slice(&std::fs::read(settings.root.join(&out).join("evaluation.json"))?)?;
