@@ -109,19 +109,13 @@ pub struct RunArgs {
 /// Every stage kind this binary knows.
 pub fn stage_kinds() -> StageKinds {
     let mut kinds = firecast_pipeline::builtin_kinds();
-    kinds.register(firecast_registry::SqlStage);
-    kinds.register(firecast_episodes::EpisodesStage);
-    kinds.register(firecast_episodes::RenderStage);
-    kinds.register(firecast_episodes::EnsembleStage);
-    kinds.register(firecast_episodes::BehaviorStage);
-    kinds.register(firecast_report::ReportStage);
+    // Each crate registers its own kinds.
+    firecast_registry::register(&mut kinds);
+    firecast_episodes::register(&mut kinds);
+    firecast_report::register(&mut kinds);
     firecast_dataset::stage::register(&mut kinds);
-    kinds.register(firecast_forecast::stage::ExperimentStage);
-    kinds.register(firecast_forecast::stage::EvaluateStage);
-    kinds.register(firecast_forecast::stage::PredictStage);
-    kinds.register(firecast_rl::stage::TrainStage::default());
-    kinds.register(firecast_rl::stage::EvaluateStage);
-    kinds.register(firecast_rl::ensemble::EnsembleStage);
+    firecast_forecast::stage::register(&mut kinds);
+    firecast_rl::stage::register(&mut kinds);
     kinds
 }
 

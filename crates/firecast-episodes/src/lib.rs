@@ -29,6 +29,16 @@ pub use stage::{
 };
 pub use weather::{ResolvedWeather, WeatherSpec};
 
+/// Registers this crate's stage kinds: `sim.episodes`, `sim.render`, `sim.ensemble`,
+/// `sim.behavior`.
+pub fn register(kinds: &mut firecast_pipeline::StageKinds) {
+    kinds
+        .register(EpisodesStage)
+        .register(RenderStage)
+        .register(EnsembleStage)
+        .register(BehaviorStage);
+}
+
 /// Errors of scenario loading and episode runs. Paths come last.
 #[derive(Debug, thiserror::Error)]
 pub enum EpisodeError {

@@ -15,6 +15,15 @@ use firecast_pipeline::{ParamsError, Port, Ports, StageContext, StageError, Stag
 use crate::experiment::Sink;
 use crate::spec::ExperimentSpec;
 
+/// Registers this crate's stage kinds: `forecast.experiment`, `forecast.evaluate`,
+/// `forecast.predict`.
+pub fn register(kinds: &mut firecast_pipeline::StageKinds) {
+    kinds
+        .register(ExperimentStage)
+        .register(EvaluateStage)
+        .register(PredictStage);
+}
+
 #[derive(Debug, Default)]
 pub struct ExperimentStage;
 

@@ -23,6 +23,11 @@ use serde::Serialize;
 
 pub use sql_stage::SqlStage;
 
+/// Registers this crate's stage kind: `sql`.
+pub fn register(kinds: &mut firecast_pipeline::StageKinds) {
+    kinds.register(SqlStage);
+}
+
 /// Bumped when the tables change; stored in `registry_meta`.
 pub const SCHEMA_VERSION: i32 = 1;
 

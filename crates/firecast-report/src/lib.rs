@@ -23,6 +23,11 @@ use std::path::PathBuf;
 pub use compute::{AssetSpec, ReportSettings, compute};
 pub use stage::{ReportFiles, ReportParams, ReportStage, build};
 
+/// Registers this crate's stage kind: `report`.
+pub fn register(kinds: &mut firecast_pipeline::StageKinds) {
+    kinds.register(ReportStage);
+}
+
 /// Errors of report building. Inputs are named by their stage port or key.
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {

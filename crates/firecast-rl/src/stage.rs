@@ -55,6 +55,15 @@ impl RunSink for StageSink<'_, '_> {
     }
 }
 
+/// Registers this crate's stage kinds: `rl.train` (uninterrupted), `rl.evaluate`,
+/// `rl.ensemble`.
+pub fn register(kinds: &mut firecast_pipeline::StageKinds) {
+    kinds
+        .register(TrainStage::default())
+        .register(EvaluateStage)
+        .register(crate::ensemble::EnsembleStage);
+}
+
 /// The `rl.train` stage kind. `stop_after` interrupts every seed after that many steps (for
 /// testing resumption: `rl train --stop-after N`); the stage then fails and keeps its
 /// checkpoints. Pipelines register it with `stop_after: None`.
