@@ -29,9 +29,12 @@ pub enum RlCommand {
 
 #[derive(Debug, Args)]
 pub struct TrainArgs {
-    /// The training spec.
-    #[arg(long = "config", value_name = "FILE")]
-    pub config: PathBuf,
+    /// The training spec (a YAML file, as `experiment run FILE` takes its spec).
+    #[arg(value_name = "FILE", required_unless_present = "config")]
+    pub file: Option<PathBuf>,
+    /// The training spec, the older way to name it (same as FILE).
+    #[arg(long = "config", value_name = "FILE", conflicts_with = "file")]
+    pub config: Option<PathBuf>,
     /// Override a key: `-S ppo.total_timesteps=20000`, `-S seeds=[0,1,2]` (value read as YAML).
     #[arg(short = 'S', long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
@@ -100,7 +103,12 @@ pub fn run(settings: &Settings, command: RlCommand) -> anyhow::Result<ExitCode> 
 }
 
 fn train(settings: &Settings, args: &TrainArgs) -> anyhow::Result<ExitCode> {
-    let file = crate::cmd_pipeline::relative_to_root(settings, &args.config);
+    let spec_file = args
+        .file
+        .as_ref()
+        .or(args.config.as_ref())
+        .ok_or_else(|| anyhow::anyhow!("name the training spec: `firecast rl train FILE`"))?;
+    let file = crate::cmd_pipeline::relative_to_root(settings, spec_file);
     let mut spec = TrainSpec::load(&settings.root, &file, &args.set)?;
     if let Some(device) = &args.device {
         spec.device = device.clone();

@@ -124,7 +124,8 @@ fn an_interrupted_helitack_run_resumes_to_the_same_policy() {
         !p.path("experiments/runs/heli-a/summary.json").exists(),
         "no finished-looking output"
     );
-    let resumed = p.json(&["rl", "train", "--config", "a.yaml", "--resume"]);
+    // The spec as a positional FILE, as `experiment run` takes it (`--config` still works).
+    let resumed = p.json(&["rl", "train", "a.yaml", "--resume"]);
     assert_eq!(resumed["seeds"][0]["resumed_from"], 32, "{resumed}");
     assert_eq!(resumed["seeds"][0]["timesteps"], 96);
     // The same spec under another name, straight through.
