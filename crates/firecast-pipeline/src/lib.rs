@@ -20,7 +20,6 @@ pub mod cmd;
 pub mod dvc;
 pub mod error;
 pub mod executor;
-pub mod fsutil;
 pub mod hash;
 mod locate;
 pub mod lock;
