@@ -210,15 +210,8 @@ impl GeoRaster {
     }
 }
 
-/// What to do with grid cells that end up without elevation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum ElevationNoData {
-    /// Copy the nearest valid grid cell (8-connected breadth-first fill).
-    #[default]
-    NearestValid,
-    /// Fail with [`LandscapeError::ElevationNoData`].
-    Error,
-}
+// Defined beside the resampling that applies it; named here too, where the options are.
+pub use crate::resample::ElevationNoData;
 
 /// Elevation resampling options.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

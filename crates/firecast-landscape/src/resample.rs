@@ -5,7 +5,16 @@ use std::path::Path;
 
 use crate::LandscapeError;
 use crate::georef::{Crs, GridSpec};
-use crate::geotiff::ElevationNoData;
+
+/// What to do with grid cells that end up without elevation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ElevationNoData {
+    /// Copy the nearest valid grid cell (8-connected breadth-first fill).
+    #[default]
+    NearestValid,
+    /// Fail with [`crate::LandscapeError::ElevationNoData`].
+    Error,
+}
 
 /// For each grid cell (row-major, row 0 south), its centre in `raster_crs` coordinates
 /// (`None` where the transform fails).

@@ -5,7 +5,6 @@
 use std::collections::{HashMap, VecDeque};
 use std::net::SocketAddr;
 use std::path::PathBuf;
-use std::sync::atomic::AtomicUsize;
 use std::sync::{Arc, Mutex};
 
 use axum::body::Body;
@@ -48,7 +47,7 @@ pub struct AppState {
     fire: Result<FireSettings, String>,
     environments: Mutex<VecDeque<Arc<Environment>>>,
     maps: Mutex<HashMap<String, Arc<ProbabilityMap>>>,
-    pub fires: AtomicUsize,
+    pub fires: crate::session::FireSlots,
     runs: Arc<Runs>,
     jobs: Jobs,
     rerun: crate::rerun_viewer::RerunViewer,
@@ -79,7 +78,7 @@ impl AppState {
             fire,
             environments: Mutex::new(VecDeque::new()),
             maps: Mutex::new(HashMap::new()),
-            fires: AtomicUsize::new(0),
+            fires: crate::session::FireSlots::new(cfg.max_fires),
             runs,
             jobs,
             cfg,
@@ -431,7 +430,7 @@ async fn health(State(state): State<Shared>) -> Json<serde_json::Value> {
     Json(serde_json::json!({
         "status": "ok",
         "version": env!("CARGO_PKG_VERSION"),
-        "live_fires": state.fires.load(std::sync::atomic::Ordering::SeqCst),
+        "live_fires": state.fires.running(),
     }))
 }
 
@@ -588,7 +587,7 @@ async fn simulate(
                 ApiError::bad(format!("seed `{}`: a whole number below 1,000,000", short(s)))
             })?,
         };
-    let slot = crate::session::FireSlot::take(&state)?;
+    let slot = state.fires.take()?;
     let agent_run = state.agent_run();
     Ok(ws
         .max_message_size(4096)

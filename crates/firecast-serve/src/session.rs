@@ -5,14 +5,13 @@
 
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, TryRecvError};
 use std::time::{Duration, Instant};
 
 use axum::extract::ws::{CloseFrame, Message, WebSocket};
 use serde::Deserialize;
 
-use crate::api::Shared;
 use crate::error::{ApiError, Code};
 use crate::fire::{Environment, LiveAgent, LiveRun};
 
@@ -22,30 +21,53 @@ const MAX_FPS: u32 = 240;
 /// WebSocket close code for a message that is not the protocol (RFC 6455, section 7.4.1).
 const POLICY_VIOLATION: u16 = 1008;
 
-/// A live-fire slot, given back when dropped.
-pub struct FireSlot {
-    state: Shared,
+/// The live fires running, and how many may.
+#[derive(Debug)]
+pub struct FireSlots {
+    running: Arc<AtomicUsize>,
+    max: usize,
 }
 
-impl FireSlot {
+impl FireSlots {
+    pub fn new(max: usize) -> Self {
+        Self {
+            running: Arc::new(AtomicUsize::new(0)),
+            max,
+        }
+    }
+
+    /// Live fires now (`live_fires` in `/api/health`).
+    pub fn running(&self) -> usize {
+        self.running.load(Ordering::SeqCst)
+    }
+
     /// Takes a slot or answers `busy`.
-    pub fn take(state: &Shared) -> Result<Self, ApiError> {
-        let max = state.cfg.max_fires;
-        let taken = state.fires.fetch_add(1, Ordering::SeqCst);
-        if taken >= max {
-            state.fires.fetch_sub(1, Ordering::SeqCst);
+    pub fn take(&self) -> Result<FireSlot, ApiError> {
+        let taken = self.running.fetch_add(1, Ordering::SeqCst);
+        if taken >= self.max {
+            self.running.fetch_sub(1, Ordering::SeqCst);
             return Err(ApiError::new(
                 Code::Busy,
-                format!("{max} live fires are running; try again when one has ended"),
+                format!(
+                    "{} live fires are running; try again when one has ended",
+                    self.max
+                ),
             ));
         }
-        Ok(Self { state: state.clone() })
+        Ok(FireSlot {
+            running: self.running.clone(),
+        })
     }
+}
+
+/// A live-fire slot, given back when dropped.
+pub struct FireSlot {
+    running: Arc<AtomicUsize>,
 }
 
 impl Drop for FireSlot {
     fn drop(&mut self) {
-        self.state.fires.fetch_sub(1, Ordering::SeqCst);
+        self.running.fetch_sub(1, Ordering::SeqCst);
     }
 }
 
