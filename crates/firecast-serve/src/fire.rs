@@ -296,7 +296,6 @@ pub struct EndMessage {
 pub struct LiveRun {
     env: WildfireEnv,
     policy: Box<dyn Policy + Send>,
-    sent: Vec<u8>,
     /// The automaton's states and drop counts as of the last frame (u8::MAX before it).
     seen_states: Vec<u8>,
     seen_drops: Vec<u8>,
@@ -342,7 +341,6 @@ impl LiveRun {
         let mut run = Self {
             env,
             policy,
-            sent: vec![u8::MAX; l.width * l.height],
             seen_states: vec![u8::MAX; l.width * l.height],
             seen_drops: vec![u8::MAX; l.width * l.height],
             cell_acres: info.cell_acres,
@@ -397,7 +395,6 @@ impl LiveRun {
         // times a second each.
         let (states, drops) = (a.fire_states(), a.helitack_drop_counts());
         let Self {
-            sent,
             seen_states,
             seen_drops,
             ..
@@ -411,19 +408,21 @@ impl LiveRun {
             if word(st) == word(ps) && word(dr) == word(pd) {
                 continue;
             }
-            ps.copy_from_slice(st);
-            pd.copy_from_slice(dr);
-            for (j, (&s, &d)) in st.iter().zip(dr.iter()).enumerate() {
-                let i = chunk * 8 + j;
-                let state = if s == 0 && d > 0 { 3 } else { s.min(2) };
-                if sent[i] != state {
-                    // The page starts from "all unburnt": only send what differs from it.
-                    if !(sent[i] == u8::MAX && state == 0) {
-                        changes.push(((i as u32) << 8) | u32::from(state));
-                    }
-                    sent[i] = state;
+            for j in 0..st.len() {
+                let state = page_state(st[j], dr[j]);
+                // What the page shows now: the last frame's cell (none before the first
+                // frame: the page starts from "all unburnt", so only what differs is sent).
+                let shown = if ps[j] == u8::MAX {
+                    0
+                } else {
+                    page_state(ps[j], pd[j])
+                };
+                if state != shown {
+                    changes.push((((chunk * 8 + j) as u32) << 8) | u32::from(state));
                 }
             }
+            ps.copy_from_slice(st);
+            pd.copy_from_slice(dr);
         }
         let heli = self.env.core().helicopter();
         let mut out = Vec::with_capacity(28 + 4 * changes.len());
@@ -441,6 +440,12 @@ impl LiveRun {
         }
         out
     }
+}
+
+/// A cell as the page draws it: 0 unburnt, 1 burning, 2 burnt, 3 wetted by a drop.
+#[inline(always)]
+fn page_state(state: u8, drops: u8) -> u8 {
+    if state == 0 && drops > 0 { 3 } else { state.min(2) }
 }
 
 /// Up to eight bytes as one word (a whole chunk compiles to one load).
