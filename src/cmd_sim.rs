@@ -367,10 +367,7 @@ fn sim_run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
             .gridmet
             .clone()
             .context("--weather-date needs --gridmet DIR (the folder of vs_YYYY.nc and th_YYYY.nc)")?;
-        scenario.weather = Some(firecast_episodes::WeatherSpec::Gridmet {
-            dir,
-            date: date.clone(),
-        });
+        scenario.weather = Some(firecast_episodes::WeatherSpec::gridmet_wind(dir, date));
     }
     if args.wind_mph.is_some() || args.wind_from_deg.is_some() {
         // Flags win over the scenario, weather included.

@@ -25,9 +25,9 @@ use serde::{Deserialize, Serialize};
 
 pub use behavior_stage::BehaviorStage;
 pub use stage::{
-    EnsembleParams, EnsembleStage, EpisodesStage, RenderStage, prepare_ensemble, write_ensemble,
+    EnsembleParams, EnsembleStage, EpisodesStage, FuelMoistureSource, RenderStage, prepare_ensemble, write_ensemble,
 };
-pub use weather::{ResolvedWeather, WeatherSpec};
+pub use weather::{DayFuelMoisture, ResolvedWeather, WeatherSpec};
 
 /// Registers this crate's stage kinds: `sim.episodes`, `sim.render`, `sim.ensemble`,
 /// `sim.behavior`.
@@ -267,6 +267,21 @@ impl Scenario {
             Some(spec) => {
                 let w = spec.resolve(&landscape, root)?;
                 self.env.sim.wind = w.wind;
+                if let Some(day) = &w.fuel_moisture {
+                    match &mut self.env.sim.kernel {
+                        firecast_sim::KernelConfig::Rothermel { moisture, .. } => *moisture = day.fuel_moisture(),
+                        firecast_sim::KernelConfig::Concord { .. } => {
+                            return Err(EpisodeError::Weather {
+                                path: root.join(match spec {
+                                    WeatherSpec::Gridmet { dir, .. } => dir,
+                                }),
+                                message: "the day's fuel moisture needs the Rothermel kernel (env.sim.kernel.rothermel); \
+                                          the Concord kernel takes moisture from drought zones"
+                                    .into(),
+                            });
+                        }
+                    }
+                }
                 Some(w)
             }
             None => None,

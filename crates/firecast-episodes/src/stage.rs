@@ -353,7 +353,13 @@ fn prepare_episodes(
     params: &EpisodesParams,
 ) -> Result<(Scenario, firecast_landscape::Landscape), StageError> {
     let env = serde_path_to_error_env(&params.env).map_err(|e| StageError::msg(e.message))?;
-    let mut scenario = scenario_of(ctx, &params.landscape, env, params.weather_date.as_deref())?;
+    let mut scenario = scenario_of(
+        ctx,
+        &params.landscape,
+        env,
+        params.weather_date.as_deref(),
+        FuelMoistureSource::Scenario,
+    )?;
     let (land, weather) = scenario.prepare(ctx.root())?;
     if let Some(w) = &weather {
         ctx.log(format!(
@@ -413,6 +419,7 @@ fn scenario_of(
     landscape: &LandscapeParams,
     env: EnvConfig,
     weather_date: Option<&str>,
+    fuel_moisture: FuelMoistureSource,
 ) -> Result<Scenario, StageError> {
     let input = |name: &str| -> Result<std::path::PathBuf, StageError> {
         ctx.input(name)
@@ -457,7 +464,14 @@ fn scenario_of(
         Some(date) => Some(crate::WeatherSpec::Gridmet {
             dir: input("gridmet")?,
             date: date.to_string(),
+            fuel_moisture: fuel_moisture == FuelMoistureSource::Day,
+            sky: Default::default(),
         }),
+        None if fuel_moisture == FuelMoistureSource::Day => {
+            return Err(StageError::msg(
+                "fuel_moisture: day takes the day's moisture from GRIDMET; set `weather_date` too",
+            ));
+        }
         None => None,
     };
     Ok(Scenario {
@@ -564,7 +578,13 @@ impl StageKind for RenderStage {
         let trace: TraceFile = serde_json::from_str(&text)
             .map_err(|e| StageError::msg(format!("{}: not an episode trace: {e}", trace_path.display())))?;
         let env = serde_path_to_error_env(&trace.env).map_err(|e| StageError::msg(e.message))?;
-        let mut scenario = scenario_of(ctx, &trace.landscape, env, trace.weather_date.as_deref())?;
+        let mut scenario = scenario_of(
+            ctx,
+            &trace.landscape,
+            env,
+            trace.weather_date.as_deref(),
+            FuelMoistureSource::Scenario,
+        )?;
         let (land, _) = scenario.prepare(ctx.root())?;
         let outputs = Outputs {
             frames_dir: ctx.output("frames").ok().map(std::path::Path::to_path_buf),
@@ -590,6 +610,18 @@ impl StageKind for RenderStage {
     }
 }
 
+/// Where an ensemble's fuel moisture comes from.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FuelMoistureSource {
+    /// The Rothermel kernel's `moisture` in `env` (or the Concord kernel's drought table).
+    #[default]
+    Scenario,
+    /// The day's: dead 1-h and 10-h from its temperature and humidity, 100-h and 1000-h from
+    /// GRIDMET, live from the growing season index.
+    Day,
+}
+
 /// Params of a `sim.ensemble` stage (and, with a policy instead of an agent, `rl.ensemble`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -611,6 +643,10 @@ pub struct EnsembleParams {
     /// [lat, lon] of the ignition (default: the environment's ignition cell).
     #[serde(default)]
     pub ignition: Option<[f64; 2]>,
+    /// `scenario` (the moistures `env` gives, the default) or `day` (the day's, derived from
+    /// GRIDMET on `weather_date`; docs/spec/fire-model.md §B12).
+    #[serde(default)]
+    pub fuel_moisture: FuelMoistureSource,
     /// How each run departs from the day's wind and fuel moisture.
     #[serde(default)]
     pub perturb: crate::ensemble::Perturbation,
@@ -660,7 +696,13 @@ pub fn prepare_ensemble(
     params: &EnsembleParams,
 ) -> Result<crate::ensemble::Setup, StageError> {
     let env = serde_path_to_error_env(&params.env).map_err(|e| StageError::msg(e.message))?;
-    let scenario = scenario_of(ctx, &params.landscape, env, params.weather_date.as_deref())?;
+    let scenario = scenario_of(
+        ctx,
+        &params.landscape,
+        env,
+        params.weather_date.as_deref(),
+        params.fuel_moisture,
+    )?;
     let setup =
         crate::ensemble::Setup::new(scenario, ctx.root(), params.ignition)?.with_perturbation(params.perturb);
     if let Some(w) = &setup.weather {

@@ -393,7 +393,20 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
          within the asset buffer over every run of every strategy (the worst case)."
             .into(),
     ];
-    if let Some(m) = moisture {
+    let day_moisture = first.weather.as_ref().and_then(|w| w.fuel_moisture.as_ref());
+    if let Some(d) = day_moisture {
+        assumptions.push(format!(
+            "Fuel moistures are the day's (dead 1/10/100/1000-h {:.1}/{:.1}/{:.1}/{:.1} %, live herbaceous {:.0} %, \
+             woody {:.0} %): {}.",
+            d.dead_1h_pct,
+            d.dead_10h_pct,
+            d.dead_100h_pct,
+            d.dead_1000h_pct,
+            d.live_herbaceous_pct,
+            d.live_woody_pct,
+            d.sources.join("; ")
+        ));
+    } else if let Some(m) = moisture {
         assumptions.push(format!(
             "Fuel moistures are the scenario's fixed values (dead 1/10/100-h {:.0}/{:.0}/{:.0} %, live herbaceous {:.0} %, \
              woody {:.0} %), not derived from the day's GRIDMET 100-h moisture{}.",

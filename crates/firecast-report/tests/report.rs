@@ -78,10 +78,7 @@ fn fixture() -> Fixture {
                     height: 64,
                     center: Some([39.3, -107.4]),
                 },
-                weather: Some(WeatherSpec::Gridmet {
-                    dir: gridmet.clone(),
-                    date: DATE.into(),
-                }),
+                weather: Some(WeatherSpec::gridmet_wind(gridmet.clone(), DATE)),
                 env: env.clone(),
             };
             Some((

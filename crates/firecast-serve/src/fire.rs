@@ -129,10 +129,7 @@ impl Environment {
             },
             settings.env.clone(),
         );
-        scenario.weather = Some(WeatherSpec::Gridmet {
-            dir: gridmet.to_path_buf(),
-            date: date.to_string(),
-        });
+        scenario.weather = Some(WeatherSpec::gridmet_wind(gridmet.to_path_buf(), date));
         let setup = Setup::new(scenario, root, Some([lat, lon])).map_err(|e| {
             let text = e.to_string();
             if text.contains("nothing there can burn") {

@@ -139,6 +139,9 @@ pub enum KernelConfig {
     /// on a cell adds `drop_moisture_increment` to its dead 1/10/100-h moistures (capped by
     /// the drop cap), the Rothermel analogue of "drought lowered by one level".
     Rothermel {
+        /// Default: the dry-summer scenario of [`KernelConfig::rothermel_default`] (a scenario
+        /// that takes the day's moisture from its weather replaces it).
+        #[serde(default = "dry_summer_moisture")]
         moisture: FuelMoisture,
         #[serde(default = "default_drop_moisture_increment")]
         drop_moisture_increment: f64,
@@ -147,6 +150,10 @@ pub enum KernelConfig {
 
 fn default_drop_moisture_increment() -> f64 {
     0.05
+}
+
+fn dry_summer_moisture() -> FuelMoisture {
+    FuelMoisture::from_percent(6.0, 7.0, 8.0, 60.0, 90.0)
 }
 
 impl Default for KernelConfig {
@@ -162,7 +169,7 @@ impl KernelConfig {
     /// Rothermel with a dry-summer moisture scenario (6/7/8 % dead, 60 % herb, 90 % woody).
     pub fn rothermel_default() -> Self {
         Self::Rothermel {
-            moisture: FuelMoisture::from_percent(6.0, 7.0, 8.0, 60.0, 90.0),
+            moisture: dry_summer_moisture(),
             drop_moisture_increment: default_drop_moisture_increment(),
         }
     }
@@ -226,6 +233,11 @@ pub enum HelitackFootprint {
     FireCastRl,
     /// The full disc (81 cells at r = 5).
     FullDisc,
+    /// Physical units (docs/spec/fire-model.md §B13): `helitack_volume_gal` laid at the coverage
+    /// level the fuel under the drop needs wets 100 · V / level ft², a disc over the grid
+    /// whatever the cell size; a cell is treated each time the coverage it has received adds
+    /// up to a whole cell at its own fuel's level. `helitack_radius_ft` is not used.
+    Coverage,
 }
 
 /// How a spreading cell finds its neighbours (docs/spec/fire-model.md §A6.4). Both reach the same
@@ -268,6 +280,8 @@ pub struct SimConfig {
     pub min_cell_burn_time_min: f64,
     pub helitack_radius_ft: f64,
     pub helitack_footprint: HelitackFootprint,
+    /// US gallons per drop (`coverage` footprint only): the paper's Table IV implies 800.
+    pub helitack_volume_gal: f64,
     /// Drops counted in the drought/moisture formula at most this many times.
     pub helitack_drop_cap: u8,
     pub fire_line_depth_ft: f64,
@@ -295,6 +309,7 @@ impl Default for SimConfig {
             min_cell_burn_time_min: 200.0,
             helitack_radius_ft: 2640.0,
             helitack_footprint: HelitackFootprint::FireCastRl,
+            helitack_volume_gal: 800.0,
             helitack_drop_cap: 3,
             fire_line_depth_ft: 2000.0,
             max_fire_line_length_ft: 15_000.0,
@@ -437,10 +452,22 @@ enum Kernel {
 /// Result of one helitack drop.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct DropOutcome {
-    /// Footprint cells inside the grid.
+    /// Footprint cells inside the grid (`coverage` footprint: cells the drop completed a
+    /// treatment of).
     pub cells: u32,
     /// Burning cells set back to Unburnt.
     pub quenched: u32,
+}
+
+/// Physical drops' per-cell data (the `coverage` footprint).
+#[derive(Clone)]
+struct Coverage {
+    /// Coverage level the cell's fuel needs, gal/100 ft² (0: non-burnable).
+    level: Vec<f32>,
+    /// (level, the drop's cells with the fraction of each it wets) per level in the landscape.
+    patterns: Vec<(f32, Vec<(i32, i32, f32)>)>,
+    /// Whole-cell coverages received this episode.
+    received: Vec<f32>,
 }
 
 /// The cellular automaton.
@@ -459,6 +486,7 @@ pub struct Automaton {
     offsets: Vec<Offset>,
     intermediates: Vec<(i32, i32)>,
     footprint: Vec<(i32, i32)>,
+    coverage: Option<Box<Coverage>>,
     // BFS neighbourhood: a (2r+1)² window around the source (index (dy+r)·side + dx+r) mapping
     // to offset indices, per offset the line points from it to the source (candidate
     // excluded, source included), and scratch.
@@ -703,6 +731,43 @@ impl Automaton {
             }
         }
 
+        let coverage = if cfg.helitack_footprint == HelitackFootprint::Coverage {
+            if !(cfg.helitack_volume_gal > 0.0 && cfg.helitack_volume_gal.is_finite()) {
+                return Err(SimError::Config(format!(
+                    "helitack_volume_gal must be positive, got {}",
+                    cfg.helitack_volume_gal
+                )));
+            }
+            let level: Vec<f32> = landscape
+                .land_cover
+                .iter()
+                .map(|&code| {
+                    let model = match landscape.scheme {
+                        LandCoverScheme::ModisIgbp => modis_to_fuel_model(code),
+                        LandCoverScheme::Fbfm13 | LandCoverScheme::Fbfm40 => code,
+                    };
+                    crate::drops::coverage_level(model).unwrap_or(0.0) as f32
+                })
+                .collect();
+            let mut levels_seen: Vec<f32> = level.iter().copied().filter(|&l| l > 0.0).collect();
+            levels_seen.push(crate::drops::DEFAULT_COVERAGE_LEVEL as f32);
+            levels_seen.sort_by(f32::total_cmp);
+            levels_seen.dedup();
+            let patterns = levels_seen
+                .into_iter()
+                .map(|l| {
+                    let area = crate::drops::wetted_area_ft2(cfg.helitack_volume_gal, f64::from(l));
+                    (l, crate::drops::disc_coverage(area, cell))
+                })
+                .collect();
+            Some(Box::new(Coverage {
+                level,
+                patterns,
+                received: vec![0.0; n],
+            }))
+        } else {
+            None
+        };
         let rate_cache = Arc::new(RateCache::new(n, offsets.len()));
         let base_elev: Vec<f64> = landscape.elevation_ft.iter().map(|&e| f64::from(e)).collect();
         let mut a = Self {
@@ -715,6 +780,7 @@ impl Automaton {
             offsets,
             intermediates,
             footprint,
+            coverage,
             bfs_radius: ri,
             bfs_window,
             bfs_lines,
@@ -774,6 +840,9 @@ impl Automaton {
         self.spread_rate.fill(0.0);
         self.bi.fill(0);
         self.drops.fill(0);
+        if let Some(c) = &mut self.coverage {
+            c.received.fill(0.0);
+        }
         self.survivor.fill(false);
         self.in_sched.fill(false);
         self.new_ign.fill(f64::INFINITY);
@@ -1145,23 +1214,50 @@ impl Automaton {
 
     /// Helitack drop centred on (cx, cy) (docs/spec/fire-model.md §A8): every footprint cell gets
     /// one more drop, loses any scheduled ignition, and is set back to Unburnt if it was burning.
+    ///
+    /// With the `coverage` footprint (docs/spec/fire-model.md §B13) a cell is treated so only
+    /// when the coverage it has received completes another whole cell at its fuel's level.
     pub fn helitack(&mut self, cx: usize, cy: usize) -> DropOutcome {
         let mut out = DropOutcome::default();
         let (w, h) = (self.width as i64, self.height as i64);
-        for k in 0..self.footprint.len() {
-            let (dx, dy) = self.footprint[k];
-            let (x, y) = (cx as i64 + i64::from(dx), cy as i64 + i64::from(dy));
-            if x < 0 || y < 0 || x >= w || y >= h {
-                continue;
+        if let Some(mut coverage) = self.coverage.take() {
+            let at = cy.min(self.height - 1) * self.width + cx.min(self.width - 1);
+            let target = match coverage.level[at] {
+                l if l > 0.0 => l,
+                _ => crate::drops::DEFAULT_COVERAGE_LEVEL as f32,
+            };
+            let pattern = coverage.patterns.iter().position(|p| p.0 == target).unwrap_or(0);
+            for k in 0..coverage.patterns[pattern].1.len() {
+                let (dx, dy, fraction) = coverage.patterns[pattern].1[k];
+                let (x, y) = (cx as i64 + i64::from(dx), cy as i64 + i64::from(dy));
+                if x < 0 || y < 0 || x >= w || y >= h {
+                    continue;
+                }
+                let i = (y * w + x) as usize;
+                let level = coverage.level[i];
+                if level <= 0.0 {
+                    continue;
+                }
+                // Laid at the target's level: a cell needing more gets proportionally less.
+                let before = coverage.received[i];
+                let after = before + fraction * target / level;
+                coverage.received[i] = after;
+                // A tiny tolerance so a drop meant to cover a cell whole does.
+                let whole = |v: f32| (v + 1e-4).floor();
+                let treated = whole(after) - whole(before);
+                if treated >= 1.0 {
+                    self.treat(i, treated as u8, &mut out);
+                }
             }
-            let i = (y * w + x) as usize;
-            out.cells += 1;
-            self.drops[i] = self.drops[i].saturating_add(1);
-            self.ign[i] = f64::INFINITY;
-            if self.state[i] == FireState::Burning as u8 {
-                self.state[i] = FireState::Unburnt as u8;
-                self.dirty.push(i as u32);
-                out.quenched += 1;
+            self.coverage = Some(coverage);
+        } else {
+            for k in 0..self.footprint.len() {
+                let (dx, dy) = self.footprint[k];
+                let (x, y) = (cx as i64 + i64::from(dx), cy as i64 + i64::from(dy));
+                if x < 0 || y < 0 || x >= w || y >= h {
+                    continue;
+                }
+                self.treat((y * w + x) as usize, 1, &mut out);
             }
         }
         if out.quenched > 0 {
@@ -1171,6 +1267,25 @@ impl Automaton {
                 .retain(|&c| state[c as usize] == FireState::Burning as u8);
         }
         out
+    }
+
+    /// One cell treated `times` times by drops: more drops counted in its moisture, any scheduled
+    /// ignition cancelled, flames put out.
+    fn treat(&mut self, i: usize, times: u8, out: &mut DropOutcome) {
+        out.cells += 1;
+        self.drops[i] = self.drops[i].saturating_add(times);
+        self.ign[i] = f64::INFINITY;
+        if self.state[i] == FireState::Burning as u8 {
+            self.state[i] = FireState::Unburnt as u8;
+            self.dirty.push(i as u32);
+            out.quenched += 1;
+        }
+    }
+
+    /// Whole-cell coverages each cell has received from drops this episode (`coverage`
+    /// footprint; `None` for FireCastRL's footprints).
+    pub fn drop_coverage(&self) -> Option<&[f32]> {
+        self.coverage.as_ref().map(|c| c.received.as_slice())
     }
 
     /// Fire line between two cells (Bresenham, docs/spec/fire-model.md §A9): each cell blocks

@@ -10,6 +10,8 @@
 //! - [`automaton`]: the Concord/FireCastRL cellular automaton on a `firecast_landscape`
 //!   grid, driven by either kernel.
 //! - [`env`]: the helitack environment (Gymnasium semantics) and [`env::VecEnv`].
+//! - [`moisture`]: the day's dead and live fuel moisture from daily weather (NFDRS methods).
+//! - [`drops`]: helitack drops in physical units (coverage levels by fuel model).
 //! - [`agents`]: rule-based and no-suppression baselines, the episode runner, frames.
 
 pub mod agents;
@@ -18,8 +20,10 @@ pub mod behavior;
 pub mod bench;
 pub mod concord;
 pub mod crown;
+pub mod drops;
 pub mod env;
 pub mod fuel;
+pub mod moisture;
 pub mod random;
 pub mod reference;
 pub mod rothermel;

@@ -134,10 +134,7 @@ fn wind_fixtures() -> std::path::PathBuf {
 
 fn with_weather(date: &str) -> Scenario {
     let mut s = scenario();
-    s.weather = Some(WeatherSpec::Gridmet {
-        dir: wind_fixtures(),
-        date: date.into(),
-    });
+    s.weather = Some(WeatherSpec::gridmet_wind(wind_fixtures(), date));
     s
 }
 
@@ -160,6 +157,74 @@ fn weather_from_gridmet_sets_a_ten_metre_wind() {
     let summary =
         firecast_episodes::run(&s, &land, AgentKind::None, 1, 0, &Outputs::default(), |_| {}).unwrap();
     assert_eq!(summary.wind_from_deg, 232.0);
+}
+
+/// The day's fuel moisture (docs/spec/fire-model.md §B12) from the netCDF4-written fixture's
+/// formulas at lat index 1, lon index 0 (make_wind.py), and the Rothermel kernel set to it.
+#[test]
+fn the_days_fuel_moisture_comes_from_gridmet_and_reaches_the_kernel() {
+    use firecast_sim::moisture;
+    let dir = tempfile::tempdir().unwrap();
+    let mut s = scenario();
+    s.env.sim.kernel = firecast_sim::KernelConfig::rothermel_default();
+    s.weather = Some(WeatherSpec::Gridmet {
+        dir: wind_fixtures(),
+        date: "2020-07-15".into(),
+        fuel_moisture: true,
+        sky: Default::default(),
+    });
+    let (_, weather) = s.prepare(dir.path()).unwrap();
+    let m = weather.unwrap().fuel_moisture.expect("the day's moisture");
+    // Day of year 197: tmmx = 295 + 7 + 1 K, rmin = 8 + 17 %, fm100 = 4 + 8.5, fm1000 = 7 + 8.5.
+    let temp_f = (303.0 - 273.15) * 1.8 + 32.0;
+    assert!(
+        (m.max_temperature_f - temp_f).abs() < 1e-3,
+        "{}",
+        m.max_temperature_f
+    );
+    assert!((m.min_humidity_pct - 25.0).abs() < 1e-4);
+    let (d1, d10) = moisture::fine_dead_moisture_pct(temp_f, 25.0, moisture::StateOfWeather::Clear);
+    assert!((m.dead_1h_pct - d1).abs() < 1e-3 && (m.dead_10h_pct - d10).abs() < 1e-3);
+    assert!((m.dead_100h_pct - 12.5).abs() < 1e-4 && (m.dead_1000h_pct - 15.5).abs() < 1e-4);
+    // GSI over days 177..=197 at the landscape centre's latitude (37.5).
+    let gsi: f64 = (177..=197u32)
+        .map(|t| {
+            let tmin_c = 268.0 + f64::from(t / 2) / 10.0 - 273.15;
+            let vpd_pa = (0.5 + f64::from(t % 7) / 10.0) * 1000.0;
+            moisture::growing_season_index(tmin_c, vpd_pa, moisture::day_length_s(37.5, t))
+        })
+        .sum::<f64>()
+        / 21.0;
+    assert!((m.gsi_21d - gsi).abs() < 1e-4, "{} vs {gsi}", m.gsi_21d);
+    assert!(gsi > 0.5, "the fixture's July is green: {gsi}");
+    assert!((m.live_herbaceous_pct - moisture::live_herbaceous_pct(gsi)).abs() < 0.5);
+    assert!((m.live_woody_pct - moisture::live_woody_pct(gsi)).abs() < 0.5);
+    assert_eq!(m.sources.len(), 3);
+    assert!(m.sources[0].contains("tmmx") && m.sources[1].contains("fm100") && m.sources[2].contains("vpd"));
+    // The kernel now burns at the day's moisture.
+    let firecast_sim::KernelConfig::Rothermel { moisture: k, .. } = &s.env.sim.kernel else {
+        panic!("kernel changed")
+    };
+    assert!((k.dead_1h_frac * 100.0 - m.dead_1h_pct).abs() < 1e-9);
+    assert!((k.live_herb_frac * 100.0 - m.live_herbaceous_pct).abs() < 1e-9);
+
+    // The growing season index needs the 20 days before the date: early January reaches into
+    // 2019, whose files are not there.
+    let mut early = s.clone();
+    early.weather = Some(WeatherSpec::Gridmet {
+        dir: wind_fixtures(),
+        date: "2020-01-05".into(),
+        fuel_moisture: true,
+        sky: Default::default(),
+    });
+    let err = early.prepare(dir.path()).unwrap_err().to_string();
+    assert!(err.contains("tmmn_2019.nc"), "{err}");
+    // The Concord kernel has no place for the day's moisture.
+    let mut concord = early.clone();
+    concord.env.sim.kernel = firecast_sim::KernelConfig::default();
+    concord.weather = s.weather.clone();
+    let err = concord.prepare(dir.path()).unwrap_err().to_string();
+    assert!(err.contains("Rothermel kernel"), "{err}");
 }
 
 #[test]

@@ -564,3 +564,85 @@ fn neighbourhood_is_configured_in_snake_case_and_defaults_to_line_of_sight() {
     assert_eq!(cfg.neighbourhood, Neighbourhood::LineOfSight);
     assert!(serde_json::from_str::<SimConfig>(r#"{"neighbourhood": "moore"}"#).is_err());
 }
+
+#[test]
+fn physical_drops_wet_their_volume_whatever_the_cell_size() {
+    // Short grass (Anderson 1, coverage level 1): an 800-gallon drop wets 80,000 ft².
+    let cfg = SimConfig {
+        kernel: KernelConfig::rothermel_default(),
+        helitack_footprint: HelitackFootprint::Coverage,
+        ..SimConfig::default()
+    };
+    let mut fine = landscape(41, 41, LandCoverScheme::Fbfm13, |_, _| 1, rough);
+    fine.cell_size_ft = 30.0 / 0.3048;
+    let mut a = Automaton::new(&fine, &cfg).unwrap();
+    let out = a.helitack(20, 20);
+    let treated = (0..41 * 41).filter(|&i| a.helitack_drops(i) > 0).count();
+    assert_eq!(out.cells as usize, treated);
+    assert!((5..=9).contains(&treated), "{treated} cells of 30 m treated");
+    let received: f64 = a.drop_coverage().unwrap().iter().map(|&c| f64::from(c)).sum();
+    let wetted = received * fine.cell_size_ft.powi(2);
+    assert!((wetted - 80_000.0).abs() < 10.0, "{wetted} ft²");
+
+    // On 500 ft cells the same drop wets 0.32 of the cell under it: the fourth treats it.
+    let coarse = landscape(41, 41, LandCoverScheme::Fbfm13, |_, _| 1, rough);
+    let mut b = Automaton::new(&coarse, &cfg).unwrap();
+    for _ in 0..3 {
+        assert_eq!(b.helitack(20, 20).cells, 0);
+    }
+    assert_eq!(b.helitack(20, 20).cells, 1);
+    assert_eq!(b.helitack_drops(20 * 41 + 20), 1);
+    assert_eq!((0..41 * 41).filter(|&i| b.helitack_drops(i) > 0).count(), 1);
+
+    // Heavy slash (13, level 8) beside the grass: laid at the grass's level, the drop gives the
+    // slash an eighth of what it gives the grass.
+    let mixed = landscape(
+        41,
+        41,
+        LandCoverScheme::Fbfm13,
+        |x, _| if x > 20 { 13 } else { 1 },
+        rough,
+    );
+    let mut m = Automaton::new(&mixed, &{
+        let mut c = cfg.clone();
+        c.helitack_volume_gal = 8_000.0;
+        c
+    })
+    .unwrap();
+    m.helitack(20, 20);
+    let cov = m.drop_coverage().unwrap();
+    let (grass, slash) = (cov[20 * 41 + 19], cov[20 * 41 + 21]);
+    assert!(
+        grass > 0.3 && (slash - grass / 8.0).abs() < 1e-5,
+        "grass {grass}, slash {slash}"
+    );
+
+    // A burning cell a drop completes is put out; FireCastRL's footprint is unchanged.
+    let mut f = Automaton::new(&fine, &cfg).unwrap();
+    f.ignite(20, 20, 0.0).unwrap();
+    f.step();
+    assert!(f.cells_burning() >= 1);
+    let out = f.helitack(20, 20);
+    assert!(out.quenched >= 1);
+    assert_eq!(f.fire_state(20 * 41 + 20), FireState::Unburnt);
+    let compat = SimConfig {
+        kernel: KernelConfig::rothermel_default(),
+        ..SimConfig::default()
+    };
+    assert_eq!(
+        Automaton::new(&coarse, &compat).unwrap().helitack(20, 20).cells,
+        80
+    );
+    assert!(
+        Automaton::new(&coarse, &compat)
+            .unwrap()
+            .drop_coverage()
+            .is_none()
+    );
+
+    let bad = SimConfig {
+        helitack_volume_gal: 0.0,
+        ..cfg
+    };
+    assert!(Automaton::new(&coarse, &bad).is_err());
+}
