@@ -5,6 +5,7 @@
 mod dataset;
 mod dvc;
 mod forecast;
+mod landscape;
 mod pipeline;
 mod ray;
 mod recordings;

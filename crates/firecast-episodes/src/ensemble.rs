@@ -134,6 +134,12 @@ pub struct EpisodeRecord {
     /// Cells burned (burnt + burning) after each step; entry 0 is the ignition.
     pub burned_per_step: Vec<u32>,
     pub drops: Vec<DropRecord>,
+    /// Cells on the grid's border (outer ring) that burned: the fire left the domain there.
+    #[serde(default)]
+    pub edge_cells_burned: u32,
+    /// Simulated hours at which the fire first reached the border (None: it never did).
+    #[serde(default)]
+    pub edge_first_hour: Option<f64>,
 }
 
 /// The ensemble file written by `sim.ensemble` and `rl.ensemble`.
@@ -145,7 +151,13 @@ pub struct Ensemble {
     pub strategy: String,
     /// One line on what played (the agent, a policy's run and checkpoint).
     pub description: String,
+    /// What the landscape is (synthetic or read from data), in words a report can print.
+    #[serde(default)]
+    pub landscape: Option<crate::LandscapeLabel>,
     pub grid: GridInfo,
+    /// Cells on the grid's border, `2·(width + height) − 4` (what `edge_cells_burned` counts).
+    #[serde(default)]
+    pub border_cells: u32,
     /// Land-cover (or fuel-model) code per cell, row-major, row 0 south.
     pub land_cover: Vec<u16>,
     pub elevation_ft: Vec<f32>,
@@ -238,6 +250,32 @@ impl Ensemble {
     pub fn runs(&self) -> usize {
         self.episodes.len()
     }
+
+    /// One line on the runs that reached the grid's edge (None when none did).
+    pub fn edge_summary(&self) -> Option<String> {
+        let reached: Vec<&EpisodeRecord> = self.episodes.iter().filter(|e| e.edge_cells_burned > 0).collect();
+        let most = reached.iter().map(|e| e.edge_cells_burned).max()?;
+        let first = reached
+            .iter()
+            .filter_map(|e| e.edge_first_hour)
+            .min_by(f64::total_cmp)
+            .unwrap_or(f64::NAN);
+        Some(format!(
+            "the fire reached the grid's edge in {} of {} runs (up to {most} of {} border cells burnt, \
+             first after {first:.1} h): it left the simulated domain",
+            reached.len(),
+            self.runs(),
+            self.border_cells
+        ))
+    }
+}
+
+/// Indices of the cells on a `width × height` grid's border.
+fn border(width: usize, height: usize) -> impl Iterator<Item = usize> {
+    (0..width * height).filter(move |&i| {
+        let (x, y) = (i % width, i / width);
+        x == 0 || y == 0 || x + 1 == width || y + 1 == height
+    })
 }
 
 fn scheme_name(s: LandCoverScheme) -> &'static str {
@@ -446,11 +484,15 @@ impl Tracker {
         conditions: RunConditions,
     ) -> (EpisodeRecord, Vec<f32>) {
         let sim = core.automaton();
-        let arrival = sim
+        let arrival: Vec<f32> = sim
             .fire_states()
             .iter()
             .zip(sim.ignition_times())
             .map(|(&s, &t)| if s != 0 { (t / 60.0) as f32 } else { f32::INFINITY })
+            .collect();
+        let edge: Vec<f32> = border(sim.width(), sim.height())
+            .map(|i| arrival[i])
+            .filter(|t| t.is_finite())
             .collect();
         (
             EpisodeRecord {
@@ -466,6 +508,8 @@ impl Tracker {
                 peak_burning_hour: self.peak.1,
                 burned_per_step: self.burned,
                 drops: self.drops,
+                edge_cells_burned: edge.len() as u32,
+                edge_first_hour: edge.iter().copied().min_by(f32::total_cmp).map(f64::from),
             },
             arrival,
         )
@@ -505,6 +549,8 @@ pub fn assemble(
         version: ENSEMBLE_VERSION,
         strategy: strategy.to_string(),
         description,
+        landscape: Some(setup.scenario.landscape.label()),
+        border_cells: border(land.width, land.height).count() as u32,
         grid: GridInfo {
             width: land.width,
             height: land.height,
@@ -618,6 +664,47 @@ mod tests {
             panic!("a point off the landscape accepted");
         };
         assert!(e.to_string().contains("outside the landscape"), "{e}");
+    }
+
+    #[test]
+    fn runs_that_reach_the_edge_say_so() {
+        let mut small = scenario(1);
+        small.landscape = LandscapeSpec::Synthetic {
+            seed: 5,
+            center: [39.3, -107.4],
+            width: 16,
+            height: 12,
+            cell_size_ft: 500.0,
+        };
+        small.env.max_steps = 400;
+        let setup = Setup::new(small, std::path::Path::new("."), None).expect("setup");
+        let ensemble = run_agent(&setup, AgentKind::None, 3, 0, |_| {}).expect("runs");
+        assert_eq!(ensemble.border_cells, 2 * (16 + 12) - 4);
+        let (w, h) = (16, 12);
+        let burnt_border = (0..w * h)
+            .filter(|&i| {
+                (i % w == 0 || i / w == 0 || i % w == w - 1 || i / w == h - 1) && ensemble.burn_count[i] > 0
+            })
+            .count() as u32;
+        let most = ensemble
+            .episodes
+            .iter()
+            .map(|e| e.edge_cells_burned)
+            .max()
+            .unwrap_or(0);
+        assert!(most > 0, "a free fire on a 16 × 12 grid never reached its edge");
+        assert!(most <= burnt_border && burnt_border <= ensemble.border_cells);
+        for e in &ensemble.episodes {
+            assert_eq!(e.edge_first_hour.is_some(), e.edge_cells_burned > 0);
+            assert!(e.edge_first_hour.is_none_or(|t| t >= 0.0 && t <= e.hours));
+        }
+        let line = ensemble.edge_summary().expect("an edge line");
+        assert!(line.contains("of 52 border cells"), "{line}");
+        let label = ensemble.landscape.expect("a label");
+        assert!(
+            label.synthetic && label.kind == "synthetic" && label.seed == Some(5),
+            "{label:?}"
+        );
     }
 
     #[test]

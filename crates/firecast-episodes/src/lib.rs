@@ -100,6 +100,19 @@ pub enum LandscapeSpec {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         center: Option<[f64; 2]>,
     },
+    /// The synthetic world's own terrain and land cover at a place (MODIS IGBP classes): the
+    /// world `seed` of the generator that wrote the synthetic GRIDMET weather, sampled on a
+    /// grid around `center` ([lat, lon]); docs/spec/data.md §2.6.
+    Synthetic {
+        seed: u64,
+        center: [f64; 2],
+        #[serde(default = "default_width")]
+        width: usize,
+        #[serde(default = "default_height")]
+        height: usize,
+        #[serde(default = "default_cell_ft")]
+        cell_size_ft: f64,
+    },
     /// FireCastRL's map format: land-cover palette PNG and 16-bit height-map PNG.
     Firecastrl { land_cover: PathBuf, heightmap: PathBuf },
     /// GeoTIFF land cover (MODIS IGBP, or LANDFIRE FBFM13/FBFM40) and elevation (metres),
@@ -195,6 +208,35 @@ impl LandscapeSpec {
                 };
                 procedural::generate(&opts)?
             }
+            Self::Synthetic {
+                seed,
+                center: [lat, lon],
+                width,
+                height,
+                cell_size_ft,
+            } => {
+                let grid = firecast_data::synth::PlaceGrid::around(*lat, *lon, *width, *height, *cell_size_ft)
+                    .map_err(|e| EpisodeError::LandscapeSpec {
+                        spec: "synthetic".into(),
+                        reason: e.to_string(),
+                    })?;
+                let place = firecast_data::synth::place_landscape(*seed, grid);
+                Landscape::new(
+                    grid.width,
+                    grid.height,
+                    grid.cell_size_ft,
+                    LandCoverScheme::ModisIgbp,
+                    place.land_cover,
+                    place.elevation_ft,
+                    firecast_landscape::GeoReference {
+                        crs: firecast_landscape::Crs::Wgs84Geographic.code(),
+                        origin_x: grid.west_lon,
+                        origin_y: grid.south_lat,
+                        cell_size_x: grid.cell_lon_deg,
+                        cell_size_y: grid.cell_lat_deg,
+                    },
+                )?
+            }
             Self::Firecastrl {
                 land_cover,
                 heightmap,
@@ -234,6 +276,71 @@ impl LandscapeSpec {
                 )?
             }
         })
+    }
+}
+
+/// What a landscape is, in words every output carries (`landscape` in an ensemble file).
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LandscapeLabel {
+    /// `synthetic`, `procedural`, `geotiff` or `firecastrl`.
+    pub kind: String,
+    /// Whether the map is made up (synthetic or procedural) rather than read from data.
+    pub synthetic: bool,
+    /// The world (synthetic) or map (procedural) seed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// One line a report can print.
+    pub note: String,
+}
+
+impl LandscapeSpec {
+    /// The label outputs carry.
+    pub fn label(&self) -> LandscapeLabel {
+        let (kind, synthetic, seed, note) = match self {
+            Self::Synthetic {
+                seed, center: [lat, lon], ..
+            } => (
+                "synthetic",
+                true,
+                Some(*seed),
+                format!(
+                    "synthetic landscape: the terrain and land cover of FireCast's synthetic world (seed {seed})                      around ({lat}, {lon}), from the generator that wrote the synthetic GRIDMET weather;                      not LANDFIRE or MODIS data"
+                ),
+            ),
+            Self::Procedural { seed, .. } => (
+                "procedural",
+                true,
+                Some(*seed),
+                format!(
+                    "synthetic landscape: a procedural map (seed {seed}) that depends on the seed only,                      the same at every place; not the place's terrain"
+                ),
+            ),
+            Self::Geotiff {
+                land_cover, elevation, ..
+            } => (
+                "geotiff",
+                false,
+                None,
+                format!(
+                    "land cover from {} and elevation from {}",
+                    land_cover.display(),
+                    elevation.display()
+                ),
+            ),
+            Self::Firecastrl { land_cover, .. } => (
+                "firecastrl",
+                false,
+                None,
+                format!("FireCastRL map {}", land_cover.display()),
+            ),
+        };
+        LandscapeLabel {
+            kind: kind.into(),
+            synthetic,
+            seed,
+            note,
+        }
     }
 }
 

@@ -59,6 +59,17 @@ pub enum LandscapeParams {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         center: Option<[f64; 2]>,
     },
+    /// The synthetic world's terrain and cover around `center` ([lat, lon]); the world's seed
+    /// is the `firecast_seed` of the `gridmet` input's files (the world that wrote the weather).
+    Synthetic {
+        center: [f64; 2],
+        #[serde(default = "super::default_width")]
+        width: usize,
+        #[serde(default = "super::default_height")]
+        height: usize,
+        #[serde(default = "super::default_cell_ft")]
+        cell_size_ft: f64,
+    },
     Firecastrl,
     Geotiff {
         scheme: super::SchemeName,
@@ -438,6 +449,30 @@ fn scenario_of(
             height: *height,
             center: *center,
         },
+        LandscapeParams::Synthetic {
+            center,
+            width,
+            height,
+            cell_size_ft,
+        } => {
+            let dir = ctx.input("gridmet").map_err(|_| {
+                StageError::msg(
+                    "landscape.synthetic takes the synthetic world's seed from the GRIDMET files that \
+                     wrote the weather: give the input `gridmet`",
+                )
+            })?;
+            // The weather day's files when there is one, else every file of the folder.
+            let year = weather_date.and_then(|d| d.get(..4)).and_then(|y| y.parse().ok());
+            let seed = firecast_data::synth::world_seed(dir, year)
+                .map_err(|e| StageError::msg(format!("landscape.synthetic: {e}")))?;
+            LandscapeSpec::Synthetic {
+                seed,
+                center: *center,
+                width: *width,
+                height: *height,
+                cell_size_ft: *cell_size_ft,
+            }
+        }
         LandscapeParams::Firecastrl => LandscapeSpec::Firecastrl {
             land_cover: input("land_cover")?,
             heightmap: input("elevation")?,
@@ -745,6 +780,12 @@ pub fn write_ensemble(
         "{who}: {} runs, {mean:.0} cells burned on average",
         ensemble.runs()
     ));
+    if let Some(label) = &ensemble.landscape {
+        ctx.log(label.note.clone());
+    }
+    if let Some(edge) = ensemble.edge_summary() {
+        ctx.log(format!("{who}: {edge}"));
+    }
     Ok(())
 }
 
@@ -758,7 +799,8 @@ impl StageKind for EnsembleStage {
     }
 
     fn version(&self) -> u32 {
-        1
+        // 2: the landscape's label and each run's edge cells in the file.
+        2
     }
 
     fn summary(&self) -> &'static str {

@@ -43,9 +43,14 @@ fn ramp(x: f64) -> f64 {
     x.clamp(0.0, 1.0)
 }
 
+/// Octave spacings (GRIDMET cells: 8° down to 1/8°) and Hurst exponent of the seeded fractal
+/// relief added to [`macro_elevation`]; `place.rs` samples the same field between cell centres.
+pub(crate) const RELIEF_STEPS: [usize; 7] = [192, 96, 48, 24, 12, 6, 3];
+pub(crate) const RELIEF_HURST: f64 = 0.9;
+
 /// Longitude of the eastern front of the Rocky Mountains at `lat` (Front Range at 105.3°W
 /// south of 41°N, the Bighorns/Wind Rivers in Wyoming, the Rocky Mountain Front in Montana).
-fn rockies_front(lat: f64) -> f64 {
+pub(crate) fn rockies_front(lat: f64) -> f64 {
     if lat <= 41.0 {
         -105.3
     } else if lat <= 45.0 {
@@ -265,7 +270,7 @@ pub(crate) fn cell_info(seed: u64, settlements: &Settlements, j: usize, i: usize
 
     // Elevation: macro relief plus seeded fractal relief (rougher in the mountains).
     let (macro_elev, rough) = macro_elevation(lat, lon);
-    let fr = fractal(seed, Stream::Elevation, &[192, 96, 48, 24, 12, 6, 3], 0.9, j, i);
+    let fr = fractal(seed, Stream::Elevation, &RELIEF_STEPS, RELIEF_HURST, j, i);
     let elev = (macro_elev + rough * fr).max(0.0);
     let press = 101.3 * ((293.0 - 0.0065 * elev) / 293.0).powf(5.26);
 

@@ -28,6 +28,7 @@ mod grid;
 mod ignitions;
 pub mod netcdf3;
 mod noise;
+mod place;
 mod weather;
 
 use std::fs;
@@ -40,6 +41,9 @@ pub use grid::{
 };
 pub use ignitions::{IgnitionCause, SynthIgnition, WFIGS_HEADER, hub_datetime};
 pub use netcdf3::Version as NcVersion;
+pub use place::{
+    PlaceClimate, PlaceError, PlaceGrid, PlaceLandscape, igbp, place_landscape, world_elevation_m, world_seed,
+};
 
 use crate::gridmet::{GridmetVariable, day_to_ymd, ymd_to_day};
 

@@ -28,6 +28,11 @@ pub(crate) enum Stream {
     CellNoiseB = 31,
     Ignition = 40,
     IgnitionDetail = 41,
+    /// The landscape of a place (`place.rs`): relief finer than the GRIDMET grid, cover
+    /// patchiness, settlement patches.
+    TerrainDetail = 50,
+    CoverPatch = 51,
+    Settlement = 52,
 }
 
 const GOLDEN: u64 = 0x9E37_79B9_7F4A_7C15;
@@ -228,6 +233,36 @@ pub(crate) fn value_noise(seed: u64, stream: Stream, octave: i64, step: usize, j
     let v1 = n(a + 1, b) * (1.0 - ti) + n(a + 1, b + 1) * ti;
     let norm = 1.0 / (((1.0 - tj).powi(2) + tj * tj) * ((1.0 - ti).powi(2) + ti * ti)).sqrt();
     (v0 * (1.0 - tj) + v1 * tj) * norm
+}
+
+/// [`value_noise`] at a fractional grid position `(y, x)` (global row and column, in cells) with
+/// a node spacing `step` that may be a fraction of a cell: continuous everywhere, and equal to
+/// [`value_noise`] (to rounding) at whole positions with the same integer `step`, so a
+/// landscape finer than the GRIDMET grid samples the very field the grid's cells saw.
+pub(crate) fn value_noise_at(seed: u64, stream: Stream, octave: i64, step: f64, y: f64, x: f64) -> f64 {
+    let k = key(seed, stream, octave);
+    let (fy, fx) = (y / step, x / step);
+    let (a, b) = (fy.floor(), fx.floor());
+    let (tj, ti) = (fade(fy - a), fade(fx - b));
+    let (a, b) = (a as i64, b as i64);
+    // Nodes at non-negative positions hash exactly as `value_noise`'s `(a << 32) | b`.
+    let n = |a: i64, b: i64| normal(hash_with(k, (a as u64) << 32 | (b as u64 & 0xFFFF_FFFF)));
+    let v0 = n(a, b) * (1.0 - ti) + n(a, b + 1) * ti;
+    let v1 = n(a + 1, b) * (1.0 - ti) + n(a + 1, b + 1) * ti;
+    let norm = 1.0 / (((1.0 - tj).powi(2) + tj * tj) * ((1.0 - ti).powi(2) + ti * ti)).sqrt();
+    (v0 * (1.0 - tj) + v1 * tj) * norm
+}
+
+/// [`fractal`] at a fractional grid position (see [`value_noise_at`]).
+pub(crate) fn fractal_at(seed: u64, stream: Stream, steps: &[usize], hurst: f64, y: f64, x: f64) -> f64 {
+    let mut sum = 0.0;
+    let mut w2 = 0.0;
+    for (o, &s) in steps.iter().enumerate() {
+        let w = (s as f64).powf(hurst);
+        sum += w * value_noise_at(seed, stream, o as i64, s as f64, y, x);
+        w2 += w * w;
+    }
+    sum / w2.sqrt()
 }
 
 /// Fractal (multi-octave) value noise, unit variance: octaves with spacings `steps` (cells)

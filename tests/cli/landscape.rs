@@ -1,0 +1,145 @@
+//! The landscape of the place through the real binary: `sim.ensemble` stages with the
+//! synthetic landscape at two places 87 miles apart, on synthetic GRIDMET that the same world
+//! wrote, get two different maps, both labelled synthetic; real GRIDMET (no `firecast_seed`)
+//! is refused with a pointer to real landscapes.
+
+use crate::{Project, describe};
+
+/// Two places 87 miles apart (1.26° of latitude) on one meridian.
+const NORTH: [f64; 2] = [39.3, -107.4];
+const SOUTH: [f64; 2] = [38.04, -107.4];
+
+fn ensemble_stage(name: &str, [lat, lon]: [f64; 2]) -> String {
+    format!(
+        r#"
+  {name}:
+    uses: sim.ensemble
+    params:
+      landscape: {{synthetic: {{center: [{lat}, {lon}], width: 48, height: 32}}}}
+      agent: none
+      runs: 2
+      weather_date: "2019-08-01"
+      ignition: [{lat}, {lon}]
+      env: {{max_steps: 40}}
+    inputs:
+      gridmet: {{from: sources.gridmet}}
+    outputs:
+      ensemble: build/{name}.json
+"#
+    )
+}
+
+fn pipeline() -> String {
+    format!(
+        r#"
+stages:
+  sources:
+    uses: data.synthesize
+    params:
+      seed: 7
+      region: {{lat_min: 37.95, lat_max: 39.4, lon_min: -107.5, lon_max: -107.3}}
+      years: [2019, 2019]
+      variables: [vs, th]
+    outputs:
+      gridmet: build/sources/gridmet
+      incidents: build/sources/incidents.csv
+      model: build/sources/MODEL.md
+{}{}"#,
+        ensemble_stage("north", NORTH),
+        ensemble_stage("south", SOUTH)
+    )
+}
+
+#[test]
+fn the_synthetic_landscape_is_the_places_own_and_says_it_is_synthetic() {
+    let p = Project::new();
+    p.write("pipelines/places.yaml", &pipeline());
+    let outcomes = p.run_pipeline("pipelines/places.yaml", &[]);
+    assert!(outcomes.values().all(|o| o == "ran"), "{outcomes:?}");
+    let read = |name: &str| -> serde_json::Value {
+        serde_json::from_str(&p.read(&format!("build/{name}.json"))).unwrap()
+    };
+    let (north, south) = (read("north"), read("south"));
+    for e in [&north, &south] {
+        let label = &e["landscape"];
+        assert_eq!(label["kind"], "synthetic", "{label}");
+        assert_eq!(label["synthetic"], true);
+        // The world that wrote the weather.
+        assert_eq!(label["seed"], 7);
+        assert!(label["note"].as_str().unwrap().contains("synthetic"), "{label}");
+        assert_eq!(e["border_cells"], 2 * (48 + 32) - 4);
+        for run in e["episodes"].as_array().unwrap() {
+            assert!(run["edge_cells_burned"].as_u64().is_some(), "{run}");
+            assert!(run.get("edge_first_hour").is_some(), "{run}");
+        }
+    }
+    let cells = |e: &serde_json::Value, key: &str| -> Vec<f64> {
+        e[key]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect()
+    };
+    let (a, b) = (cells(&north, "land_cover"), cells(&south, "land_cover"));
+    assert_eq!(a.len(), 48 * 32);
+    let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+    assert!(
+        differ * 2 > a.len(),
+        "only {differ} of {} cells differ in land cover",
+        a.len()
+    );
+    let (za, zb) = (cells(&north, "elevation_ft"), cells(&south, "elevation_ft"));
+    let differ = za
+        .iter()
+        .zip(&zb)
+        .filter(|(x, y)| (**x - **y).abs() > 50.0)
+        .count();
+    assert!(
+        differ * 10 > za.len() * 9,
+        "only {differ} cells differ by 50 ft in elevation"
+    );
+}
+
+#[test]
+fn real_gridmet_has_no_synthetic_world() {
+    let p = Project::new();
+    let gridmet = crate::repo_root().join("crates/firecast-episodes/tests/fixtures/gridmet");
+    p.write(
+        "pipelines/real.yaml",
+        &format!(
+            r#"
+stages:
+  fire:
+    uses: sim.ensemble
+    params:
+      landscape: {{synthetic: {{center: [39.3, -107.4], width: 16, height: 16}}}}
+      agent: none
+      runs: 1
+      weather_date: "2020-07-04"
+      env: {{max_steps: 5}}
+    inputs:
+      gridmet: {}
+    outputs:
+      ensemble: build/fire.json
+"#,
+            gridmet.display()
+        ),
+    );
+    let out = p
+        .firecast()
+        .args(["pipeline", "run", "pipelines/real.yaml"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "{}", describe(&out));
+    let text = describe(&out);
+    assert!(
+        text.contains("firecast_seed") && text.contains("LANDFIRE"),
+        "{text}"
+    );
+    assert!(
+        text.contains("vs_2020.nc") || text.contains("_2020.nc"),
+        "names no file: {text}"
+    );
+    assert!(!p.path("build/fire.json").exists());
+}
