@@ -102,7 +102,7 @@ pub enum LandscapeSpec {
     },
     /// The synthetic world's own terrain and land cover at a place (MODIS IGBP classes): the
     /// world `seed` of the generator that wrote the synthetic GRIDMET weather, sampled on a
-    /// grid around `center` ([lat, lon]); docs/spec/data.md §2.6.
+    /// grid around `center` ([lat, lon]); docs/spec/data.md §7.5.
     Synthetic {
         seed: u64,
         center: [f64; 2],

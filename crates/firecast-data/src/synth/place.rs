@@ -10,18 +10,21 @@
 //!
 //! - **Elevation**: the world's macro relief plus its seeded fractal relief, sampled
 //!   continuously between GRIDMET cell centres (at a centre it is that cell's elevation), plus
-//!   seven finer seeded octaves (1/16° down to ~110 m, amplitude ∝ spacing^0.8 and the world's
-//!   roughness: ~200 m of hills in the Rockies, ~20 m on the Plains).
+//!   seven finer seeded octaves (1/16° down to ~110 m, amplitude ∝ spacing^0.6 and the world's
+//!   roughness, the coarser four ridged: ridges and valleys of a few hundred metres in the
+//!   Rockies, tens of metres on the Plains).
 //! - **Climate at the place**: the GRIDMET cells' annual precipitation, mean temperature, peak
 //!   greenness and human activity, bilinearly interpolated, with temperature lapsed (4.5 K/km)
-//!   and precipitation raised (0.1 mm/m) by the local relief.
+//!   and precipitation raised (0.4 mm/m) by the local relief.
 //! - **Land cover** (MODIS IGBP classes, as the fire kernels read them): a moisture score
-//!   `ln(P / PET) + (greenness − 0.6) + 0.35·patch`, with `PET = 350 + 45·max(T, 0)` mm, picks
-//!   forest, woody savanna, shrub or savanna, grass, open shrub and barren; forest type from
-//!   temperature and region; snow (T < −5 °C) and rock (T < −2 °C) above, alpine grass below;
-//!   water and wetlands in the lowest spots of the local relief (fewer in dry climates), and
-//!   outside the world's land outline; developed patches where the world's human activity is
-//!   high, in valley bottoms.
+//!   `ln(P / PET) + (greenness − 0.6) + 0.25·patch + 0.15·hollowness`, with
+//!   `PET = 350 + 45·max(T, 0)` mm, picks forest, woody savanna, shrub or savanna, grass, open
+//!   shrub and barren; forest type from temperature and region; snow (T < −5 °C) and rock
+//!   (T < −2 °C) above, alpine grass below the tree line; water and wetlands in the deepest
+//!   hollows of the local relief (fewer in dry climates) and outside the world's land outline;
+//!   developed patches where the world's human activity is high, in valley bottoms.
+//!
+//! The whole generator, with its constants: docs/spec/data.md §7.5.
 
 use rayon::prelude::*;
 
