@@ -119,9 +119,11 @@ fn sim_verify(settings: &Settings, args: &VerifyArgs) -> anyhow::Result<ExitCode
 
 #[derive(Debug, Args)]
 pub struct BehaviorArgs {
-    /// LANDFIRE landscape folder: one GeoTIFF per layer, found by LANDFIRE's file names
-    /// (F40/FBFM40, F13/FBFM13, SlpP or SlpD, Asp, Elev, CC, CH, CBH, CBD), up to two levels deep.
-    #[arg(long, value_name = "DIR")]
+    /// The landscape: a LANDFIRE folder (one GeoTIFF per layer, found by LANDFIRE's file names
+    /// F40/FBFM40, F13/FBFM13, SlpP or SlpD, Asp, Elev, CC, CH, CBH, CBD, up to two levels
+    /// deep), a FARSITE/FlamMap .lcp file (units as its header says; CRS from the .prj beside
+    /// it), or a folder holding one .lcp.
+    #[arg(long, value_name = "DIR|FILE.lcp")]
     pub landscape: PathBuf,
     /// Fuel layer: fbfm40 or fbfm13.
     #[arg(long, default_value = "fbfm40", value_name = "LAYER")]
@@ -224,6 +226,16 @@ fn sim_behavior(settings: &Settings, args: &BehaviorArgs) -> anyhow::Result<Exit
             );
         }
     }
+    println!(
+        "landscape: {} ({})",
+        summary.landscape_format,
+        summary
+            .layer_units
+            .iter()
+            .map(|(layer, unit)| format!("{layer}: {unit}"))
+            .collect::<Vec<_>>()
+            .join("; ")
+    );
     println!(
         "crown fire: {} (foliar moisture {} %)",
         summary.params.crown.name(),

@@ -3,6 +3,7 @@
 
 mod cmd_artifacts;
 mod cmd_dataset;
+mod cmd_fire_bench;
 mod cmd_forecast;
 mod cmd_pipeline;
 mod cmd_report;
@@ -100,6 +101,14 @@ enum BenchCommand {
     /// a second, many fires at once beside clients hammering the runs table; latencies,
     /// frame rates, requests a second, errors and the server's peak memory against the goals.
     Serve(cmd_serve::BenchServeArgs),
+    /// Fire behaviour of every cell of a LANDFIRE landscape beside pyretechnics (PyPI, its own
+    /// venv from `cargo xtask setup`), one thread each, same landscape and inputs: agreement on
+    /// rate of spread first (exit status 1 if it fails), then grid cells per second and the ratio.
+    Behavior(cmd_fire_bench::BenchBehaviorArgs),
+    /// A point fire spread for 8 hours beside pyretechnics' level set, one thread each, same
+    /// landscape and inputs: FireCast's minimum-travel-time engine, wall seconds, burnt cells per
+    /// second, the ratios and both burnt areas.
+    Spread(cmd_fire_bench::BenchSpreadArgs),
 }
 
 /// Exit status of an error at this edge: the command could not be carried out (bad
@@ -159,6 +168,8 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Bench(BenchCommand::Ppo(args)) => cmd_rl::bench_ppo(&settings, &args),
         Command::Bench(BenchCommand::Forecast(args)) => cmd_forecast::bench_forecast(&settings, &args),
         Command::Bench(BenchCommand::Serve(args)) => cmd_serve::bench(&settings, &args),
+        Command::Bench(BenchCommand::Behavior(args)) => cmd_fire_bench::bench_behavior(&settings, &args),
+        Command::Bench(BenchCommand::Spread(args)) => cmd_fire_bench::bench_spread(&settings, &args),
         Command::Doctor => doctor(&settings),
     }
 }

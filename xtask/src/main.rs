@@ -9,7 +9,9 @@
 //! `.firecast/deps/duckdb`, and links `.firecast/deps/{libtorch,nvidia}` to the wheel's
 //! folders; `.cargo/config.toml` points the build at them. It builds the Python package
 //! `firecast` (crates/firecast-py) with maturin and installs it into `.venv` when its sources
-//! changed. A second run reuses all of it.
+//! changed. Peers that FireCast is benchmarked against and that cannot share `.venv`'s pins
+//! get their own venvs under `.venv-peers/` (pyretechnics, for `firecast bench behavior|spread`).
+//! A second run reuses all of it.
 //! No third-party crates: this must build before anything else exists.
 
 use std::env;
@@ -36,7 +38,7 @@ fn main() -> ExitCode {
             eprintln!(
                 "usage: cargo xtask <command>\n\n\
                  commands:\n  \
-                 setup   install .venv (torch 2.13.0, rerun-sdk 0.36.3, test tools) and libduckdb 1.5.1\n  \
+                 setup   install .venv (torch 2.13.0, rerun-sdk 0.36.3, test tools), .venv-peers/pyretechnics and libduckdb 1.5.1\n  \
                  build   setup, then build the firecast binary (release)\n  \
                  demo    setup, build, run pipelines/demo.yaml, list the runs, print Tables III and IV\n  \
                  test    setup, build, run every test (extra args go to `cargo test`)\n  \
@@ -87,6 +89,7 @@ fn setup() -> Result<Context, String> {
     std::fs::create_dir_all(&deps).map_err(|e| format!("cannot create {}: {e}", deps.display()))?;
 
     let venv_python = ensure_venv(&root)?;
+    ensure_peer_venvs(&root);
     ensure_duckdb(&deps, &venv_python)?;
     link_libtorch(&deps, &venv_python)?;
     ensure_python_package(&root, &target_dir, &venv_python)?;
@@ -173,6 +176,59 @@ fn ensure_venv(root: &Path) -> Result<PathBuf, String> {
     )?;
     std::fs::write(&stamp, wanted).map_err(|e| format!("cannot write {}: {e}", stamp.display()))?;
     Ok(python)
+}
+
+/// References FireCast is benchmarked against that cannot share `.venv`'s pins, each in its
+/// own venv under `.venv-peers/` (ignored by git), pinned by its requirements file.
+/// pyretechnics (`firecast bench behavior|spread`) needs numpy 1.26 where `.venv` has numpy 2.
+const PEER_VENVS: [(&str, &str); 1] = [("pyretechnics", "xtask/requirements-pyretechnics.txt")];
+
+/// Install every peer venv of [`PEER_VENVS`] that is missing or whose requirements changed.
+/// A peer only serves a benchmark, so one that fails to install is a warning (the benchmark
+/// then says to run `cargo xtask setup`), not a failed setup.
+fn ensure_peer_venvs(root: &Path) {
+    for (name, requirements) in PEER_VENVS {
+        if let Err(message) = ensure_peer_venv(root, name, requirements) {
+            eprintln!(
+                "xtask: warning: the peer venv .venv-peers/{name} is not installed ({message}); \
+                 the benchmarks beside {name} will ask for `cargo xtask setup` again"
+            );
+        }
+    }
+}
+
+/// One peer venv, stamped like `.venv`: installed once per content of its requirements file.
+/// The file's pins are also passed as constraints (`PIP_CONSTRAINT`), so a package pip builds
+/// from source (pyretechnics compiles its Cython modules) builds with the same pinned versions.
+fn ensure_peer_venv(root: &Path, name: &str, requirements: &str) -> Result<(), String> {
+    let venv = root.join(".venv-peers").join(name);
+    let python = venv.join("bin/python");
+    let requirements = root.join(requirements);
+    let wanted = std::fs::read_to_string(&requirements)
+        .map_err(|e| format!("cannot read {}: {e}", requirements.display()))?;
+    let stamp = venv.join("firecast-requirements.txt");
+    if std::fs::read_to_string(&stamp).ok().as_deref() == Some(wanted.as_str()) && python.exists() {
+        return Ok(());
+    }
+    if !python.exists() {
+        eprintln!("xtask: creating {}", venv.display());
+        run(
+            Command::new("python3").args(["-m", "venv"]).arg(&venv),
+            "python3 -m venv",
+        )?;
+    }
+    eprintln!(
+        "xtask: installing the peer {name} into {} (it compiles; this happens once)",
+        venv.display()
+    );
+    run(
+        Command::new(&python)
+            .env("PIP_CONSTRAINT", &requirements)
+            .args(["-m", "pip", "install", "--disable-pip-version-check", "-q", "-r"])
+            .arg(&requirements),
+        &format!("pip install -r {}", requirements.display()),
+    )?;
+    std::fs::write(&stamp, wanted).map_err(|e| format!("cannot write {}: {e}", stamp.display()))
 }
 
 /// Download and check the official libduckdb.so (python3 does the HTTP, so no curl is needed).

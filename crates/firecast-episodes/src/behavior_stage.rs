@@ -1,5 +1,5 @@
-//! `sim.behavior`: fire behaviour grids over a LANDFIRE landscape folder
-//! ([`firecast_sim::behavior`]): rate of spread, flame length, fireline intensity, direction of
+//! `sim.behavior`: fire behaviour grids over a LANDFIRE landscape folder or a FARSITE/FlamMap
+//! `.lcp` (a file, or a folder holding one with its `.prj`) ([`firecast_sim::behavior`]): rate of spread, flame length, fireline intensity, direction of
 //! maximum spread and fire type (surface, passive or active crown fire; params `crown:
 //! finney | scott-reinhardt | none`, `foliar_moisture_pct`) as float32 GeoTIFFs, plus
 //! `summary.json`.
@@ -15,7 +15,8 @@ const BEHAVIOR_INPUTS: &[Port] = &[Port {
     name: "landscape",
     required: true,
     many: false,
-    description: "a LANDFIRE landscape folder (FBFM40 or FBFM13, slope, aspect; canopy layers optional)",
+    description: "a LANDFIRE landscape folder (FBFM40 or FBFM13, slope, aspect; canopy layers optional), a \
+                  FARSITE/FlamMap .lcp file, or a folder holding one .lcp and its .prj",
 }];
 const BEHAVIOR_OUTPUTS: &[Port] = &[Port {
     name: "grids",
@@ -31,11 +32,13 @@ impl StageKind for BehaviorStage {
     }
 
     fn version(&self) -> u32 {
-        2
+        // 3: .lcp landscapes; summary.json names the landscape's format and stored units;
+        // nodata at a burnable cell is an error.
+        3
     }
 
     fn summary(&self) -> &'static str {
-        "surface and crown fire behaviour grids over a LANDFIRE landscape (GeoTIFFs and a summary)"
+        "surface and crown fire behaviour grids over a LANDFIRE landscape or a FARSITE .lcp (GeoTIFFs and a summary)"
     }
 
     fn ports(&self) -> Ports {

@@ -270,6 +270,39 @@ fn tiff_err(path: &Path, e: impl std::fmt::Display) -> LandscapeError {
     }
 }
 
+/// Where a TIFF whose image failed to decode first fails: decode strip by strip (or tile by
+/// tile) and name the first one that does not decode, with the cells it holds.
+fn first_unreadable_chunk(path: &Path, width: usize, height: usize) -> Option<String> {
+    let file = File::open(path).ok()?;
+    let mut dec = Decoder::new(BufReader::new(file)).ok()?;
+    let (cw, ch) = dec.chunk_dimensions();
+    let (cw, ch) = (cw.max(1) as usize, ch.max(1) as usize);
+    let chunk_type = dec.get_chunk_type();
+    let count = match chunk_type {
+        tiff::decoder::ChunkType::Strip => dec.strip_count().ok()?,
+        tiff::decoder::ChunkType::Tile => dec.tile_count().ok()?,
+    };
+    let across = width.div_ceil(cw).max(1);
+    for k in 0..count {
+        if dec.read_chunk(k).is_err() {
+            let k = k as usize;
+            let (col, row) = match chunk_type {
+                tiff::decoder::ChunkType::Strip => (0, k * ch),
+                tiff::decoder::ChunkType::Tile => ((k % across) * cw, (k / across) * ch),
+            };
+            let last_row = (row + ch).min(height).saturating_sub(1);
+            let what = match chunk_type {
+                tiff::decoder::ChunkType::Strip => "strip",
+                tiff::decoder::ChunkType::Tile => "tile",
+            };
+            return Some(format!(
+                "{what} {k} of {count} does not decode: cells from column {col}, row {row} (rows {row}-{last_row}) are unreadable"
+            ));
+        }
+    }
+    None
+}
+
 fn geo_err(path: &Path, tag: impl Into<String>, problem: impl Into<String>) -> LandscapeError {
     LandscapeError::GeoTag {
         tag: tag.into(),
@@ -433,7 +466,12 @@ pub fn read_geotiff(path: impl AsRef<Path>) -> Result<GeoRaster, LandscapeError>
     let crs = crs_from_keys(path, &geokeys)?;
 
     // --- samples ---
-    let img = dec.read_image().map_err(|e| tiff_err(path, e))?;
+    let img = dec
+        .read_image()
+        .map_err(|e| match first_unreadable_chunk(path, width, height) {
+            Some(place) => tiff_err(path, format!("{e}; {place}")),
+            None => tiff_err(path, e),
+        })?;
     let (sample_type, data): (SampleType, Vec<f32>) = match img {
         DecodingResult::U8(v) => (SampleType::U8, v.into_iter().map(f32::from).collect()),
         DecodingResult::U16(v) => (SampleType::U16, v.into_iter().map(f32::from).collect()),

@@ -21,7 +21,14 @@
 //! 181–189, 201–204; FBFM13: 1–13) and the non-burnable codes 91–99 that the fuel table
 //! knows (NB1 91, NB2 92, NB3 93, NB8 98, NB9 99, and behave's reserved 94/95); any other value is
 //! an unknown code, counted by value and an error naming the file, the layer and the first cell.
-//! Grids that disagree in size, transform or CRS are an error naming both files.
+//! Grids that disagree in size, transform or CRS are an error naming both files; a geographic
+//! CRS (degrees) is an error; a layer that cannot be decoded names the layer, the file and,
+//! where the TIFF's directory is intact, the first strip or tile that fails.
+//!
+//! A FARSITE/FlamMap `.lcp` ([`crate::lcp`]) is decoded into the same layers, and both
+//! formats then go through the same checks ([`LandfireLandscape::read_path`] takes either).
+//! [`LandfireLandscape::check_burnable_cells`] is what fire behaviour asks on top: every cell
+//! whose fuel burns has slope, aspect and (for crown fire) canopy values.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -100,8 +107,22 @@ impl LayerKind {
         }
     }
 
+    /// How LANDFIRE stores the layer.
+    pub fn landfire_unit(self) -> &'static str {
+        match self {
+            Self::Fbfm40 | Self::Fbfm13 => "fuel model number",
+            Self::SlopePercent => "percent",
+            Self::SlopeDegrees => "degrees (converted to percent)",
+            Self::Aspect => "azimuth degrees, -1 flat",
+            Self::Elevation => "m",
+            Self::CanopyCover => "percent",
+            Self::CanopyHeight | Self::CanopyBaseHeight => "m x 10 (converted to m)",
+            Self::CanopyBulkDensity => "kg/m3 x 100 (converted to kg/m3)",
+        }
+    }
+
     /// Factor turning a stored value into the unit we keep (m, kg/m³, %, degrees).
-    fn scale(self) -> f32 {
+    pub(crate) fn scale(self) -> f32 {
         match self {
             Self::CanopyHeight | Self::CanopyBaseHeight => 0.1,
             Self::CanopyBulkDensity => 0.01,
@@ -137,6 +158,12 @@ impl LayerKind {
 pub enum LandfireError {
     #[error("{0}")]
     Raster(#[from] LandscapeError),
+    /// A layer's file could not be read or decoded (a missing, truncated or corrupt GeoTIFF).
+    #[error("{layer} layer: {source}")]
+    Layer {
+        layer: &'static str,
+        source: LandscapeError,
+    },
     #[error("cannot list landscape folder: {source}: {path}")]
     Io { source: std::io::Error, path: PathBuf },
     #[error("landscape folder has no {layer} layer (a GeoTIFF whose name holds {tokens}): {dir}")]
@@ -151,6 +178,10 @@ pub enum LandfireError {
         first: PathBuf,
         second: PathBuf,
     },
+    #[error(
+        "a landscape is a folder of LANDFIRE GeoTIFF layers, a FARSITE/FlamMap .lcp file, or a folder holding one .lcp; {found}: {path}"
+    )]
+    NotALandscape { found: String, path: PathBuf },
     #[error("{layer} grid {second} disagrees with {first}: {what}")]
     GridMismatch {
         layer: &'static str,
@@ -158,8 +189,18 @@ pub enum LandfireError {
         second: PathBuf,
         what: String,
     },
+    /// The landscape's CRS is geographic (degrees): cells have no size in metres or feet.
     #[error(
-        "{layer}: {count} cells hold fuel codes unknown to {scheme} ({codes}); first at column {col}, row {row}: {path}"
+        "{layer}: the landscape's CRS {crs} is geographic (latitude/longitude degrees); fire behaviour needs a \
+         projected grid in metres or feet (LANDFIRE ships EPSG:5070): {path}"
+    )]
+    GeographicCrs {
+        layer: &'static str,
+        crs: String,
+        path: PathBuf,
+    },
+    #[error(
+        "{layer}: {count} cells hold fuel codes unknown to {scheme} ({codes}); first at column {col}, row {row}{hint}: {path}"
     )]
     UnknownFuelCode {
         layer: &'static str,
@@ -168,6 +209,8 @@ pub enum LandfireError {
         codes: String,
         col: usize,
         row: usize,
+        /// Empty, or `; ` and a note (the other scheme's codes, an LCP's custom fuel models).
+        hint: Box<str>,
         path: PathBuf,
     },
     #[error("{layer}: value {value} at column {col}, row {row} is {problem}: {path}")]
@@ -179,6 +222,45 @@ pub enum LandfireError {
         problem: &'static str,
         path: PathBuf,
     },
+    /// A cell with a burnable fuel model lacks a value fire behaviour needs there.
+    #[error(
+        "{layer}: {count} cells with a burnable fuel model have no data (first at column {col}, row {row}, fuel \
+         model {fuel}); fire behaviour needs a value at every burnable cell: {path}"
+    )]
+    NodataAtBurnableCell {
+        layer: &'static str,
+        count: usize,
+        col: usize,
+        row: usize,
+        fuel: u16,
+        path: PathBuf,
+    },
+    /// A FARSITE `.lcp` header field holds a value the format does not allow.
+    #[error("LCP header {field} (byte {offset}): {problem}: {path}")]
+    LcpHeader {
+        field: &'static str,
+        offset: usize,
+        problem: String,
+        path: PathBuf,
+    },
+    /// The `.lcp` ends before its last cell.
+    #[error(
+        "LCP is truncated: {bytes} bytes, where a {width} x {height} grid of {bands} int16 bands needs {expected}; \
+         the cells from column {col}, row {row} on are missing: {path}"
+    )]
+    LcpTruncated {
+        bytes: u64,
+        expected: u64,
+        width: usize,
+        height: usize,
+        bands: usize,
+        col: usize,
+        row: usize,
+        path: PathBuf,
+    },
+    /// The `.prj` beside an `.lcp` cannot be read or parsed.
+    #[error("projection file: {message}: {path}")]
+    Prj { message: String, path: PathBuf },
 }
 
 /// The files of one landscape, by layer. Fuel, slope and aspect are required for fire
@@ -193,7 +275,7 @@ impl LandfireFiles {
     /// unpacks: `LF2022_FBFM40_230_CONUS/LC22_F40_230.tif`) by file-name token.
     pub fn discover(dir: &Path) -> Result<Self, LandfireError> {
         let mut files = Vec::new();
-        collect_tifs(dir, 2, &mut files)?;
+        collect_files(dir, 2, &["tif", "tiff"], &mut files)?;
         files.sort();
         let mut layers: BTreeMap<LayerKind, PathBuf> = BTreeMap::new();
         for path in files {
@@ -226,7 +308,12 @@ impl LandfireFiles {
     }
 }
 
-fn collect_tifs(dir: &Path, depth: usize, out: &mut Vec<PathBuf>) -> Result<(), LandfireError> {
+fn collect_files(
+    dir: &Path,
+    depth: usize,
+    extensions: &[&str],
+    out: &mut Vec<PathBuf>,
+) -> Result<(), LandfireError> {
     let io = |source| LandfireError::Io {
         source,
         path: dir.to_path_buf(),
@@ -235,12 +322,12 @@ fn collect_tifs(dir: &Path, depth: usize, out: &mut Vec<PathBuf>) -> Result<(), 
         let path = entry.map_err(io)?.path();
         if path.is_dir() {
             if depth > 0 {
-                collect_tifs(&path, depth - 1, out)?;
+                collect_files(&path, depth - 1, extensions, out)?;
             }
         } else if path
             .extension()
             .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff"))
+            .is_some_and(|e| extensions.iter().any(|x| e.eq_ignore_ascii_case(x)))
         {
             out.push(path);
         }
@@ -275,6 +362,11 @@ pub struct LayerReport {
 /// What the reader found.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct LandfireReport {
+    /// `LANDFIRE GeoTIFF layers` or `FARSITE .lcp`.
+    pub format: &'static str,
+    /// How each layer was stored, by layer name, and what it was converted from (e.g.
+    /// `ft x 10 (converted to m)`).
+    pub stored_units: BTreeMap<&'static str, String>,
     pub layers: Vec<LayerReport>,
     /// Cells whose fuel code is a non-burnable one (91–99), by code.
     pub nonburnable_cells: BTreeMap<u16, usize>,
@@ -285,7 +377,9 @@ pub struct LandfireReport {
 }
 
 /// A LANDFIRE landscape, row 0 north (file order). Missing values are `NaN` in the float
-/// layers and `None` in `fuel`.
+/// layers and `None` in `fuel`. Read from LANDFIRE's GeoTIFF layers ([`Self::read_dir`]) or a
+/// FARSITE/FlamMap `.lcp` ([`Self::read_lcp`], units converted as its header says);
+/// [`Self::read_path`] takes either.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LandfireLandscape {
     pub grid: LandfireGrid,
@@ -301,15 +395,279 @@ pub struct LandfireLandscape {
     pub canopy_base_height_m: Option<Vec<f32>>,
     pub canopy_bulk_density_kg_m3: Option<Vec<f32>>,
     pub report: LandfireReport,
-    /// The file of each layer read.
+    /// The file of each layer read (the `.lcp` for every layer of one).
     pub files: BTreeMap<LayerKind, PathBuf>,
 }
 
+/// One layer as a reader decoded it, before the shared checks: values in FireCast's unit
+/// (slope still in the layer's own, percent or degrees; fuel codes as read), `NaN` where
+/// nodata.
+#[derive(Debug, Clone)]
+pub(crate) struct DecodedLayer {
+    pub kind: LayerKind,
+    pub path: PathBuf,
+    pub values: Vec<f32>,
+}
+
+impl DecodedLayer {
+    fn nodata_cells(&self) -> usize {
+        self.values.iter().filter(|v| v.is_nan()).count()
+    }
+}
+
+/// Every layer of a landscape as decoded, whatever the format; [`Self::finish`] applies the
+/// checks both formats share.
+#[derive(Debug, Clone)]
+pub(crate) struct DecodedLandscape {
+    pub grid: LandfireGrid,
+    pub fuel_layer: FuelLayer,
+    pub format: &'static str,
+    pub stored_units: BTreeMap<&'static str, String>,
+    pub fuel: DecodedLayer,
+    /// [`LayerKind::SlopePercent`] or [`LayerKind::SlopeDegrees`].
+    pub slope: DecodedLayer,
+    pub aspect: DecodedLayer,
+    /// Elevation, canopy cover, height, base height, bulk density: those present.
+    pub optional: Vec<DecodedLayer>,
+    /// A note for unknown fuel codes (e.g. an LCP's declared custom fuel models).
+    pub fuel_note: Option<String>,
+}
+
+impl DecodedLandscape {
+    /// Classify fuel codes (unknown codes are an error naming the first cell), count nodata,
+    /// check value ranges, turn degrees of slope into percent.
+    pub(crate) fn finish(self) -> Result<LandfireLandscape, LandfireError> {
+        let Self {
+            grid,
+            fuel_layer,
+            format,
+            stored_units,
+            fuel: fuel_layer_values,
+            slope,
+            aspect,
+            optional,
+            fuel_note,
+        } = self;
+        let width = grid.width;
+        let mut report = LandfireReport {
+            format,
+            stored_units,
+            ..LandfireReport::default()
+        };
+        let mut files = BTreeMap::new();
+
+        // Fuel codes.
+        let scheme = fuel_layer.scheme();
+        let mut fuel = Vec::with_capacity(fuel_layer_values.values.len());
+        let mut unknown: BTreeMap<i64, usize> = BTreeMap::new();
+        let mut first_unknown = None;
+        let mut nodata = 0;
+        for (i, &v) in fuel_layer_values.values.iter().enumerate() {
+            if v.is_nan() {
+                nodata += 1;
+                fuel.push(None);
+                continue;
+            }
+            let code = v as i64;
+            let known = v.fract() == 0.0 && (0..=i64::from(u16::MAX)).contains(&code) && {
+                let c = code as u16;
+                crate::geotiff::is_valid_class(scheme, c) && fuel_known(c)
+            };
+            if !known {
+                *unknown.entry(code).or_default() += 1;
+                first_unknown.get_or_insert(i);
+                fuel.push(None);
+                continue;
+            }
+            let c = code as u16;
+            if (91..=99).contains(&c) {
+                *report.nonburnable_cells.entry(c).or_default() += 1;
+            } else {
+                *report.burnable_cells.entry(c).or_default() += 1;
+            }
+            fuel.push(Some(c));
+        }
+        report.fuel_nodata_cells = nodata;
+        report.layers.push(LayerReport {
+            layer: fuel_layer_values.kind.name(),
+            path: fuel_layer_values.path.clone(),
+            nodata_cells: nodata,
+        });
+        if let Some(i) = first_unknown {
+            let count = unknown.values().sum();
+            let codes = unknown
+                .iter()
+                .map(|(c, n)| format!("{c}: {n} cells"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let other = match fuel_layer {
+                FuelLayer::Fbfm40 => FuelLayer::Fbfm13,
+                FuelLayer::Fbfm13 => FuelLayer::Fbfm40,
+            };
+            let other_known = unknown.keys().all(|c| {
+                u16::try_from(*c)
+                    .is_ok_and(|c| crate::geotiff::is_valid_class(other.scheme(), c) && fuel_known(c))
+            });
+            let mut notes = Vec::new();
+            if other_known {
+                notes.push(format!(
+                    "every one of them is an {} code: read the fuel as {}",
+                    other.name(),
+                    other.name()
+                ));
+            }
+            notes.extend(fuel_note);
+            let hint: Box<str> = if notes.is_empty() {
+                "".into()
+            } else {
+                format!("; {}", notes.join("; ")).into()
+            };
+            return Err(LandfireError::UnknownFuelCode {
+                layer: fuel_layer_values.kind.name(),
+                scheme: fuel_layer.name(),
+                count,
+                codes,
+                col: i % width,
+                row: i / width,
+                hint,
+                path: fuel_layer_values.path,
+            });
+        }
+        files.insert(fuel_layer_values.kind, fuel_layer_values.path.clone());
+
+        for layer in std::iter::once(&slope).chain([&aspect]).chain(&optional) {
+            report.layers.push(LayerReport {
+                layer: layer.kind.name(),
+                path: layer.path.clone(),
+                nodata_cells: layer.nodata_cells(),
+            });
+            files.insert(layer.kind, layer.path.clone());
+        }
+
+        // Range checks: the values that would make the kernel meaningless.
+        let bad = |layer: &DecodedLayer, i: usize, problem| LandfireError::BadValue {
+            layer: layer.kind.name(),
+            value: layer.values[i],
+            col: i % width,
+            row: i / width,
+            problem,
+            path: layer.path.clone(),
+        };
+        let slope_kind = slope.kind;
+        let mut slope_percent = slope.values.clone();
+        if slope_kind == LayerKind::SlopeDegrees {
+            for (i, s) in slope_percent.iter_mut().enumerate() {
+                if s.is_nan() {
+                    continue;
+                }
+                if !(0.0..90.0).contains(s) {
+                    return Err(bad(&slope, i, "not a slope in [0, 90) degrees"));
+                }
+                *s = (f64::from(*s).to_radians().tan() * 100.0) as f32;
+            }
+        } else if let Some(i) = slope_percent.iter().position(|s| *s < 0.0) {
+            return Err(bad(&slope, i, "a negative slope"));
+        }
+        if let Some(i) = aspect
+            .values
+            .iter()
+            .position(|a| !a.is_nan() && *a != -1.0 && !(0.0..=360.0).contains(a))
+        {
+            return Err(bad(&aspect, i, "not an aspect in [0, 360] degrees or -1 (flat)"));
+        }
+        for layer in &optional {
+            if matches!(
+                layer.kind,
+                LayerKind::CanopyCover
+                    | LayerKind::CanopyHeight
+                    | LayerKind::CanopyBaseHeight
+                    | LayerKind::CanopyBulkDensity
+            ) && let Some(i) = layer
+                .values
+                .iter()
+                .position(|v| *v < 0.0 || (layer.kind == LayerKind::CanopyCover && *v > 100.0))
+            {
+                return Err(bad(layer, i, "out of range"));
+            }
+        }
+
+        let pick = |kind: LayerKind| optional.iter().find(|l| l.kind == kind).map(|l| l.values.clone());
+        Ok(LandfireLandscape {
+            grid,
+            fuel_layer,
+            fuel,
+            slope_percent,
+            aspect_deg: aspect.values,
+            elevation_m: pick(LayerKind::Elevation),
+            canopy_cover_pct: pick(LayerKind::CanopyCover),
+            canopy_height_m: pick(LayerKind::CanopyHeight),
+            canopy_base_height_m: pick(LayerKind::CanopyBaseHeight),
+            canopy_bulk_density_kg_m3: pick(LayerKind::CanopyBulkDensity),
+            report,
+            files,
+        })
+    }
+}
+
 impl LandfireLandscape {
+    /// Read a landscape from `path`: a folder of LANDFIRE GeoTIFF layers ([`Self::read_dir`]),
+    /// a FARSITE/FlamMap `.lcp` file ([`Self::read_lcp`]), or a folder holding one `.lcp` (and
+    /// its `.prj`) and no layer GeoTIFFs.
+    pub fn read_path(path: &Path, fuel: FuelLayer) -> Result<Self, LandfireError> {
+        if path.is_dir() {
+            let files = LandfireFiles::discover(path)?;
+            let mut lcps = Vec::new();
+            collect_files(path, 2, &["lcp"], &mut lcps)?;
+            lcps.sort();
+            return match (files.layers.is_empty(), lcps.as_slice()) {
+                (true, [one]) => Self::read_lcp(one, fuel),
+                (true, [_, _, ..]) => Err(LandfireError::NotALandscape {
+                    found: format!(
+                        "this folder holds {} .lcp files ({}); name the one to read",
+                        lcps.len(),
+                        lcps.iter()
+                            .map(|p| p.display().to_string())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                    path: path.to_path_buf(),
+                }),
+                (false, [first, ..]) => Err(LandfireError::NotALandscape {
+                    found: format!(
+                        "this folder holds both LANDFIRE layer GeoTIFFs and {}; name the .lcp, or keep them apart",
+                        first.display()
+                    ),
+                    path: path.to_path_buf(),
+                }),
+                _ => Self::read(&files, fuel, path),
+            };
+        }
+        let is_lcp = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("lcp"));
+        if is_lcp {
+            Self::read_lcp(path, fuel)
+        } else if !path.exists() {
+            // Names the missing folder as reading it does.
+            Self::read_dir(path, fuel)
+        } else {
+            Err(LandfireError::NotALandscape {
+                found: "this is a single file, not an .lcp".to_string(),
+                path: path.to_path_buf(),
+            })
+        }
+    }
+
     /// Read the landscape in `dir` (see [`LandfireFiles::discover`]) with the given fuel layer.
     pub fn read_dir(dir: &Path, fuel: FuelLayer) -> Result<Self, LandfireError> {
         let files = LandfireFiles::discover(dir)?;
         Self::read(&files, fuel, dir)
+    }
+
+    /// Read a FARSITE/FlamMap `.lcp` (see [`crate::lcp`]) with the given fuel layer.
+    pub fn read_lcp(path: &Path, fuel: FuelLayer) -> Result<Self, LandfireError> {
+        crate::lcp::decode(path, fuel)?.finish()
     }
 
     /// Read the given files. `dir` is only used to name the landscape in errors.
@@ -351,7 +709,20 @@ impl LandfireLandscape {
         };
         let aspect_path = require(LayerKind::Aspect, "Asp or aspect")?;
 
-        let fuel_raster = read_geotiff(fuel_path)?;
+        let layer_err = |kind: LayerKind| {
+            move |source| LandfireError::Layer {
+                layer: kind.name(),
+                source,
+            }
+        };
+        let fuel_raster = read_geotiff(fuel_path).map_err(layer_err(fuel_kind))?;
+        if is_geographic(&fuel_raster) {
+            return Err(LandfireError::GeographicCrs {
+                layer: fuel_kind.name(),
+                crs: fuel_raster.crs.clone(),
+                path: fuel_path.clone(),
+            });
+        }
         let grid = LandfireGrid {
             width: fuel_raster.width,
             height: fuel_raster.height,
@@ -360,179 +731,110 @@ impl LandfireLandscape {
             origin_y: fuel_raster.origin_y,
             pixel_dx: fuel_raster.pixel_dx,
             pixel_dy: fuel_raster.pixel_dy,
-            geokeys: crate::gridio::GeoKeyTags::read(fuel_path)?,
+            geokeys: crate::gridio::GeoKeyTags::read(fuel_path).map_err(layer_err(fuel_kind))?,
         };
-        let mut report = LandfireReport::default();
-        let mut read_files = BTreeMap::new();
-        read_files.insert(fuel_kind, fuel_path.clone());
-
-        // Fuel codes.
-        let scheme = fuel_layer.scheme();
-        let mut fuel = Vec::with_capacity(fuel_raster.data.len());
-        let mut unknown: BTreeMap<i64, usize> = BTreeMap::new();
-        let mut first_unknown = None;
-        let mut nodata = 0;
-        for (i, &v) in fuel_raster.data.iter().enumerate() {
-            if is_nodata(&fuel_raster, v) {
-                nodata += 1;
-                fuel.push(None);
-                continue;
-            }
-            let code = v as i64;
-            let known = v.fract() == 0.0 && (0..=i64::from(u16::MAX)).contains(&code) && {
-                let c = code as u16;
-                crate::geotiff::is_valid_class(scheme, c) && fuel_known(c)
-            };
-            if !known {
-                *unknown.entry(code).or_default() += 1;
-                first_unknown.get_or_insert(i);
-                fuel.push(None);
-                continue;
-            }
-            let c = code as u16;
-            if (91..=99).contains(&c) {
-                *report.nonburnable_cells.entry(c).or_default() += 1;
-            } else {
-                *report.burnable_cells.entry(c).or_default() += 1;
-            }
-            fuel.push(Some(c));
-        }
-        report.fuel_nodata_cells = nodata;
-        report.layers.push(LayerReport {
-            layer: fuel_kind.name(),
-            path: fuel_path.clone(),
-            nodata_cells: nodata,
-        });
-        if let Some(i) = first_unknown {
-            let count = unknown.values().sum();
-            let codes = unknown
-                .iter()
-                .map(|(c, n)| format!("{c}: {n} cells"))
-                .collect::<Vec<_>>()
-                .join(", ");
-            return Err(LandfireError::UnknownFuelCode {
-                layer: fuel_kind.name(),
-                scheme: fuel_layer.name(),
-                count,
-                codes,
-                col: i % grid.width,
-                row: i / grid.width,
-                path: fuel_path.clone(),
-            });
-        }
-
-        let mut read_layer = |kind: LayerKind, path: &Path| -> Result<Vec<f32>, LandfireError> {
-            let raster = read_geotiff(path)?;
-            check_same_grid(kind, fuel_path, &fuel_raster, path, &raster)?;
-            let scale = kind.scale();
-            let mut nodata = 0;
-            let data: Vec<f32> = raster
+        let decode = |kind: LayerKind, raster: &GeoRaster, path: &Path| DecodedLayer {
+            kind,
+            path: path.to_path_buf(),
+            values: raster
                 .data
                 .iter()
                 .map(|&v| {
-                    if is_nodata(&raster, v) {
-                        nodata += 1;
+                    if is_nodata(raster, v) {
                         f32::NAN
                     } else {
-                        v * scale
+                        v * kind.scale()
                     }
                 })
-                .collect();
-            report.layers.push(LayerReport {
-                layer: kind.name(),
-                path: path.to_path_buf(),
-                nodata_cells: nodata,
-            });
-            read_files.insert(kind, path.to_path_buf());
-            Ok(data)
+                .collect(),
         };
-
-        let mut slope_percent = read_layer(slope_kind, slope_path)?;
-        let aspect_deg = read_layer(LayerKind::Aspect, aspect_path)?;
-        let mut optional = |kind: LayerKind| -> Result<Option<Vec<f32>>, LandfireError> {
-            files.layers.get(&kind).map(|p| read_layer(kind, p)).transpose()
+        let fuel = decode(fuel_kind, &fuel_raster, fuel_path);
+        let read_layer = |kind: LayerKind, path: &Path| -> Result<DecodedLayer, LandfireError> {
+            let raster = read_geotiff(path).map_err(layer_err(kind))?;
+            check_same_grid(kind, fuel_path, &fuel_raster, path, &raster)?;
+            Ok(decode(kind, &raster, path))
         };
-        let elevation_m = optional(LayerKind::Elevation)?;
-        let canopy_cover_pct = optional(LayerKind::CanopyCover)?;
-        let canopy_height_m = optional(LayerKind::CanopyHeight)?;
-        let canopy_base_height_m = optional(LayerKind::CanopyBaseHeight)?;
-        let canopy_bulk_density_kg_m3 = optional(LayerKind::CanopyBulkDensity)?;
-
-        // Range checks: the values that would make the kernel meaningless.
-        let bad = |kind: LayerKind, path: &Path, i: usize, value: f32, problem| LandfireError::BadValue {
-            layer: kind.name(),
-            value,
-            col: i % grid.width,
-            row: i / grid.width,
-            problem,
-            path: path.to_path_buf(),
-        };
-        if slope_kind == LayerKind::SlopeDegrees {
-            for (i, s) in slope_percent.iter_mut().enumerate() {
-                if s.is_nan() {
-                    continue;
-                }
-                if !(0.0..90.0).contains(s) {
-                    return Err(bad(
-                        slope_kind,
-                        slope_path,
-                        i,
-                        *s,
-                        "not a slope in [0, 90) degrees",
-                    ));
-                }
-                *s = (f64::from(*s).to_radians().tan() * 100.0) as f32;
-            }
-        } else if let Some(i) = slope_percent.iter().position(|s| *s < 0.0) {
-            return Err(bad(
-                slope_kind,
-                slope_path,
-                i,
-                slope_percent[i],
-                "a negative slope",
-            ));
-        }
-        if let Some(i) = aspect_deg
-            .iter()
-            .position(|a| !a.is_nan() && *a != -1.0 && !(0.0..=360.0).contains(a))
-        {
-            return Err(bad(
-                LayerKind::Aspect,
-                aspect_path,
-                i,
-                aspect_deg[i],
-                "not an aspect in [0, 360] degrees or -1 (flat)",
-            ));
-        }
-        for (kind, layer) in [
-            (LayerKind::CanopyCover, &canopy_cover_pct),
-            (LayerKind::CanopyHeight, &canopy_height_m),
-            (LayerKind::CanopyBaseHeight, &canopy_base_height_m),
-            (LayerKind::CanopyBulkDensity, &canopy_bulk_density_kg_m3),
+        let slope = read_layer(slope_kind, slope_path)?;
+        let aspect = read_layer(LayerKind::Aspect, aspect_path)?;
+        let mut optional = Vec::new();
+        for kind in [
+            LayerKind::Elevation,
+            LayerKind::CanopyCover,
+            LayerKind::CanopyHeight,
+            LayerKind::CanopyBaseHeight,
+            LayerKind::CanopyBulkDensity,
         ] {
-            if let Some(values) = layer
-                && let Some(i) = values
-                    .iter()
-                    .position(|v| *v < 0.0 || (kind == LayerKind::CanopyCover && *v > 100.0))
-            {
-                return Err(bad(kind, &files.layers[&kind], i, values[i], "out of range"));
+            if let Some(path) = files.layers.get(&kind) {
+                optional.push(read_layer(kind, path)?);
             }
         }
-
-        Ok(Self {
+        let mut stored_units = BTreeMap::new();
+        stored_units.insert(fuel_kind.name(), "fuel model number".to_string());
+        for layer in std::iter::once(&slope).chain([&aspect]).chain(&optional) {
+            stored_units.insert(layer.kind.name(), layer.kind.landfire_unit().to_string());
+        }
+        DecodedLandscape {
             grid,
             fuel_layer,
+            format: "LANDFIRE GeoTIFF layers",
+            stored_units,
             fuel,
-            slope_percent,
-            aspect_deg,
-            elevation_m,
-            canopy_cover_pct,
-            canopy_height_m,
-            canopy_base_height_m,
-            canopy_bulk_density_kg_m3,
-            report,
-            files: read_files,
-        })
+            slope,
+            aspect,
+            optional,
+            fuel_note: None,
+        }
+        .finish()
+    }
+
+    /// Check that every cell with a burnable fuel model has the values fire behaviour needs
+    /// there: slope and aspect, and (`canopy`) every canopy layer the landscape has. A cell
+    /// lacking one is an error naming the layer's file, the count and the first cell.
+    pub fn check_burnable_cells(&self, canopy: bool) -> Result<(), LandfireError> {
+        let mut layers: Vec<(LayerKind, &[f32])> = Vec::new();
+        let slope_kind = if self.files.contains_key(&LayerKind::SlopePercent) {
+            LayerKind::SlopePercent
+        } else {
+            LayerKind::SlopeDegrees
+        };
+        layers.push((slope_kind, &self.slope_percent));
+        layers.push((LayerKind::Aspect, &self.aspect_deg));
+        if canopy {
+            for (kind, values) in [
+                (LayerKind::CanopyCover, &self.canopy_cover_pct),
+                (LayerKind::CanopyHeight, &self.canopy_height_m),
+                (LayerKind::CanopyBaseHeight, &self.canopy_base_height_m),
+                (LayerKind::CanopyBulkDensity, &self.canopy_bulk_density_kg_m3),
+            ] {
+                if let Some(v) = values {
+                    layers.push((kind, v));
+                }
+            }
+        }
+        for (kind, values) in layers {
+            let mut first = None;
+            let mut count = 0;
+            for (i, (code, v)) in self.fuel.iter().zip(values).enumerate() {
+                if let Some(code) = code
+                    && !(91..=99).contains(code)
+                    && v.is_nan()
+                {
+                    count += 1;
+                    first.get_or_insert((i, *code));
+                }
+            }
+            if let Some((i, fuel)) = first {
+                return Err(LandfireError::NodataAtBurnableCell {
+                    layer: kind.name(),
+                    count,
+                    col: i % self.grid.width,
+                    row: i / self.grid.width,
+                    fuel,
+                    path: self.files.get(&kind).cloned().unwrap_or_default(),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Number of cells.
@@ -554,6 +856,16 @@ impl LandfireLandscape {
 /// 99, and the Scott & Burgan numbers): kept in sync with `firecast-sim`'s `fuel.rs`.
 fn fuel_known(code: u16) -> bool {
     matches!(code, 1..=13 | 91..=95 | 98 | 99 | 101..=109 | 121..=124 | 141..=149 | 161..=165 | 181..=189 | 201..=204)
+}
+
+/// Whether a raster's CRS is geographic (GeoKey model type 2, or no model type and only a
+/// geographic CRS key).
+fn is_geographic(raster: &GeoRaster) -> bool {
+    let k = &raster.geokeys;
+    match k.model_type {
+        Some(m) => m == 2,
+        None => k.projected_cs_type.is_none() && k.geographic_type.is_some(),
+    }
 }
 
 fn is_nodata(raster: &GeoRaster, v: f32) -> bool {

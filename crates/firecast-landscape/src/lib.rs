@@ -15,6 +15,8 @@
 //! - [`geotiff`]: single-band GeoTIFF land cover / elevation with georeferencing;
 //! - [`landfire`]: LANDFIRE landscapes (fuel models, slope, aspect, elevation, canopy layers)
 //!   as LANDFIRE ships them, with nodata and unknown codes counted;
+//! - [`lcp`]: FARSITE/FlamMap `.lcp` landscape files, read into the same landscape with their
+//!   units converted; [`prj`]: the CRS of a `.prj` sidecar (ESRI/OGC WKT);
 //! - [`gridio`]: float32 GeoTIFF grids written with the input's georeference;
 //! - [`srtm`]: SRTM `.hgt` tiles;
 //! - [`firecastrl`]: FireCastRL palette PNG + 16-bit heightmap PNG (docs/spec/fire-model.md §A2);
@@ -27,6 +29,8 @@ pub mod georef;
 pub mod geotiff;
 pub mod gridio;
 pub mod landfire;
+pub mod lcp;
+pub mod prj;
 pub mod procedural;
 mod resample;
 pub mod srtm;

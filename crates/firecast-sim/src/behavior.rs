@@ -1,5 +1,6 @@
 //! Fire behaviour grids: the behave kernel ([`crate::rothermel`]) at every cell of a LANDFIRE
-//! landscape, as FlamMap's "basic fire behaviour" computes it for a surface fire.
+//! landscape (LANDFIRE's GeoTIFF layers or a FARSITE/FlamMap `.lcp`, read into one
+//! [`LandfireLandscape`]), as FlamMap's "basic fire behaviour" computes it for a surface fire.
 //!
 //! Per cell, with one set of moistures and one 20-ft wind for the whole landscape:
 //!
@@ -316,13 +317,18 @@ pub fn surface_behavior_grids(
     params: &BehaviorParams,
 ) -> Result<BehaviorGrids, crate::RothermelError> {
     let moisture = params.moisture.fractions();
-    let mut beds: BTreeMap<u16, (SurfaceFuelBed, f64)> = BTreeMap::new();
-    for code in land.fuel.iter().flatten() {
+    // One prepared bed per code present, indexed by code.
+    let mut beds: Vec<Option<(SurfaceFuelBed, f64)>> = Vec::new();
+    for &code in land.fuel.iter().flatten() {
         // The reader only lets through codes the fuel table holds; any other is nodata here.
-        if let std::collections::btree_map::Entry::Vacant(slot) = beds.entry(*code)
-            && let Some(model) = FuelModel::by_number(*code)
+        let k = usize::from(code);
+        if k >= beds.len() {
+            beds.resize(k + 1, None);
+        }
+        if beds[k].is_none()
+            && let Some(model) = FuelModel::by_number(code)
         {
-            slot.insert((SurfaceFuelBed::new(model, &moisture)?, model.depth_ft));
+            beds[k] = Some((SurfaceFuelBed::new(model, &moisture)?, model.depth_ft));
         }
     }
     let (width, height) = (land.grid.width, land.grid.height);
@@ -345,7 +351,7 @@ pub fn surface_behavior_grids(
         if slope.is_nan() || aspect.is_nan() {
             return none;
         }
-        let Some((bed, depth)) = beds.get(&code) else {
+        let Some((bed, depth)) = beds.get(usize::from(code)).and_then(Option::as_ref) else {
             return none;
         };
         let mut slope = f64::from(slope);
@@ -354,7 +360,7 @@ pub fn surface_behavior_grids(
         }
         // LANDFIRE's flat aspect −1 enters an `.lcp` as 0 (north-facing), so FlamMap's upslope
         // there is south; it reports that direction even where the slope rounds to 0.
-        let upslope = (f64::from(aspect.max(0.0)) + 180.0).rem_euclid(360.0);
+        let upslope = wrap_degrees(f64::from(aspect.max(0.0)) + 180.0);
         let cover = land
             .canopy_cover_pct
             .as_ref()
@@ -368,15 +374,20 @@ pub fn surface_behavior_grids(
         } else {
             (cover, canopy_ft)
         };
-        let midflame = params.wind_20ft_mph * wind_adjustment_factor(*depth, canopy_ft, cover);
+        // Without wind the midflame wind is 0 whatever the adjustment factor (always finite).
+        let midflame = if params.wind_20ft_mph > 0.0 {
+            params.wind_20ft_mph * wind_adjustment_factor(*depth, canopy_ft, cover)
+        } else {
+            0.0
+        };
         let inputs = SpreadInputs {
             midflame_wind_mph: midflame,
             slope_percent: slope,
-            wind_dir_from_upslope_deg: (wind_toward - upslope).rem_euclid(360.0),
+            wind_dir_from_upslope_deg: wrap_degrees(wind_toward - upslope),
         };
         let fire = bed.spread_with_limit(&inputs, limit);
         if fire.head_ros_ftmin > 0.0 {
-            let dir = (upslope + fire.dir_max_spread_from_upslope_deg).rem_euclid(360.0);
+            let dir = wrap_degrees(upslope + fire.dir_max_spread_from_upslope_deg);
             let canopy = Canopy {
                 cover_pct: layer(&land.canopy_cover_pct, i),
                 height_m: layer(&land.canopy_height_m, i),
@@ -391,7 +402,21 @@ pub fn surface_behavior_grids(
             ]
             .iter()
             .all(|v| v.is_finite());
-            if params.crown != CrownMethod::None && canopy_known && canopy.has_canopy() {
+            // `crown_fire` gives no crown fire below Van Wagner's critical surface intensity (with
+            // FlamMap's guard on a zero base height); that test first, so Rothermel's crown rate
+            // (a second kernel evaluation) is computed only where the canopy can ignite.
+            let may_ignite = || {
+                let cbh = if canopy.base_height_m == 0.0 {
+                    0.01
+                } else {
+                    canopy.base_height_m
+                };
+                let fli_kw = fire.fireline_intensity_btu_ft_s * crate::crown::KW_M_PER_BTU_FT_S;
+                fli_kw > 0.0
+                    && fli_kw
+                        >= crate::crown::critical_surface_intensity_kw_m(cbh, params.foliar_moisture_pct)
+            };
+            if params.crown != CrownMethod::None && canopy_known && canopy.has_canopy() && may_ignite() {
                 let crown_wind = params.wind_20ft_mph * crate::crown::CROWN_WIND_REDUCTION;
                 let crown_inputs = SpreadInputs {
                     midflame_wind_mph: crown_wind,
@@ -418,7 +443,7 @@ pub fn surface_behavior_grids(
                     r_sa,
                 ) {
                     let dir = if crown.crown_spread {
-                        (upslope + fm10_fire.dir_max_spread_from_upslope_deg).rem_euclid(360.0)
+                        wrap_degrees(upslope + fm10_fire.dir_max_spread_from_upslope_deg)
                     } else {
                         dir
                     };
@@ -444,19 +469,51 @@ pub fn surface_behavior_grids(
             [0.0, 0.0, 0.0, nodata, FIRE_TYPE_NONE, midflame as f32]
         }
     };
-    let values: Vec<[f32; 6]> = (0..width * height).into_par_iter().map(cell).collect();
-    let column = |k: usize| values.iter().map(|v| v[k]).collect::<Vec<f32>>();
+    let n = width * height;
+    let mut columns: [Vec<f32>; 6] = std::array::from_fn(|_| vec![0.0; n]);
+    let [ros, flame, intensity, dir, fire_type, midflame] = &mut columns;
+    (
+        ros.par_iter_mut(),
+        flame.par_iter_mut(),
+        intensity.par_iter_mut(),
+        dir.par_iter_mut(),
+        fire_type.par_iter_mut(),
+        midflame.par_iter_mut(),
+    )
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(i, (a, b, c, d, e, f))| {
+            [*a, *b, *c, *d, *e, *f] = cell(i);
+        });
+    let [ros, flame, intensity, dir, fire_type, midflame] = columns;
     Ok(BehaviorGrids {
         width,
         height,
         nodata,
-        ros_chph: column(0),
-        flame_length_ft: column(1),
-        fireline_intensity_btu_ft_s: column(2),
-        max_spread_dir_deg: column(3),
-        fire_type: column(4),
-        midflame_wind_mph: column(5),
+        ros_chph: ros,
+        flame_length_ft: flame,
+        fireline_intensity_btu_ft_s: intensity,
+        max_spread_dir_deg: dir,
+        fire_type,
+        midflame_wind_mph: midflame,
     })
+}
+
+/// `x.rem_euclid(360.0)`, bit for bit, without the `fmod` call for the angles the grid meets
+/// (−360° < x < 720°).
+#[inline]
+fn wrap_degrees(x: f64) -> f64 {
+    if (0.0..360.0).contains(&x) {
+        x
+    } else if (360.0..720.0).contains(&x) {
+        // Exact (Sterbenz), as fmod is.
+        x - 360.0
+    } else if -360.0 < x && x < 0.0 {
+        // fmod leaves x as it is; rem_euclid then adds 360.
+        x + 360.0
+    } else {
+        x.rem_euclid(360.0)
+    }
 }
 
 const FT_TO_M: f64 = 0.3048;
@@ -534,6 +591,10 @@ fn range_over(values: &[f32], mask: &[bool]) -> Option<Range> {
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct BehaviorSummary {
     pub landscape: PathBuf,
+    /// `LANDFIRE GeoTIFF layers` or `FARSITE .lcp`.
+    pub landscape_format: &'static str,
+    /// How each input layer was stored (and what it was converted from), by layer.
+    pub layer_units: BTreeMap<&'static str, String>,
     pub width: usize,
     pub height: usize,
     pub crs: String,
@@ -605,6 +666,8 @@ pub fn summarize(
             .and_then(|p| p.parent())
             .map(Path::to_path_buf)
             .unwrap_or_default(),
+        landscape_format: land.report.format,
+        layer_units: land.report.stored_units.clone(),
         width: grids.width,
         height: grids.height,
         crs: land.grid.crs.clone(),
@@ -681,19 +744,23 @@ pub enum BehaviorError {
     Io { source: std::io::Error, path: PathBuf },
 }
 
-/// Read the landscape, compute the grids and write them with the summary into `out` (a
+/// Read the landscape (a LANDFIRE folder or a FARSITE `.lcp`:
+/// [`LandfireLandscape::read_path`]), check that every burnable cell has the layers the
+/// kernel needs there ([`LandfireLandscape::check_burnable_cells`]; the canopy layers too
+/// unless crown fire is off), compute the grids and write them with the summary into `out` (a
 /// folder): staged in a temporary sibling folder and renamed into place, so `out` is either
 /// the old folder or the complete new one. Nothing is written when an input is bad.
 pub fn run_behavior(
-    landscape_dir: &Path,
+    landscape: &Path,
     params: &BehaviorParams,
     out: &Path,
 ) -> Result<BehaviorSummary, BehaviorError> {
     params.validate()?;
-    let land = LandfireLandscape::read_dir(landscape_dir, params.fuel.layer())?;
+    let land = LandfireLandscape::read_path(landscape, params.fuel.layer())?;
+    land.check_burnable_cells(params.crown != CrownMethod::None)?;
     let grids = surface_behavior_grids(&land, params)?;
     let mut summary = summarize(&land, params, &grids);
-    summary.landscape = landscape_dir.to_path_buf();
+    summary.landscape = landscape.to_path_buf();
     write_outputs(&land, &grids, &summary, out)?;
     Ok(summary)
 }
@@ -755,6 +822,29 @@ mod tests {
         // 23 % is 12.95°, kept as 13° = 23.087 %.
         assert!((lcp_slope_percent(23.0) - 23.0868).abs() < 1e-4);
         assert!((lcp_slope_percent(100.0) - 100.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn wrapped_degrees_equal_rem_euclid_bit_for_bit() {
+        let mut x = -800.0f64;
+        while x < 800.0 {
+            for v in [x, x + 1e-13, x - 1e-13, -x * 1e-17] {
+                assert_eq!(wrap_degrees(v).to_bits(), v.rem_euclid(360.0).to_bits(), "{v}");
+            }
+            x += 0.37;
+        }
+        for v in [
+            -720.0,
+            -360.0,
+            -0.0,
+            0.0,
+            360.0,
+            720.0,
+            -1e-300,
+            359.999_999_999_999_94,
+        ] {
+            assert_eq!(wrap_degrees(v).to_bits(), v.rem_euclid(360.0).to_bits(), "{v}");
+        }
     }
 
     #[test]

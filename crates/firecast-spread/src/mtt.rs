@@ -64,6 +64,15 @@ pub enum MttError {
     },
     #[error(transparent)]
     Rothermel(#[from] RothermelError),
+    #[error("{layer} has {got} cells, expected {width} x {height}")]
+    GridSize {
+        layer: &'static str,
+        got: usize,
+        width: usize,
+        height: usize,
+    },
+    #[error("cell size must be positive and finite, got {0} ft")]
+    CellSize(f64),
 }
 
 /// Per-cell spread ellipses of a landscape: head rate, eccentricity and head direction.
@@ -172,6 +181,53 @@ impl MttGrid {
         })
     }
 
+    /// Per-cell ellipses computed elsewhere (e.g. from a LANDFIRE landscape's own slope, aspect
+    /// and canopy layers), cell index `y * width + x` with row 0 south as in a [`Landscape`]:
+    /// head rate in ft/min (0, or not finite, where the cell does not burn), eccentricity in
+    /// [0, 1), and the head's azimuth in degrees clockwise from north.
+    pub fn from_ellipses(
+        width: usize,
+        height: usize,
+        cell_size_ft: f64,
+        head_ftmin: Vec<f64>,
+        eccentricity: Vec<f64>,
+        head_azimuth_deg: &[f64],
+    ) -> Result<Self, MttError> {
+        let n = width * height;
+        for (layer, got) in [
+            ("head_ftmin", head_ftmin.len()),
+            ("eccentricity", eccentricity.len()),
+            ("head_azimuth_deg", head_azimuth_deg.len()),
+        ] {
+            if got != n || n == 0 {
+                return Err(MttError::GridSize {
+                    layer,
+                    got,
+                    width,
+                    height,
+                });
+            }
+        }
+        if !(cell_size_ft > 0.0 && cell_size_ft.is_finite()) {
+            return Err(MttError::CellSize(cell_size_ft));
+        }
+        let head_ftmin = head_ftmin
+            .into_iter()
+            .map(|r| if r.is_finite() && r > 0.0 { r } else { 0.0 })
+            .collect();
+        Ok(Self {
+            width,
+            height,
+            cell_size_ft,
+            head_ftmin,
+            eccentricity,
+            head_dir: head_azimuth_deg
+                .iter()
+                .map(|a| a.to_radians().sin_cos())
+                .collect(),
+        })
+    }
+
     /// Rate of spread in cell `i` toward the unit direction (ux east, uy north), ft/min:
     /// R·(1 − e)/(1 − e·cos ψ), ψ the angle from the head direction.
     #[inline]
@@ -195,73 +251,298 @@ impl MttGrid {
         stencil_radius: u32,
         max_time_h: f64,
     ) -> Result<Vec<f64>, MttError> {
-        if !(1..=8).contains(&stencil_radius) {
-            return Err(MttError::StencilRadius(stencil_radius));
+        let mut ellipses = self;
+        let grid = GridShape {
+            width: self.width,
+            height: self.height,
+            cell_size_ft: self.cell_size_ft,
+        };
+        let reached = dijkstra(&mut ellipses, grid, ignitions, stencil_radius, max_time_h)?;
+        let mut t = vec![f64::INFINITY; self.width * self.height];
+        for (i, h) in reached {
+            t[i] = h;
         }
-        if !(max_time_h > 0.0 && max_time_h.is_finite()) {
-            return Err(MttError::MaxTime(max_time_h));
+        Ok(t)
+    }
+}
+
+/// One cell's spread ellipse: head rate in ft/min (0, or not finite, where the cell does not
+/// burn), eccentricity in [0, 1), the head's azimuth in degrees clockwise from north.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ellipse {
+    pub head_ftmin: f64,
+    pub eccentricity: f64,
+    pub head_azimuth_deg: f64,
+}
+
+/// What [`arrival_times_lazy_h`] computed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LazyRun {
+    /// The cells the fire reaches by the time limit, (cell index, arrival time in hours), in
+    /// order of arrival; every other cell is not reached.
+    pub reached_h: Vec<(usize, f64)>,
+    /// Cells whose ellipse was evaluated (the cells the fire's moves reached or crossed).
+    pub ellipses_evaluated: usize,
+}
+
+impl LazyRun {
+    /// Arrival time per cell in hours, `f64::INFINITY` where not reached (as
+    /// [`MttGrid::arrival_times_h`] gives it).
+    pub fn arrival_h(&self, cells: usize) -> Vec<f64> {
+        let mut t = vec![f64::INFINITY; cells];
+        for &(i, h) in &self.reached_h {
+            t[i] = h;
         }
-        let (w, h) = (self.width, self.height);
-        let moves = stencil(stencil_radius as i32);
-        let max_min = max_time_h * 60.0;
-        let mut t = vec![f64::INFINITY; w * h];
-        let mut done = vec![false; w * h];
-        let mut heap = BinaryHeap::new();
-        for &(x, y) in ignitions {
-            if x >= w || y >= h {
-                return Err(MttError::IgnitionOutside {
-                    x,
-                    y,
-                    width: w,
-                    height: h,
-                });
-            }
-            let i = y * w + x;
-            if self.burnable(i) {
-                t[i] = 0.0;
-                heap.push(Entry { t: 0.0, i });
-            }
+        t
+    }
+}
+
+/// [`MttGrid::arrival_times_h`] with the per-cell ellipses computed on first use, by
+/// `ellipse(i)` for cell index `i = y * width + x` (row 0 south): a small fire on a large
+/// landscape evaluates the kernel only where its moves go. The arrival times are the ones an
+/// [`MttGrid::from_ellipses`] of every cell's ellipse gives, bit for bit.
+pub fn arrival_times_lazy_h(
+    width: usize,
+    height: usize,
+    cell_size_ft: f64,
+    ellipse: impl FnMut(usize) -> Ellipse,
+    ignitions: &[(usize, usize)],
+    stencil_radius: u32,
+    max_time_h: f64,
+) -> Result<LazyRun, MttError> {
+    if width == 0 || height == 0 {
+        return Err(MttError::GridSize {
+            layer: "grid",
+            got: 0,
+            width,
+            height,
+        });
+    }
+    if !(cell_size_ft > 0.0 && cell_size_ft.is_finite()) {
+        return Err(MttError::CellSize(cell_size_ft));
+    }
+    let n = width * height;
+    if n >= u32::MAX as usize {
+        return Err(MttError::GridSize {
+            layer: "grid",
+            got: n,
+            width,
+            height,
+        });
+    }
+    let mut lazy = LazyEllipses {
+        ellipse,
+        slot: vec![0; n],
+        cells: Vec::new(),
+    };
+    let grid = GridShape {
+        width,
+        height,
+        cell_size_ft,
+    };
+    let reached = dijkstra(&mut lazy, grid, ignitions, stencil_radius, max_time_h)?;
+    Ok(LazyRun {
+        reached_h: reached,
+        ellipses_evaluated: lazy.cells.len(),
+    })
+}
+
+#[derive(Debug, Clone, Copy)]
+struct GridShape {
+    width: usize,
+    height: usize,
+    cell_size_ft: f64,
+}
+
+/// The rates the engine reads: an [`MttGrid`]'s, or [`LazyEllipses`].
+trait Rates {
+    /// 1 / the rate of spread in cell `i` along stencil move `m`, min/ft; `None` where the fire
+    /// does not spread that way (no rate, or not a number).
+    fn inverse_rate(&mut self, i: usize, m: &Move) -> Option<f64>;
+    fn burnable(&mut self, i: usize) -> bool;
+}
+
+/// 1/r, or `None` where r is not a positive number.
+#[inline]
+fn inverse_of(r: f64) -> Option<f64> {
+    if r.is_nan() || r <= 0.0 {
+        None
+    } else {
+        Some(1.0 / r)
+    }
+}
+
+impl Rates for &MttGrid {
+    #[inline]
+    fn inverse_rate(&mut self, i: usize, m: &Move) -> Option<f64> {
+        inverse_of(MttGrid::ros_toward_ftmin(self, i, m.ux, m.uy))
+    }
+
+    fn burnable(&mut self, i: usize) -> bool {
+        MttGrid::burnable(self, i)
+    }
+}
+
+/// Ellipses computed on first use, stored as [`MttGrid::from_ellipses`] stores them (head
+/// rate, eccentricity, sine and cosine of the head's azimuth) in the order they were first
+/// needed; `slot[i]` is 1 + the place of cell `i`'s (0: not yet evaluated). The slot table is
+/// zero-filled, so a small fire on a large grid touches only the memory around it.
+struct LazyEllipses<F> {
+    ellipse: F,
+    slot: Vec<u32>,
+    cells: Vec<[f64; 4]>,
+}
+
+impl<F: FnMut(usize) -> Ellipse> LazyEllipses<F> {
+    /// Cell `i`'s ellipse, evaluated the first time.
+    #[inline]
+    fn get(&mut self, i: usize) -> [f64; 4] {
+        let slot = self.slot[i] as usize;
+        if slot > 0 {
+            return self.cells[slot - 1];
         }
-        while let Some(Entry { t: ti, i }) = heap.pop() {
-            if done[i] || ti > t[i] {
+        let e = (self.ellipse)(i);
+        let head = if e.head_ftmin.is_finite() && e.head_ftmin > 0.0 {
+            e.head_ftmin
+        } else {
+            0.0
+        };
+        let (s, c) = e.head_azimuth_deg.to_radians().sin_cos();
+        let cell = [head, e.eccentricity, s, c];
+        self.cells.push(cell);
+        self.slot[i] = self.cells.len() as u32;
+        cell
+    }
+}
+
+impl<F: FnMut(usize) -> Ellipse> Rates for LazyEllipses<F> {
+    #[inline]
+    fn inverse_rate(&mut self, i: usize, m: &Move) -> Option<f64> {
+        // As MttGrid::ros_toward_ftmin computes it, so the sums are the same.
+        let [head, e, s, c] = self.get(i);
+        inverse_of(head * (1.0 - e) / (1.0 - e * (m.ux * s + m.uy * c)))
+    }
+
+    fn burnable(&mut self, i: usize) -> bool {
+        self.get(i)[0] > 0.0
+    }
+}
+
+/// Dijkstra over the stencil (the module documentation); the cells reached by `max_time_h`
+/// with their arrival times in hours, in order of arrival.
+///
+/// A move's travel time adds the pieces' 1/rate in order along the segment (a cell crossed by
+/// several consecutive pieces is evaluated once and its 1/rate added once per piece: the same
+/// sum). A move is dropped as soon as its partial cost shows that its end cell's time cannot
+/// improve or will exceed `max_time_h` (every later piece only adds; the test keeps a margin of
+/// 10⁻⁹ over the rounding of the time's own formula), which changes no arrival time up to
+/// `max_time_h`. Per-cell state is zero-filled, so a small fire on a large grid touches only
+/// the memory around it.
+fn dijkstra<R: Rates>(
+    rates: &mut R,
+    grid: GridShape,
+    ignitions: &[(usize, usize)],
+    stencil_radius: u32,
+    max_time_h: f64,
+) -> Result<Vec<(usize, f64)>, MttError> {
+    const UNREACHED: u8 = 0;
+    const TENTATIVE: u8 = 1;
+    const DONE: u8 = 2;
+    if !(1..=8).contains(&stencil_radius) {
+        return Err(MttError::StencilRadius(stencil_radius));
+    }
+    if !(max_time_h > 0.0 && max_time_h.is_finite()) {
+        return Err(MttError::MaxTime(max_time_h));
+    }
+    let (w, h) = (grid.width, grid.height);
+    let moves = stencil(stencil_radius as i32);
+    // The cells each move crosses, as index offsets with the pieces in each, all moves' in one
+    // list (`spans[k]` is move k's part).
+    let mut crossed: Vec<(isize, u32)> = Vec::new();
+    let mut spans = Vec::with_capacity(moves.len());
+    for m in &moves {
+        let start = crossed.len();
+        crossed.extend(
+            m.crossed_cells()
+                .into_iter()
+                .map(|(ox, oy, n)| (oy as isize * w as isize + ox as isize, n)),
+        );
+        spans.push(start..crossed.len());
+    }
+    // A move's time is ti + cost·(length·cell)/pieces; the reciprocal of that factor serves
+    // the early-drop test only (the time itself keeps its formula).
+    let inverse_scale: Vec<f64> = moves
+        .iter()
+        .map(|m| f64::from(m.pieces) / (m.len_cells * grid.cell_size_ft))
+        .collect();
+    let max_min = max_time_h * 60.0;
+    let margin = |limit: f64| limit * (1.0 + 1e-9) + 1e-9;
+    // Arrival times in minutes, read only where the state is not UNREACHED.
+    let mut t = vec![0.0f64; w * h];
+    let mut state = vec![UNREACHED; w * h];
+    let mut heap = BinaryHeap::new();
+    for &(x, y) in ignitions {
+        if x >= w || y >= h {
+            return Err(MttError::IgnitionOutside {
+                x,
+                y,
+                width: w,
+                height: h,
+            });
+        }
+        let i = y * w + x;
+        if rates.burnable(i) {
+            t[i] = 0.0;
+            state[i] = TENTATIVE;
+            heap.push(Entry { t: 0.0, i });
+        }
+    }
+    let mut reached = Vec::new();
+    while let Some(Entry { t: ti, i }) = heap.pop() {
+        if state[i] == DONE || ti > t[i] {
+            continue;
+        }
+        state[i] = DONE;
+        if ti > max_min {
+            break;
+        }
+        reached.push((i, ti / 60.0));
+        let (x, y) = ((i % w) as i32, (i / w) as i32);
+        'moves: for ((m, span), &inverse_scale) in moves.iter().zip(&spans).zip(&inverse_scale) {
+            let (nx, ny) = (x + m.dx, y + m.dy);
+            if nx < 0 || ny < 0 || nx >= w as i32 || ny >= h as i32 {
                 continue;
             }
-            done[i] = true;
-            if ti > max_min {
-                break;
+            let j = ny as usize * w + nx as usize;
+            let bound = match state[j] {
+                DONE => continue,
+                UNREACHED => f64::INFINITY,
+                _ => t[j],
+            };
+            // Past this cost the move cannot give j an earlier time, or gives one past the limit
+            // (the margin covers the few roundings between this and the time's formula).
+            let cost_limit = (margin(bound.min(max_min)) - ti) * inverse_scale;
+            let mut cost = 0.0;
+            for &(offset, pieces) in &crossed[span.clone()] {
+                let Some(inverse) = rates.inverse_rate(i.wrapping_add_signed(offset), m) else {
+                    continue 'moves;
+                };
+                for _ in 0..pieces {
+                    cost += inverse;
+                }
+                if cost > cost_limit {
+                    continue 'moves;
+                }
             }
-            let (x, y) = ((i % w) as i32, (i / w) as i32);
-            'moves: for m in &moves {
-                let (nx, ny) = (x + m.dx, y + m.dy);
-                if nx < 0 || ny < 0 || nx >= w as i32 || ny >= h as i32 {
-                    continue;
-                }
-                let j = ny as usize * w + nx as usize;
-                if done[j] {
-                    continue;
-                }
-                let mut cost = 0.0;
-                for k in 0..m.pieces {
-                    let f = (f64::from(k) + 0.5) / f64::from(m.pieces);
-                    let cx = (f64::from(x) + f * f64::from(m.dx)).round() as usize;
-                    let cy = (f64::from(y) + f * f64::from(m.dy)).round() as usize;
-                    let r = self.ros_toward_ftmin(cy * w + cx, m.ux, m.uy);
-                    if r.is_nan() || r <= 0.0 {
-                        continue 'moves;
-                    }
-                    cost += 1.0 / r;
-                }
-                let tj = ti + cost * m.len_cells * self.cell_size_ft / f64::from(m.pieces);
-                if tj < t[j] {
-                    t[j] = tj;
-                    heap.push(Entry { t: tj, i: j });
-                }
+            let tj = ti + cost * m.len_cells * grid.cell_size_ft / f64::from(m.pieces);
+            if tj < bound {
+                t[j] = tj;
+                state[j] = TENTATIVE;
+                heap.push(Entry { t: tj, i: j });
             }
         }
-        Ok(t.into_iter()
-            .map(|v| if v <= max_min { v / 60.0 } else { f64::INFINITY })
-            .collect())
     }
+    Ok(reached)
 }
 
 /// One-shot: build the per-cell ellipses and run the engine.
@@ -280,6 +561,28 @@ struct Move {
     ux: f64,
     uy: f64,
     pieces: u32,
+}
+
+impl Move {
+    /// The cells the move's pieces lie in, as (dx, dy) offsets from the start cell with the
+    /// number of consecutive pieces in each, in order along the segment. Piece k's midpoint is
+    /// at fraction f = (k + ½)/pieces; its cell is the midpoint rounded half away from zero,
+    /// which for the non-negative coordinates of a move inside the grid is the start cell plus
+    /// the offset computed here from any start far enough from 0 (16 > the stencil's radius).
+    fn crossed_cells(&self) -> Vec<(i32, i32, u32)> {
+        const BASE: f64 = 16.0;
+        let mut cells: Vec<(i32, i32, u32)> = Vec::new();
+        for k in 0..self.pieces {
+            let f = (f64::from(k) + 0.5) / f64::from(self.pieces);
+            let ox = ((BASE + f * f64::from(self.dx)).round() - BASE) as i32;
+            let oy = ((BASE + f * f64::from(self.dy)).round() - BASE) as i32;
+            match cells.last_mut() {
+                Some((lx, ly, n)) if (*lx, *ly) == (ox, oy) => *n += 1,
+                _ => cells.push((ox, oy, 1)),
+            }
+        }
+        cells
+    }
 }
 
 fn gcd(a: i32, b: i32) -> i32 {
@@ -334,5 +637,192 @@ impl Ord for Entry {
     /// Reversed: the earliest time (then the lowest index) is the heap's maximum.
     fn cmp(&self, other: &Self) -> Ordering {
         other.t.total_cmp(&self.t).then(other.i.cmp(&self.i))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The engine as first written (every piece evaluated, no early drop of a move): the
+    /// optimised one must give the same arrival times, bit for bit.
+    fn reference_arrival_times_h(
+        grid: &MttGrid,
+        ignitions: &[(usize, usize)],
+        r: u32,
+        max_time_h: f64,
+    ) -> Vec<f64> {
+        let (w, h) = (grid.width, grid.height);
+        let moves = stencil(r as i32);
+        let max_min = max_time_h * 60.0;
+        let mut t = vec![f64::INFINITY; w * h];
+        let mut done = vec![false; w * h];
+        let mut heap = BinaryHeap::new();
+        for &(x, y) in ignitions {
+            let i = y * w + x;
+            if grid.burnable(i) {
+                t[i] = 0.0;
+                heap.push(Entry { t: 0.0, i });
+            }
+        }
+        while let Some(Entry { t: ti, i }) = heap.pop() {
+            if done[i] || ti > t[i] {
+                continue;
+            }
+            done[i] = true;
+            if ti > max_min {
+                break;
+            }
+            let (x, y) = ((i % w) as i32, (i / w) as i32);
+            'moves: for m in &moves {
+                let (nx, ny) = (x + m.dx, y + m.dy);
+                if nx < 0 || ny < 0 || nx >= w as i32 || ny >= h as i32 {
+                    continue;
+                }
+                let j = ny as usize * w + nx as usize;
+                if done[j] {
+                    continue;
+                }
+                let mut cost = 0.0;
+                for k in 0..m.pieces {
+                    let f = (f64::from(k) + 0.5) / f64::from(m.pieces);
+                    let cx = (f64::from(x) + f * f64::from(m.dx)).round() as usize;
+                    let cy = (f64::from(y) + f * f64::from(m.dy)).round() as usize;
+                    let r = grid.ros_toward_ftmin(cy * w + cx, m.ux, m.uy);
+                    if r.is_nan() || r <= 0.0 {
+                        continue 'moves;
+                    }
+                    cost += 1.0 / r;
+                }
+                let tj = ti + cost * m.len_cells * grid.cell_size_ft / f64::from(m.pieces);
+                if tj < t[j] {
+                    t[j] = tj;
+                    heap.push(Entry { t: tj, i: j });
+                }
+            }
+        }
+        t.into_iter()
+            .map(|v| if v <= max_min { v / 60.0 } else { f64::INFINITY })
+            .collect()
+    }
+
+    /// A varied landscape of ellipses (a small LCG): rates, shapes and directions change from
+    /// cell to cell, some cells do not burn.
+    fn varied(w: usize, h: usize, seed: u64) -> Vec<Ellipse> {
+        let mut s = seed;
+        let mut next = move || {
+            s = s
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..w * h)
+            .map(|_| {
+                let u = next();
+                Ellipse {
+                    head_ftmin: if u < 0.08 {
+                        0.0
+                    } else {
+                        0.5 + 40.0 * next() * next()
+                    },
+                    eccentricity: 0.95 * next(),
+                    head_azimuth_deg: 360.0 * next(),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn crossed_cells_are_the_pieces_rounded_from_any_start() {
+        for m in stencil(8) {
+            let cells = m.crossed_cells();
+            assert_eq!(cells.iter().map(|c| c.2).sum::<u32>(), m.pieces);
+            for x in 0..40i32 {
+                for y in 0..40i32 {
+                    if !(0..40).contains(&(x + m.dx)) || !(0..40).contains(&(y + m.dy)) {
+                        continue;
+                    }
+                    let mut expanded = Vec::new();
+                    for &(ox, oy, n) in &cells {
+                        expanded.extend(std::iter::repeat_n((x + ox, y + oy), n as usize));
+                    }
+                    for (k, &(cx, cy)) in expanded.iter().enumerate() {
+                        let f = (k as f64 + 0.5) / f64::from(m.pieces);
+                        let want_x = (f64::from(x) + f * f64::from(m.dx)).round() as i32;
+                        let want_y = (f64::from(y) + f * f64::from(m.dy)).round() as i32;
+                        assert_eq!((cx, cy), (want_x, want_y), "move {} {} from {x} {y}", m.dx, m.dy);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn optimised_and_lazy_engines_equal_the_reference_bit_for_bit() {
+        for (seed, w, h, r, hours) in [
+            (1u64, 37usize, 29usize, 8u32, 3.0),
+            (2, 50, 41, 8, 0.7),
+            (3, 23, 31, 4, 10.0),
+            (4, 30, 30, 1, 5.0),
+            (5, 45, 20, 2, 1.5),
+        ] {
+            let ellipses = varied(w, h, seed);
+            let grid = MttGrid::from_ellipses(
+                w,
+                h,
+                98.4,
+                ellipses.iter().map(|e| e.head_ftmin).collect(),
+                ellipses.iter().map(|e| e.eccentricity).collect(),
+                &ellipses.iter().map(|e| e.head_azimuth_deg).collect::<Vec<_>>(),
+            )
+            .expect("grid");
+            let ignitions = [(w / 2, h / 2), (3, 4)];
+            let want = reference_arrival_times_h(&grid, &ignitions, r, hours);
+            let got = grid.arrival_times_h(&ignitions, r, hours).expect("runs");
+            assert!(
+                want.iter().filter(|v| v.is_finite()).count() > 10,
+                "seed {seed}: the fire spreads"
+            );
+            assert_eq!(
+                want.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                "seed {seed}"
+            );
+            let lazy = arrival_times_lazy_h(w, h, 98.4, |i| ellipses[i], &ignitions, r, hours).expect("runs");
+            assert_eq!(
+                want.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                lazy.arrival_h(w * h)
+                    .iter()
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>(),
+                "seed {seed}, lazy"
+            );
+            assert!(lazy.ellipses_evaluated <= w * h);
+        }
+    }
+
+    #[test]
+    fn lazy_engine_evaluates_only_where_the_fire_goes() {
+        let (w, h) = (200, 200);
+        let slow = Ellipse {
+            head_ftmin: 1.0,
+            eccentricity: 0.5,
+            head_azimuth_deg: 45.0,
+        };
+        let run = arrival_times_lazy_h(w, h, 98.4, |_| slow, &[(100, 100)], 8, 2.0).expect("runs");
+        assert!(!run.reached_h.is_empty());
+        assert!(run.ellipses_evaluated < w * h / 20, "{}", run.ellipses_evaluated);
+        assert!(matches!(
+            arrival_times_lazy_h(w, h, 0.0, |_| slow, &[(1, 1)], 8, 2.0),
+            Err(MttError::CellSize(_))
+        ));
+        assert!(matches!(
+            MttGrid::from_ellipses(2, 2, 98.4, vec![1.0; 3], vec![0.0; 4], &[0.0; 4]),
+            Err(MttError::GridSize {
+                layer: "head_ftmin",
+                got: 3,
+                ..
+            })
+        ));
     }
 }

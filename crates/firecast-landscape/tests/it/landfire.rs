@@ -192,3 +192,106 @@ fn a_corrupt_layer_names_its_file() {
     assert!(text.contains("LC20_Asp_220.tif"), "{text}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_truncated_layer_names_the_layer_and_the_first_unreadable_rows() {
+    let dir = copy_clip("truncated");
+    let aspect = dir.join("LC20_Asp_220.tif");
+    let bytes = std::fs::read(&aspect).expect("read");
+    // The directory is at the start; cut the strips off half way.
+    std::fs::write(&aspect, &bytes[..bytes.len() / 2]).expect("truncate");
+    let err = LandfireLandscape::read_dir(&dir, FuelLayer::Fbfm40).expect_err("truncated");
+    let text = err.to_string();
+    assert!(
+        matches!(err, LandfireError::Layer { layer: "aspect", .. }),
+        "{text}"
+    );
+    assert!(text.starts_with("aspect layer: TIFF:"), "{text}");
+    assert!(
+        text.contains("does not decode: cells from column 0, row "),
+        "{text}"
+    );
+    assert!(text.contains("LC20_Asp_220.tif"), "{text}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_geographic_crs_is_refused() {
+    let dir = copy_clip("geographic");
+    let fuel = dir.join("LC22_F40_230.tif");
+    let values = firecast_landscape::geotiff::read_geotiff(&fuel)
+        .expect("fuel")
+        .data;
+    let placement = GridPlacement {
+        width: 549,
+        height: 613,
+        origin_x: -72.7,
+        origin_y: 44.4,
+        pixel_dx: 0.0003,
+        pixel_dy: -0.0003,
+        geokeys: firecast_landscape::gridio::GeoKeyTags {
+            directory: vec![1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2048, 0, 1, 4326],
+            doubles: Vec::new(),
+            ascii: String::new(),
+        },
+    };
+    std::fs::write(
+        &fuel,
+        encode_geotiff_f32(&placement, &values, Some(32767.0)).expect("encode"),
+    )
+    .expect("write");
+    let err = LandfireLandscape::read_dir(&dir, FuelLayer::Fbfm40).expect_err("geographic");
+    let text = err.to_string();
+    assert!(matches!(err, LandfireError::GeographicCrs { .. }), "{text}");
+    assert!(
+        text.contains("EPSG:4326 is geographic")
+            && text.contains("LC22_F40_230.tif")
+            && text.contains("fbfm40"),
+        "{text}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn nodata_where_fuel_burns_is_an_error_for_fire_behaviour() {
+    let land = LandfireLandscape::read_dir(&worcester(), FuelLayer::Fbfm40).expect("reads");
+    land.check_burnable_cells(true)
+        .expect("the clip's layers share their nodata cells");
+    let dir = copy_clip("needed");
+    let slope = dir.join("LC20_SlpP_220.tif");
+    let mut values = firecast_landscape::geotiff::read_geotiff(&slope)
+        .expect("slope")
+        .data;
+    // Two burnable cells lose their slope.
+    let burnable: Vec<usize> = land
+        .fuel
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| f.is_some_and(|c| !(91..=99).contains(&c)))
+        .map(|(i, _)| i)
+        .take(2)
+        .collect();
+    for &i in &burnable {
+        values[i] = 32767.0;
+    }
+    write_int_grid(&slope, 549, 613, 1_833_825.0, &values);
+    let land = LandfireLandscape::read_dir(&dir, FuelLayer::Fbfm40).expect("reads: nodata is counted");
+    assert_eq!(land.report.layers[1].nodata_cells, 108_586 + 2);
+    let err = land.check_burnable_cells(false).expect_err("needed");
+    let text = err.to_string();
+    match err {
+        LandfireError::NodataAtBurnableCell {
+            layer,
+            count,
+            col,
+            row,
+            ..
+        } => {
+            assert_eq!((layer, count), ("slope (percent)", 2));
+            assert_eq!((col, row), (burnable[0] % 549, burnable[0] / 549));
+        }
+        other => panic!("{other}"),
+    }
+    assert!(text.contains("LC20_SlpP_220.tif"), "{text}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -17,3 +17,4 @@ pub fn fixture(name: &str) -> PathBuf {
     .join(name)
 }
 mod landfire;
+mod lcp;

@@ -1,0 +1,1028 @@
+//! FireCast beside pyretechnics (PyPI), in the same command, on the same LANDFIRE landscape,
+//! inputs and machine, one thread each: `firecast bench behavior` and `firecast bench spread`.
+//!
+//! pyretechnics runs in its own venv (`.venv-peers/pyretechnics`, installed by `cargo xtask
+//! setup`: it needs numpy 1.26) through `reference/pyretechnics_bench.py`, which reads the
+//! same GeoTIFF layers with pyretechnics' own LANDFIRE loader and times only the call being
+//! compared; FireCast's side is timed here around the same work.
+//!
+//! - **Behaviour** ([`bench_behavior`]): the fire behaviour of every cell of the grid, FireCast's
+//!   [`firecast_sim::behavior::surface_behavior_grids`] (surface and Finney crown fire) against
+//!   pyretechnics' `burn_cells.burn_all_cells_as_head_fire` (surface and its crown fire). Before
+//!   the times are compared, the two must agree on the head rate of spread: every *comparable*
+//!   cell that both call surface fire within [`ROS_TOLERANCE`] (see [`comparable_cell`] for
+//!   which cells the two models make the same computation on).
+//! - **Spread** ([`bench_spread`]): one point ignition spread for a given time, FireCast's
+//!   minimum-travel-time engine ([`crate::mtt`], per-cell ellipses from the landscape's own
+//!   slope, aspect and canopy as the behaviour grid computes them) against pyretechnics'
+//!   Eulerian level set (`eulerian_level_set.spread_fire_with_phi_field`). Different algorithms:
+//!   the burnt areas are compared, not required to be equal.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use firecast_landscape::landfire::{LandfireLandscape, LayerKind};
+use firecast_sim::behavior::{
+    BehaviorParams, FIRE_TYPE_SURFACE, SlopeMode, lcp_slope_percent, surface_behavior_grids,
+    wind_adjustment_factor,
+};
+use firecast_sim::{FuelModel, SpreadInputs, SurfaceFuelBed, WindLimit};
+
+use crate::mtt::{Ellipse, MttError, MttGrid, arrival_times_lazy_h};
+
+/// The pyretechnics side, embedded and written next to the job when the bench runs.
+pub const PEER_SCRIPT: &str = include_str!("../reference/pyretechnics_bench.py");
+
+/// Where `cargo xtask setup` installs pyretechnics, relative to the project root.
+pub const PEER_VENV: &str = ".venv-peers/pyretechnics";
+
+/// The Worcester, Vermont LANDFIRE clip the parity test uses, relative to the repository root.
+pub const WORCESTER: &str = "crates/firecast-landscape/tests/fixtures/landfire-worcester/landfire";
+
+/// Relative difference in head rate of spread allowed on a comparable cell (the FlamMap parity
+/// bound; the two agree to about 2×10⁻³, pyretechnics computing in float32).
+pub const ROS_TOLERANCE: f64 = 0.005;
+
+const M_MIN_PER_CH_H: f64 = 66.0 * 0.3048 / 60.0;
+const FT_PER_M: f64 = 1.0 / 0.3048;
+const KMH_PER_MPH: f64 = 1.609_344;
+
+/// Errors of the side-by-side benches.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error(
+        "pyretechnics' Python `{}` is missing: run `cargo xtask setup` (it installs pyretechnics into {PEER_VENV}), or pass --python",
+        path.display()
+    )]
+    PeerMissing { path: PathBuf },
+    /// Boxed: a landscape error carries the files and cells it names.
+    #[error(transparent)]
+    Landscape(Box<firecast_landscape::landfire::LandfireError>),
+    #[error("{0}")]
+    Params(#[from] firecast_sim::behavior::ParamError),
+    #[error(transparent)]
+    Kernel(#[from] firecast_sim::RothermelError),
+    #[error(transparent)]
+    Mtt(#[from] MttError),
+    #[error("{0}")]
+    Input(String),
+    #[error("pyretechnics ({python}) failed with {status}:\n{stderr}", python = python.display())]
+    Peer {
+        python: PathBuf,
+        status: String,
+        stderr: String,
+    },
+    #[error("cannot {what} {}: {source}", path.display())]
+    Io {
+        what: &'static str,
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+impl From<firecast_landscape::landfire::LandfireError> for BenchError {
+    fn from(e: firecast_landscape::landfire::LandfireError) -> Self {
+        Self::Landscape(Box::new(e))
+    }
+}
+
+fn io(what: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> BenchError {
+    let path = path.to_path_buf();
+    move |source| BenchError::Io { what, path, source }
+}
+
+/// The peer's Python: `explicit`, else `<root>/.venv-peers/pyretechnics/bin/python`; an error
+/// saying to run `cargo xtask setup` when it is not there.
+pub fn peer_python(explicit: Option<&Path>, root: &Path) -> Result<PathBuf, BenchError> {
+    let path = explicit.map_or_else(|| root.join(PEER_VENV).join("bin/python"), Path::to_path_buf);
+    if path.is_file() {
+        Ok(path)
+    } else {
+        Err(BenchError::PeerMissing { path })
+    }
+}
+
+/// The machine, as the results pages name it: the CPU model and the cores this process sees.
+pub fn machine() -> String {
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|text| {
+            text.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string());
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    format!("{model}, {cores} cores")
+}
+
+/// A rectangle of cells, in the landscape's rows (row 0 north) and columns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct Window {
+    pub row0: usize,
+    pub col0: usize,
+    pub rows: usize,
+    pub cols: usize,
+}
+
+impl Window {
+    /// The whole grid.
+    pub fn full(land: &LandfireLandscape) -> Self {
+        Self {
+            row0: 0,
+            col0: 0,
+            rows: land.grid.height,
+            cols: land.grid.width,
+        }
+    }
+
+    /// `rows` × `cols` cells centred on (`col`, `row`), moved inside the grid (and cut to it).
+    pub fn around(land: &LandfireLandscape, col: usize, row: usize, rows: usize, cols: usize) -> Self {
+        let (h, w) = (land.grid.height, land.grid.width);
+        let (rows, cols) = (rows.clamp(1, h), cols.clamp(1, w));
+        Self {
+            row0: row.saturating_sub(rows / 2).min(h - rows),
+            col0: col.saturating_sub(cols / 2).min(w - cols),
+            rows,
+            cols,
+        }
+    }
+
+    pub fn cells(&self) -> usize {
+        self.rows * self.cols
+    }
+
+    fn contains(&self, col: usize, row: usize) -> bool {
+        (self.col0..self.col0 + self.cols).contains(&col) && (self.row0..self.row0 + self.rows).contains(&row)
+    }
+}
+
+/// The landscape cut to `w` (every layer; the grid's origin moved to the window's corner).
+pub fn crop(land: &LandfireLandscape, w: Window) -> LandfireLandscape {
+    fn cut<T: Copy>(v: &[T], width: usize, w: Window) -> Vec<T> {
+        (w.row0..w.row0 + w.rows)
+            .flat_map(|r| v[r * width + w.col0..r * width + w.col0 + w.cols].iter().copied())
+            .collect()
+    }
+    let width = land.grid.width;
+    let mut out = land.clone();
+    out.fuel = cut(&land.fuel, width, w);
+    out.slope_percent = cut(&land.slope_percent, width, w);
+    out.aspect_deg = cut(&land.aspect_deg, width, w);
+    for layer in [
+        &mut out.elevation_m,
+        &mut out.canopy_cover_pct,
+        &mut out.canopy_height_m,
+        &mut out.canopy_base_height_m,
+        &mut out.canopy_bulk_density_kg_m3,
+    ] {
+        if let Some(values) = layer.as_mut() {
+            *values = cut(values, width, w);
+        }
+    }
+    out.grid.origin_x += w.col0 as f64 * land.grid.pixel_dx;
+    out.grid.origin_y += w.row0 as f64 * land.grid.pixel_dy;
+    out.grid.width = w.cols;
+    out.grid.height = w.rows;
+    out
+}
+
+/// Seconds of each timed repeat, the best, and the rate the best gives.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Timing {
+    pub seconds: Vec<f64>,
+    pub best_seconds: f64,
+    /// Cells (behaviour: grid cells; spread: burnt cells) per second of the best repeat.
+    pub cells_per_second: f64,
+}
+
+impl Timing {
+    fn new(seconds: Vec<f64>, cells: usize) -> Self {
+        let best = seconds.iter().copied().fold(f64::INFINITY, f64::min);
+        Self {
+            cells_per_second: cells as f64 / best.max(1e-12),
+            best_seconds: best,
+            seconds,
+        }
+    }
+}
+
+/// What the peer's Python reported besides its arrays.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PeerRun {
+    pub rows: usize,
+    pub cols: usize,
+    pub seconds: Vec<f64>,
+    pub pyretechnics: String,
+    pub python: String,
+    pub numpy: String,
+    #[serde(default)]
+    pub stop_time_min: Option<f64>,
+    #[serde(default)]
+    pub stop_condition: Option<String>,
+}
+
+/// The layer files pyretechnics reads (its loader's names), from the landscape's own files.
+fn peer_layers(land: &LandfireLandscape) -> Result<serde_json::Value, BenchError> {
+    let fuel = match land.fuel_layer {
+        firecast_landscape::landfire::FuelLayer::Fbfm40 => LayerKind::Fbfm40,
+        firecast_landscape::landfire::FuelLayer::Fbfm13 => LayerKind::Fbfm13,
+    };
+    let wanted = [
+        ("fuel_model", fuel),
+        ("slope", LayerKind::SlopePercent),
+        ("aspect", LayerKind::Aspect),
+        ("canopy_cover", LayerKind::CanopyCover),
+        ("canopy_height", LayerKind::CanopyHeight),
+        ("canopy_base_height", LayerKind::CanopyBaseHeight),
+        ("canopy_bulk_density", LayerKind::CanopyBulkDensity),
+    ];
+    let mut layers = serde_json::Map::new();
+    for (name, kind) in wanted {
+        let path = land
+            .files
+            .get(&kind)
+            .filter(|p| {
+                p.extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff"))
+            })
+            .ok_or_else(|| {
+                BenchError::Input(format!(
+                    "the benches need the landscape's {} layer as a LANDFIRE GeoTIFF (pyretechnics reads \
+                     those; slope in percent)",
+                    kind.name()
+                ))
+            })?;
+        let path = std::fs::canonicalize(path).map_err(io("resolve", path))?;
+        layers.insert(name.into(), path.to_string_lossy().into_owned().into());
+    }
+    Ok(layers.into())
+}
+
+/// The inputs as pyretechnics takes them: fractions, the 10-m wind in km/h (its 20-ft wind is
+/// the 10-m one / 1.15), the direction the wind comes from.
+fn peer_inputs(params: &BehaviorParams) -> serde_json::Value {
+    let m = &params.moisture;
+    serde_json::json!({
+        "moisture": {
+            "fuel_moisture_dead_1hr": m.dead_1h / 100.0,
+            "fuel_moisture_dead_10hr": m.dead_10h / 100.0,
+            "fuel_moisture_dead_100hr": m.dead_100h / 100.0,
+            "fuel_moisture_live_herbaceous": m.live_herbaceous / 100.0,
+            "fuel_moisture_live_woody": m.live_woody / 100.0,
+            "foliar_moisture": params.foliar_moisture_pct / 100.0,
+        },
+        "wind_speed_10m_kmh": params.wind_20ft_mph * 1.15 * KMH_PER_MPH,
+        "upwind_direction_deg": params.wind_from_deg,
+        "use_wind_limit": params.wind_limit,
+    })
+}
+
+/// Run the peer's script on `job` in `work` (a fresh folder), returning its report.
+fn run_peer(python: &Path, work: &Path, mut job: serde_json::Value) -> Result<PeerRun, BenchError> {
+    std::fs::create_dir_all(work).map_err(io("create", work))?;
+    let script = work.join("pyretechnics_bench.py");
+    std::fs::write(&script, PEER_SCRIPT).map_err(io("write", &script))?;
+    job["out"] = work.to_string_lossy().into_owned().into();
+    let job_path = work.join("job.json");
+    std::fs::write(&job_path, job.to_string()).map_err(io("write", &job_path))?;
+    let output = Command::new(python)
+        .arg(&script)
+        .arg(&job_path)
+        .output()
+        .map_err(io("run", python))?;
+    if !output.status.success() {
+        return Err(BenchError::Peer {
+            python: python.to_path_buf(),
+            status: output.status.to_string(),
+            stderr: String::from_utf8_lossy(&output.stderr).trim_end().to_string(),
+        });
+    }
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let line = stdout.lines().last().unwrap_or("");
+    serde_json::from_str(line).map_err(|e| BenchError::Peer {
+        python: python.to_path_buf(),
+        status: "unexpected output".into(),
+        stderr: format!("{e}: `{line}`"),
+    })
+}
+
+fn read_f32(path: &Path, n: usize) -> Result<Vec<f32>, BenchError> {
+    let bytes = std::fs::read(path).map_err(io("read", path))?;
+    if bytes.len() != 4 * n {
+        return Err(BenchError::Input(format!(
+            "{} holds {} bytes, expected {n} float32 values",
+            path.display(),
+            bytes.len()
+        )));
+    }
+    Ok(bytes
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect())
+}
+
+fn read_u8(path: &Path, n: usize) -> Result<Vec<u8>, BenchError> {
+    let bytes = std::fs::read(path).map_err(io("read", path))?;
+    if bytes.len() != n {
+        return Err(BenchError::Input(format!(
+            "{} holds {} bytes, expected {n}",
+            path.display(),
+            bytes.len()
+        )));
+    }
+    Ok(bytes)
+}
+
+/// Run `f` on a rayon pool of one thread (FireCast's grids use rayon).
+fn one_thread<T: Send>(f: impl FnOnce() -> T + Send) -> Result<T, BenchError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .map_err(|e| BenchError::Input(format!("cannot build a one-thread pool: {e}")))?;
+    Ok(pool.install(f))
+}
+
+/// Run FireCast's timed `ours` `repeats` times around the peer's run (half before, half
+/// after), so that both engines' best times come from the same stretch of the machine's load.
+/// Returns FireCast's seconds, its last result, and the peer's report.
+fn around_peer<T>(
+    repeats: usize,
+    mut ours: impl FnMut() -> Result<(f64, T), BenchError>,
+    peer: impl FnOnce() -> Result<PeerRun, BenchError>,
+) -> Result<(Vec<f64>, T, PeerRun), BenchError> {
+    let mut seconds = Vec::with_capacity(repeats);
+    let mut last = None;
+    let before = repeats.div_ceil(2);
+    for _ in 0..before {
+        let (s, r) = ours()?;
+        seconds.push(s);
+        last = Some(r);
+    }
+    let peer = peer()?;
+    for _ in before..repeats {
+        let (s, r) = ours()?;
+        seconds.push(s);
+        last = Some(r);
+    }
+    let last = last.ok_or_else(|| BenchError::Input("repeats must be at least 1".into()))?;
+    Ok((seconds, last, peer))
+}
+
+/// Settings shared by both benches.
+#[derive(Debug, Clone)]
+pub struct BenchOptions {
+    /// The LANDFIRE landscape folder (GeoTIFF layers; slope in percent).
+    pub landscape: PathBuf,
+    /// Fuel moistures, wind, foliar moisture, crown method (behaviour), wind limit.
+    pub params: BehaviorParams,
+    /// Timed repeats per engine; the best counts.
+    pub repeats: usize,
+    /// The peer's Python.
+    pub python: PathBuf,
+    /// A scratch folder for the peer's job and arrays (created; the caller removes it).
+    pub work: PathBuf,
+}
+
+impl BenchOptions {
+    fn check(&self) -> Result<LandfireLandscape, BenchError> {
+        self.params.validate()?;
+        if self.params.slope != SlopeMode::AsGiven {
+            return Err(BenchError::Input(
+                "the benches take slope as given (pyretechnics reads LANDFIRE's percent layer)".into(),
+            ));
+        }
+        if self.repeats == 0 {
+            return Err(BenchError::Input("repeats must be at least 1".into()));
+        }
+        Ok(LandfireLandscape::read_dir(
+            &self.landscape,
+            self.params.fuel.layer(),
+        )?)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Behaviour
+// ---------------------------------------------------------------------------------------------
+
+/// Whether a cell is one where FireCast and pyretechnics make the same surface computation, so
+/// their head rates must agree:
+///
+/// - without wind, every cell (both reproduce FlamMap's no-wind grids);
+/// - with wind, only flat cells (slope 0) whose wind adjustment both take the same way.
+///   pyretechnics projects the wind onto the slope-tangential plane before it combines wind and
+///   slope (behave and FlamMap combine them in the horizontal plane), which changes the rate on
+///   sloped cells by about 1 % (median) under wind; and it calls a canopy sheltering only when
+///   cover/3 ≥ 0.05 and height ≥ 6 ft (BehavePlus's rule), where FlamMap's, and FireCast's, is
+///   cover > 0 and height > 0 — cells in between get different midflame winds. Cover 15 % sits
+///   on pyretechnics' threshold in float32, so cells within 1 % of it are left out too.
+pub fn comparable_cell(
+    wind_20ft_mph: f64,
+    slope_percent: f32,
+    canopy_cover_pct: f32,
+    canopy_height_m: f32,
+) -> bool {
+    if wind_20ft_mph <= 0.0 {
+        return true;
+    }
+    if slope_percent != 0.0 {
+        return false;
+    }
+    let (cc, ch_ft) = if canopy_cover_pct.is_finite() && canopy_height_m.is_finite() {
+        (f64::from(canopy_cover_pct), f64::from(canopy_height_m) * FT_PER_M)
+    } else {
+        (0.0, 0.0)
+    };
+    if (cc - 15.0).abs() < 0.15 || (ch_ft - 6.0).abs() < 0.06 {
+        return false;
+    }
+    let firecast_sheltered = cc > 0.0 && ch_ft > 0.0;
+    let peer_sheltered = cc >= 15.0 && ch_ft >= 6.0;
+    firecast_sheltered == peer_sheltered
+}
+
+/// The agreement of the two behaviour grids.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct BehaviorAgreement {
+    pub tolerance: f64,
+    /// Which cells are compared ([`comparable_cell`]).
+    pub rule: String,
+    /// Comparable cells both call surface fire, and how many agree within the tolerance.
+    pub compared_cells: usize,
+    pub within_tolerance: usize,
+    pub max_relative_difference: f64,
+    /// Every cell both call surface fire, comparable or not (for information).
+    pub surface_cells: usize,
+    pub surface_within_tolerance: usize,
+    pub surface_max_relative_difference: f64,
+    /// Cells by fire type (0 none or nodata, 1 surface, 2 passive, 3 active) in each.
+    pub firecast_fire_types: [usize; 4],
+    pub pyretechnics_fire_types: [usize; 4],
+    pub fire_type_equal_cells: usize,
+}
+
+impl BehaviorAgreement {
+    /// Every comparable cell agrees (and there is at least one).
+    pub fn holds(&self) -> bool {
+        self.compared_cells > 0 && self.within_tolerance == self.compared_cells
+    }
+}
+
+/// `firecast bench behavior`'s result.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct BehaviorBench {
+    pub landscape: PathBuf,
+    pub window: Window,
+    /// Grid cells computed per run (nodata included: both engines visit every cell).
+    pub cells: usize,
+    /// Cells FireCast calls burnable (fire type 1 to 3).
+    pub burning_cells: usize,
+    pub params: BehaviorParams,
+    pub machine: String,
+    pub threads: usize,
+    pub agreement: BehaviorAgreement,
+    pub firecast: Timing,
+    pub pyretechnics: Timing,
+    /// pyretechnics' best seconds over FireCast's (= the cells-per-second ratio).
+    pub ratio: f64,
+    pub peer: PeerRun,
+}
+
+/// Fire behaviour of every cell in `window` (the whole grid by default), FireCast and
+/// pyretechnics on one thread each; the agreement on rate of spread, the best of `repeats`
+/// times of each, and their ratio.
+pub fn bench_behavior(opts: &BenchOptions, window: Option<Window>) -> Result<BehaviorBench, BenchError> {
+    let full = opts.check()?;
+    let window = window.unwrap_or_else(|| Window::full(&full));
+    let land = crop(&full, window);
+    let n = window.cells();
+
+    // pyretechnics: the timed runs, and the last run's rates and fire types.
+    let mut job = peer_inputs(&opts.params);
+    job["mode"] = "behavior".into();
+    job["layers"] = peer_layers(&full)?;
+    job["window"] = serde_json::json!([
+        window.row0,
+        window.row0 + window.rows,
+        window.col0,
+        window.col0 + window.cols
+    ]);
+    job["repeats"] = opts.repeats.into();
+    // FireCast: the same cells on one thread, timed around pyretechnics' timed runs.
+    let (seconds, grids, peer) = around_peer(
+        opts.repeats,
+        || {
+            let (s, g) = one_thread(|| {
+                let started = Instant::now();
+                let g = surface_behavior_grids(&land, &opts.params);
+                (started.elapsed().as_secs_f64(), g)
+            })?;
+            Ok((s, g?))
+        },
+        || run_peer(&opts.python, &opts.work, job),
+    )?;
+    if (peer.rows, peer.cols) != (window.rows, window.cols) {
+        return Err(BenchError::Input(format!(
+            "pyretechnics computed {} x {} cells, FireCast {} x {}",
+            peer.cols, peer.rows, window.cols, window.rows
+        )));
+    }
+    let peer_ros = read_f32(&opts.work.join("spread_rate_m_min.f32"), n)?;
+    let peer_type = read_u8(&opts.work.join("fire_type.u8"), n)?;
+
+    let agreement = behavior_agreement(&land, &opts.params, &grids, &peer_ros, &peer_type);
+    let burning_cells = agreement.firecast_fire_types[1..].iter().sum();
+    let firecast = Timing::new(seconds, n);
+    let pyretechnics = Timing::new(peer.seconds.clone(), n);
+    Ok(BehaviorBench {
+        landscape: opts.landscape.clone(),
+        window,
+        cells: n,
+        burning_cells,
+        params: opts.params.clone(),
+        machine: machine(),
+        threads: 1,
+        ratio: pyretechnics.best_seconds / firecast.best_seconds.max(1e-12),
+        agreement,
+        firecast,
+        pyretechnics,
+        peer,
+    })
+}
+
+fn behavior_agreement(
+    land: &LandfireLandscape,
+    params: &BehaviorParams,
+    grids: &firecast_sim::behavior::BehaviorGrids,
+    peer_ros: &[f32],
+    peer_type: &[u8],
+) -> BehaviorAgreement {
+    let layer = |l: &Option<Vec<f32>>, i: usize| l.as_ref().map_or(f32::NAN, |v| v[i]);
+    let mut a = BehaviorAgreement {
+        tolerance: ROS_TOLERANCE,
+        rule: if params.wind_20ft_mph > 0.0 {
+            "with wind: flat cells whose wind adjustment both take the same way (pyretechnics projects \
+             the wind onto the slope plane and shelters only at cover >= 15 % and height >= 6 ft)"
+                .into()
+        } else {
+            "no wind: every cell both call surface fire".into()
+        },
+        compared_cells: 0,
+        within_tolerance: 0,
+        max_relative_difference: 0.0,
+        surface_cells: 0,
+        surface_within_tolerance: 0,
+        surface_max_relative_difference: 0.0,
+        firecast_fire_types: [0; 4],
+        pyretechnics_fire_types: [0; 4],
+        fire_type_equal_cells: 0,
+    };
+    for i in 0..peer_ros.len() {
+        let ours = grids.fire_type[i];
+        let ours_type = if ours == grids.nodata { 0 } else { ours as usize };
+        let theirs_type = usize::from(peer_type[i]);
+        a.firecast_fire_types[ours_type.min(3)] += 1;
+        a.pyretechnics_fire_types[theirs_type.min(3)] += 1;
+        if ours_type == theirs_type {
+            a.fire_type_equal_cells += 1;
+        }
+        if ours != FIRE_TYPE_SURFACE || theirs_type != 1 {
+            continue;
+        }
+        let ours_m_min = f64::from(grids.ros_chph[i]) * M_MIN_PER_CH_H;
+        let rel = (f64::from(peer_ros[i]) / ours_m_min - 1.0).abs();
+        let rel = if rel.is_finite() { rel } else { f64::INFINITY };
+        a.surface_cells += 1;
+        a.surface_max_relative_difference = a.surface_max_relative_difference.max(rel);
+        if rel <= ROS_TOLERANCE {
+            a.surface_within_tolerance += 1;
+        }
+        if comparable_cell(
+            params.wind_20ft_mph,
+            land.slope_percent[i],
+            layer(&land.canopy_cover_pct, i),
+            layer(&land.canopy_height_m, i),
+        ) {
+            a.compared_cells += 1;
+            a.max_relative_difference = a.max_relative_difference.max(rel);
+            if rel <= ROS_TOLERANCE {
+                a.within_tolerance += 1;
+            }
+        }
+    }
+    a
+}
+
+// ---------------------------------------------------------------------------------------------
+// Spread
+// ---------------------------------------------------------------------------------------------
+
+/// The surface spread ellipse of a LANDFIRE landscape's cells, as [`firecast_sim::behavior`]
+/// evaluates the kernel per cell (slope as given, upslope from the aspect with −1 as 0,
+/// FlamMap's wind adjustment under canopy, behave's vector combination of wind and slope).
+/// Nodata and non-burnable cells do not burn. Surface fire only: the MTT engine has no crown
+/// fire.
+pub struct LandfireEllipses<'a> {
+    land: &'a LandfireLandscape,
+    params: &'a BehaviorParams,
+    moisture: firecast_sim::FuelMoisture,
+    /// Fuel beds by code, prepared when a cell of that code is first evaluated: `None` not
+    /// yet, `Some(None)` the code does not burn.
+    beds: Vec<Option<Option<(SurfaceFuelBed, f64)>>>,
+    limit: WindLimit,
+    wind_toward: f64,
+}
+
+impl<'a> LandfireEllipses<'a> {
+    pub fn new(land: &'a LandfireLandscape, params: &'a BehaviorParams) -> Self {
+        Self {
+            land,
+            params,
+            moisture: params.moisture.fractions(),
+            beds: Vec::new(),
+            limit: if params.wind_limit {
+                WindLimit::Rothermel
+            } else {
+                WindLimit::Off
+            },
+            wind_toward: (params.wind_from_deg + 180.0).rem_euclid(360.0),
+        }
+    }
+
+    fn bed(&mut self, code: u16) -> Result<Option<(SurfaceFuelBed, f64)>, BenchError> {
+        let k = usize::from(code);
+        if k >= self.beds.len() {
+            self.beds.resize(k + 1, None);
+        }
+        if self.beds[k].is_none() {
+            let bed = match FuelModel::by_number(code).filter(|m| m.burnable) {
+                Some(model) => Some((SurfaceFuelBed::new(model, &self.moisture)?, model.depth_ft)),
+                None => None,
+            };
+            self.beds[k] = Some(bed);
+        }
+        Ok(self.beds[k].flatten())
+    }
+
+    /// Cell side, ft.
+    pub fn cell_size_ft(&self) -> f64 {
+        self.land.grid.pixel_dx.abs() * FT_PER_M
+    }
+
+    /// The ellipse of the landscape's cell `i` (row 0 north).
+    pub fn at(&mut self, i: usize) -> Result<Ellipse, BenchError> {
+        let none = Ellipse {
+            head_ftmin: 0.0,
+            eccentricity: 0.0,
+            head_azimuth_deg: 0.0,
+        };
+        let land = self.land;
+        let (Some(code), slope, aspect) = (land.fuel[i], land.slope_percent[i], land.aspect_deg[i]) else {
+            return Ok(none);
+        };
+        if slope.is_nan() || aspect.is_nan() {
+            return Ok(none);
+        }
+        let Some((bed, depth)) = self.bed(code)? else {
+            return Ok(none);
+        };
+        let mut slope = f64::from(slope);
+        if self.params.slope == SlopeMode::LcpWholeDegrees {
+            slope = lcp_slope_percent(slope);
+        }
+        let upslope = (f64::from(aspect.max(0.0)) + 180.0).rem_euclid(360.0);
+        let cover = land
+            .canopy_cover_pct
+            .as_ref()
+            .map_or(0.0, |c| f64::from(c[i]) / 100.0);
+        let canopy_ft = land
+            .canopy_height_m
+            .as_ref()
+            .map_or(0.0, |c| f64::from(c[i]) * FT_PER_M);
+        let (cover, canopy_ft) = if cover.is_nan() || canopy_ft.is_nan() {
+            (0.0, 0.0)
+        } else {
+            (cover, canopy_ft)
+        };
+        let fire = bed.spread_with_limit(
+            &SpreadInputs {
+                midflame_wind_mph: self.params.wind_20ft_mph
+                    * wind_adjustment_factor(depth, canopy_ft, cover),
+                slope_percent: slope,
+                wind_dir_from_upslope_deg: (self.wind_toward - upslope).rem_euclid(360.0),
+            },
+            self.limit,
+        );
+        Ok(Ellipse {
+            head_ftmin: fire.head_ros_ftmin,
+            eccentricity: fire.eccentricity,
+            head_azimuth_deg: upslope + fire.dir_max_spread_from_upslope_deg,
+        })
+    }
+
+    /// The landscape's cell of the MTT grid's cell `j` (row 0 south).
+    pub fn landscape_index(&self, j: usize) -> usize {
+        let (w, h) = (self.land.grid.width, self.land.grid.height);
+        (h - 1 - j / w) * w + j % w
+    }
+
+    /// Every cell's ellipse in an [`MttGrid`] (row 0 south: the landscape's rows reversed).
+    pub fn grid(&mut self) -> Result<MttGrid, BenchError> {
+        let (w, h) = (self.land.grid.width, self.land.grid.height);
+        let ellipses: Vec<Ellipse> = (0..w * h)
+            .map(|j| self.at(self.landscape_index(j)))
+            .collect::<Result<_, _>>()?;
+        Ok(MttGrid::from_ellipses(
+            w,
+            h,
+            self.cell_size_ft(),
+            ellipses.iter().map(|e| e.head_ftmin).collect(),
+            ellipses.iter().map(|e| e.eccentricity).collect(),
+            &ellipses.iter().map(|e| e.head_azimuth_deg).collect::<Vec<_>>(),
+        )?)
+    }
+}
+
+/// The burnt areas of the two engines.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct BurntAreas {
+    pub cell_area_ha: f64,
+    pub firecast_cells: usize,
+    pub pyretechnics_cells: usize,
+    pub both_cells: usize,
+    pub firecast_only_cells: usize,
+    pub pyretechnics_only_cells: usize,
+    /// Cells pyretechnics burnt as passive or active crown fire (FireCast's MTT spreads surface
+    /// fire only).
+    pub pyretechnics_crown_cells: usize,
+    /// FireCast's burnt area over pyretechnics'.
+    pub area_ratio: f64,
+    /// Cells both burnt over cells either burnt.
+    pub jaccard: f64,
+    /// Mean |arrival time difference| over the cells both burnt, hours.
+    pub mean_abs_arrival_difference_h: f64,
+}
+
+/// `firecast bench spread`'s result.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SpreadBench {
+    pub landscape: PathBuf,
+    pub window: Window,
+    /// The ignition cell (column, row; row 0 north) in the landscape.
+    pub ignition: (usize, usize),
+    pub hours: f64,
+    pub stencil_radius: u32,
+    pub params: BehaviorParams,
+    pub machine: String,
+    pub threads: usize,
+    pub firecast: Timing,
+    /// Cells whose ellipse FireCast evaluated (those the fire's moves reached or crossed).
+    pub firecast_ellipses_evaluated: usize,
+    pub pyretechnics: Timing,
+    /// pyretechnics' best wall seconds over FireCast's (the same 8-hour fire).
+    pub wall_ratio: f64,
+    /// FireCast's burnt cells per second over pyretechnics'.
+    pub cells_per_second_ratio: f64,
+    pub areas: BurntAreas,
+    pub peer: PeerRun,
+}
+
+/// One point ignition at (`col`, `row`) (row 0 north) spread for `hours`, FireCast's MTT engine
+/// and pyretechnics' level set on one thread each; times (best of `repeats`), burnt cells per
+/// second, their ratios and the burnt areas.
+pub fn bench_spread(
+    opts: &BenchOptions,
+    ignition: (usize, usize),
+    hours: f64,
+    stencil_radius: u32,
+    window: Option<Window>,
+) -> Result<SpreadBench, BenchError> {
+    let full = opts.check()?;
+    if !(hours > 0.0 && hours.is_finite()) {
+        return Err(BenchError::Input(format!("hours must be positive, got {hours}")));
+    }
+    let (col, row) = ignition;
+    let window = window.unwrap_or_else(|| Window::full(&full));
+    if !window.contains(col, row) {
+        return Err(BenchError::Input(format!(
+            "ignition cell col={col}, row={row} is outside the {} x {} cells compared (from col {}, row {})",
+            window.cols, window.rows, window.col0, window.row0
+        )));
+    }
+    let land = crop(&full, window);
+    let (w, h) = (window.cols, window.rows);
+    let (icol, irow) = (col - window.col0, row - window.row0);
+    let i = irow * w + icol;
+    let burnable = land.fuel[i]
+        .and_then(FuelModel::by_number)
+        .is_some_and(|m| m.burnable);
+    if !burnable {
+        return Err(BenchError::Input(format!(
+            "ignition cell col={col}, row={row} cannot burn (fuel {})",
+            land.fuel[i].map_or("nodata".to_string(), |c| c.to_string())
+        )));
+    }
+
+    // pyretechnics.
+    let mut job = peer_inputs(&opts.params);
+    job["mode"] = "spread".into();
+    job["layers"] = peer_layers(&full)?;
+    job["window"] = serde_json::json!([
+        window.row0,
+        window.row0 + window.rows,
+        window.col0,
+        window.col0 + window.cols
+    ]);
+    job["repeats"] = opts.repeats.into();
+    job["ignition_row_col"] = serde_json::json!([irow, icol]);
+    job["max_duration_min"] = (hours * 60.0).into();
+    job["cell_size_m"] = land.grid.pixel_dx.abs().into();
+
+    // FireCast: the fuel beds, then the spread with each cell's ellipse evaluated when the
+    // fire's moves first reach it; timed together, on one thread, around pyretechnics' runs.
+    let ours = || -> Result<(f64, crate::mtt::LazyRun), BenchError> {
+        let started = Instant::now();
+        let mut ellipses = LandfireEllipses::new(&land, &opts.params);
+        let cell_ft = ellipses.cell_size_ft();
+        // A kernel error (a fuel model that cannot be prepared) stops the fire where it
+        // occurs and is returned after the run.
+        let mut failed = None;
+        let run = arrival_times_lazy_h(
+            w,
+            h,
+            cell_ft,
+            |j| {
+                let i = ellipses.landscape_index(j);
+                ellipses.at(i).unwrap_or_else(|e| {
+                    failed.get_or_insert(e);
+                    Ellipse {
+                        head_ftmin: 0.0,
+                        eccentricity: 0.0,
+                        head_azimuth_deg: 0.0,
+                    }
+                })
+            },
+            &[(icol, h - 1 - irow)],
+            stencil_radius,
+            hours,
+        )?;
+        if let Some(e) = failed {
+            return Err(e);
+        }
+        Ok((started.elapsed().as_secs_f64(), run))
+    };
+    let (seconds, run, peer) = around_peer(opts.repeats, ours, || run_peer(&opts.python, &opts.work, job))?;
+    let n = w * h;
+    let peer_toa = read_f32(&opts.work.join("time_of_arrival_min.f32"), n)?;
+    let peer_type = read_u8(&opts.work.join("fire_type.u8"), n)?;
+    let ellipses_evaluated = run.ellipses_evaluated;
+    let reached = run.reached_h;
+    // The reached cells on the landscape's grid (row 0 north).
+    let mut ours_h = vec![f64::INFINITY; n];
+    for (j, hours) in reached {
+        ours_h[(h - 1 - j / w) * w + j % w] = hours;
+    }
+    let areas = burnt_areas(&land, &ours_h, &peer_toa, &peer_type, hours);
+    let firecast = Timing::new(seconds, areas.firecast_cells);
+    let pyretechnics = Timing::new(peer.seconds.clone(), areas.pyretechnics_cells);
+    Ok(SpreadBench {
+        landscape: opts.landscape.clone(),
+        window,
+        ignition,
+        hours,
+        stencil_radius,
+        params: opts.params.clone(),
+        machine: machine(),
+        threads: 1,
+        wall_ratio: pyretechnics.best_seconds / firecast.best_seconds.max(1e-12),
+        cells_per_second_ratio: firecast.cells_per_second / pyretechnics.cells_per_second.max(1e-12),
+        firecast_ellipses_evaluated: ellipses_evaluated,
+        firecast,
+        pyretechnics,
+        areas,
+        peer,
+    })
+}
+
+fn burnt_areas(
+    land: &LandfireLandscape,
+    ours_h: &[f64],
+    peer_toa_min: &[f32],
+    peer_type: &[u8],
+    hours: f64,
+) -> BurntAreas {
+    let cell_m = land.grid.pixel_dx.abs();
+    let mut a = BurntAreas {
+        cell_area_ha: cell_m * cell_m / 10_000.0,
+        firecast_cells: 0,
+        pyretechnics_cells: 0,
+        both_cells: 0,
+        firecast_only_cells: 0,
+        pyretechnics_only_cells: 0,
+        pyretechnics_crown_cells: 0,
+        area_ratio: 0.0,
+        jaccard: 0.0,
+        mean_abs_arrival_difference_h: 0.0,
+    };
+    let mut diff = 0.0;
+    for k in 0..ours_h.len() {
+        let ours = ours_h[k].is_finite() && ours_h[k] <= hours;
+        let theirs_h = f64::from(peer_toa_min[k]) / 60.0;
+        let theirs = theirs_h.is_finite() && theirs_h <= hours + 1e-9;
+        a.firecast_cells += usize::from(ours);
+        a.pyretechnics_cells += usize::from(theirs);
+        if theirs && peer_type[k] >= 2 {
+            a.pyretechnics_crown_cells += 1;
+        }
+        match (ours, theirs) {
+            (true, true) => {
+                a.both_cells += 1;
+                diff += (ours_h[k] - theirs_h).abs();
+            }
+            (true, false) => a.firecast_only_cells += 1,
+            (false, true) => a.pyretechnics_only_cells += 1,
+            (false, false) => {}
+        }
+    }
+    let either = a.both_cells + a.firecast_only_cells + a.pyretechnics_only_cells;
+    a.area_ratio = a.firecast_cells as f64 / (a.pyretechnics_cells as f64).max(1.0);
+    a.jaccard = a.both_cells as f64 / (either as f64).max(1.0);
+    a.mean_abs_arrival_difference_h = diff / (a.both_cells as f64).max(1.0);
+    a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn comparable_cells_follow_the_two_models() {
+        // No wind: every cell.
+        assert!(comparable_cell(0.0, 40.0, 15.0, 2.0));
+        // Wind: sloped cells are not comparable (pyretechnics' slope-plane projection).
+        assert!(!comparable_cell(10.0, 5.0, 0.0, 0.0));
+        // Flat, open: comparable; flat under a canopy both shelter: comparable.
+        assert!(comparable_cell(10.0, 0.0, 0.0, 0.0));
+        assert!(comparable_cell(10.0, 0.0, 60.0, 20.0));
+        // Sparse canopy (FlamMap shelters, pyretechnics does not), or on the threshold: not.
+        assert!(!comparable_cell(10.0, 0.0, 10.0, 20.0));
+        assert!(!comparable_cell(10.0, 0.0, 15.0, 20.0));
+        assert!(!comparable_cell(10.0, 0.0, 60.0, 1.0));
+    }
+
+    #[test]
+    fn windows_stay_inside_the_grid() {
+        let land = LandfireLandscape::read_dir(
+            &Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("..")
+                .join("..")
+                .join(WORCESTER),
+            firecast_landscape::landfire::FuelLayer::Fbfm40,
+        )
+        .expect("the Worcester fixture");
+        let w = Window::around(&land, 0, 0, 100, 80);
+        assert_eq!((w.row0, w.col0, w.rows, w.cols), (0, 0, 100, 80));
+        let w = Window::around(&land, land.grid.width - 1, land.grid.height - 1, 100, 80);
+        assert_eq!(w.row0 + w.rows, land.grid.height);
+        assert_eq!(w.col0 + w.cols, land.grid.width);
+        let c = crop(&land, w);
+        assert_eq!((c.grid.width, c.grid.height, c.fuel.len()), (80, 100, 8000));
+        let (r, k) = (w.row0 + 7, w.col0 + 3);
+        assert_eq!(c.fuel[7 * 80 + 3], land.fuel[r * land.grid.width + k]);
+        assert_eq!(
+            c.slope_percent[7 * 80 + 3],
+            land.slope_percent[r * land.grid.width + k]
+        );
+    }
+
+    #[test]
+    fn mtt_grid_rows_run_south_to_north() {
+        // A window's MTT grid: the landscape's north row is the grid's last.
+        let land = LandfireLandscape::read_dir(
+            &Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("..")
+                .join("..")
+                .join(WORCESTER),
+            firecast_landscape::landfire::FuelLayer::Fbfm40,
+        )
+        .expect("the Worcester fixture");
+        let w = Window::around(&land, 274, 306, 40, 40);
+        let c = crop(&land, w);
+        let params: BehaviorParams = serde_json::from_value(serde_json::json!({
+            "moisture": {"dead_1h": 6, "dead_10h": 8, "dead_100h": 10, "live_herbaceous": 75, "live_woody": 60}
+        }))
+        .expect("params");
+        let grid = LandfireEllipses::new(&c, &params).grid().expect("grid");
+        for row in 0..40 {
+            for col in 0..40 {
+                let burns = c.fuel[row * 40 + col]
+                    .and_then(FuelModel::by_number)
+                    .is_some_and(|m| m.burnable);
+                assert_eq!(grid.burnable((39 - row) * 40 + col), burns, "{row} {col}");
+            }
+        }
+    }
+}
