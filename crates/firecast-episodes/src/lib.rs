@@ -10,6 +10,7 @@
 
 mod behavior_stage;
 pub mod ensemble;
+pub mod free_spread;
 mod stage;
 mod weather;
 
@@ -25,7 +26,8 @@ use serde::{Deserialize, Serialize};
 
 pub use behavior_stage::BehaviorStage;
 pub use stage::{
-    EnsembleParams, EnsembleStage, EpisodesStage, FuelMoistureSource, RenderStage, prepare_ensemble, write_ensemble,
+    EnsembleParams, EnsembleStage, EpisodesStage, FuelMoistureSource, RenderStage, SpreadEngine, prepare_ensemble,
+    write_ensemble,
 };
 pub use weather::{DayFuelMoisture, ResolvedWeather, WeatherSpec};
 
@@ -75,6 +77,9 @@ pub enum EpisodeError {
     },
     #[error("{0}")]
     Scenario(#[from] firecast_pipeline::SpecError),
+    /// A spread engine refused the scenario.
+    #[error("spread engine: {0}")]
+    Engine(String),
     #[error("{context}: {path}: {source}")]
     Io {
         context: &'static str,

@@ -657,6 +657,21 @@ pub enum FuelMoistureSource {
     Day,
 }
 
+/// Which engine spreads an ensemble's fires.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpreadEngine {
+    #[default]
+    Automaton,
+    Mtt,
+}
+
+impl SpreadEngine {
+    fn is_automaton(&self) -> bool {
+        *self == Self::Automaton
+    }
+}
+
 /// Params of a `sim.ensemble` stage (and, with a policy instead of an agent, `rl.ensemble`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -682,6 +697,11 @@ pub struct EnsembleParams {
     /// GRIDMET on `weather_date`; docs/spec/fire-model.md §B12).
     #[serde(default)]
     pub fuel_moisture: FuelMoistureSource,
+    /// `automaton` (the default: FireCastRL's automaton, which every agent plays) or `mtt` (the
+    /// minimum-travel-time engine verified against Rothermel's ellipse; `sim.ensemble` with
+    /// `agent: none` only).
+    #[serde(default, skip_serializing_if = "SpreadEngine::is_automaton")]
+    pub engine: SpreadEngine,
     /// How each run departs from the day's wind and fuel moisture.
     #[serde(default)]
     pub perturb: crate::ensemble::Perturbation,
@@ -709,6 +729,14 @@ impl EnsembleParams {
             return Err(ParamsError {
                 path: "runs".into(),
                 message: "must be at least 1".into(),
+            });
+        }
+        if self.engine == SpreadEngine::Mtt && (!agent_required || self.agent != Some(AgentKind::None)) {
+            return Err(ParamsError {
+                path: "engine".into(),
+                message: "the mtt engine spreads the fire freely (no helicopter): use it with sim.ensemble and \
+                          agent: none"
+                    .into(),
             });
         }
         match (agent_required, self.agent) {
@@ -831,7 +859,12 @@ impl StageKind for EnsembleStage {
         let agent = params.agent.unwrap_or(AgentKind::None);
         let setup = prepare_ensemble(ctx, &params)?;
         let bar = ctx.progress_bar(params.runs as u64, &format!("{} agent", agent.name()));
-        let ensemble = crate::ensemble::run_agent(&setup, agent, params.runs, params.seed, |_| bar.inc(1))?;
+        let ensemble = match params.engine {
+            SpreadEngine::Automaton => {
+                crate::ensemble::run_agent(&setup, agent, params.runs, params.seed, |_| bar.inc(1))?
+            }
+            SpreadEngine::Mtt => crate::free_spread::run_mtt(&setup, params.runs, params.seed, |_| bar.inc(1))?,
+        };
         bar.finish_and_clear();
         write_ensemble(ctx, &ensemble, agent.name())
     }

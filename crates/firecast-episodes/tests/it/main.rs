@@ -299,3 +299,55 @@ fn any_policy_is_recorded_with_its_path_and_the_same_numbers() {
         assert!(text.contains(entity), "recording lacks {entity}");
     }
 }
+
+/// The verified engine's ensemble: each run is the MTT engine's arrival map for that run's
+/// perturbed wind and moisture, cut at the simulated period.
+#[test]
+fn an_mtt_ensemble_is_the_engines_arrival_map_per_run() {
+    use firecast_episodes::ensemble::{Perturbation, Setup};
+    use firecast_spread::mtt::{self, MttConfig};
+    let dir = tempfile::tempdir().unwrap();
+    let mut s = scenario();
+    s.env.sim.kernel = firecast_sim::KernelConfig::rothermel_default();
+    s.env.max_steps = 30; // 6 hours
+    let setup = Setup::new(s, dir.path(), None)
+        .unwrap()
+        .with_perturbation(Perturbation::NONE);
+    let e = firecast_episodes::free_spread::run_mtt(&setup, 2, 5, |_| {}).unwrap();
+    assert_eq!(e.episodes.len(), 2);
+    assert_eq!(e.strategy, "none");
+    let (env, _) = setup.run_env(5);
+    let cfg = MttConfig {
+        moisture: match env.sim.kernel {
+            firecast_sim::KernelConfig::Rothermel { moisture, .. } => moisture,
+            _ => unreachable!(),
+        },
+        wind: env.sim.wind,
+        stencil_radius: mtt::DEFAULT_STENCIL_RADIUS,
+        max_time_h: f64::from(env.max_steps) * env.sim.dt_min / 60.0,
+    };
+    let [x, y] = setup.ignition;
+    let direct = mtt::arrival_times_h(&setup.landscape, &cfg, &[(x, y)]).unwrap();
+    let burned = direct.iter().filter(|&&t| t <= cfg.max_time_h).count() as u32;
+    let run = &e.episodes[0];
+    assert!(burned > 50, "{burned} cells in 6 h");
+    assert_eq!(run.cells_burned, burned);
+    assert_eq!(run.burned_per_step.len(), 31);
+    assert_eq!(*run.burned_per_step.last().unwrap(), burned);
+    assert!(run.burned_per_step.windows(2).all(|w| w[0] <= w[1]));
+    assert_eq!((run.helitacks, run.drops.len()), (0, 0));
+    // Without perturbation both runs are the same fire; the ensemble's earliest arrival is it.
+    assert_eq!(e.episodes[1].cells_burned, burned);
+    for (i, t) in direct.iter().enumerate() {
+        let expect = (*t <= cfg.max_time_h).then_some(*t as f32);
+        assert_eq!(e.arrival_first_h[i], expect, "cell {i}");
+    }
+    // Suppression needs the automaton.
+    let mut concord = scenario();
+    concord.env.max_steps = 30;
+    let setup = Setup::new(concord, dir.path(), None).unwrap();
+    let err = firecast_episodes::free_spread::run_mtt(&setup, 1, 0, |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("Rothermel kernel"), "{err}");
+}

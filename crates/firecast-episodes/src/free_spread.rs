@@ -1,0 +1,100 @@
+//! Free spread with the verified engine: an ensemble of unsuppressed fires run with the
+//! minimum-travel-time engine of `firecast-spread` (docs/results/spread-verification.md: it
+//! passes the ellipse cases the automaton fails) instead of the automaton, over the same
+//! perturbed runs as every other strategy. No helicopter flies here: drops need the
+//! automaton's step-by-step state.
+
+use firecast_sim::KernelConfig;
+use firecast_spread::mtt::{self, MttConfig};
+
+use crate::EpisodeError;
+use crate::ensemble::{Ensemble, EpisodeRecord, Setup, assemble};
+
+/// What the description of an MTT ensemble says.
+pub const MTT_DESCRIPTION: &str = "no suppression, spread by the minimum-travel-time engine (radius-8 stencil, \
+     Rothermel ellipses per cell; verified against the ellipse in docs/results/spread-verification.md)";
+
+/// `runs` unsuppressed fires with seeds `seed`, `seed + 1`, … spread by the MTT engine for the
+/// scenario's simulated period (`max_steps` × `dt_min`). A cell counts as burning for the
+/// automaton's `min_cell_burn_time_min` after the fire reaches it (the peak and whether the
+/// fire went out use it).
+pub fn run_mtt(
+    setup: &Setup,
+    runs: usize,
+    seed: u64,
+    mut on_run: impl FnMut(usize),
+) -> Result<Ensemble, EpisodeError> {
+    let land = &setup.landscape;
+    let mut out = Vec::with_capacity(runs);
+    for k in 0..runs {
+        let s = seed.wrapping_add(k as u64);
+        let (env, conditions) = setup.run_env(s);
+        let KernelConfig::Rothermel { moisture, .. } = env.sim.kernel else {
+            return Err(EpisodeError::Engine(
+                "the minimum-travel-time engine needs the Rothermel kernel (env.sim.kernel.rothermel)".into(),
+            ));
+        };
+        let step_h = env.sim.dt_min / 60.0;
+        let period_h = f64::from(env.max_steps) * step_h;
+        let cfg = MttConfig {
+            moisture,
+            wind: env.sim.wind,
+            stencil_radius: mtt::DEFAULT_STENCIL_RADIUS,
+            max_time_h: period_h,
+        };
+        let [ix, iy] = setup.ignition;
+        let arrival_h = mtt::arrival_times_h(land, &cfg, &[(ix, iy)])
+            .map_err(|e| EpisodeError::Engine(format!("minimum travel time: {e}")))?;
+        let arrival: Vec<f32> = arrival_h
+            .iter()
+            .map(|&t| if t <= period_h { t as f32 } else { f32::INFINITY })
+            .collect();
+        let mut times: Vec<f64> = arrival_h.iter().copied().filter(|&t| t <= period_h).collect();
+        times.sort_by(f64::total_cmp);
+        let reached_by = |t: f64| times.partition_point(|&a| a <= t + 1e-9) as u32;
+        let residence_h = env.sim.min_cell_burn_time_min / 60.0;
+        let mut burned_per_step = Vec::with_capacity(env.max_steps as usize + 1);
+        let mut peak = (0u32, 0.0);
+        for step in 0..=env.max_steps {
+            let t = f64::from(step) * step_h;
+            let burned = reached_by(t);
+            let burning = burned - reached_by(t - residence_h);
+            if burning > peak.0 {
+                peak = (burning, t);
+            }
+            burned_per_step.push(burned);
+        }
+        let last = times.last().copied().unwrap_or(0.0);
+        let went_out = last + residence_h <= period_h;
+        let (w, h) = (land.width, land.height);
+        let edge: Vec<f32> = (0..w * h)
+            .filter(|&i| {
+                let (x, y) = (i % w, i / w);
+                x == 0 || y == 0 || x + 1 == w || y + 1 == h
+            })
+            .map(|i| arrival[i])
+            .filter(|t| t.is_finite())
+            .collect();
+        out.push((
+            EpisodeRecord {
+                seed: s,
+                policy: None,
+                cells_burned: times.len() as u32,
+                hours: if went_out { last + residence_h } else { period_h },
+                contained: went_out,
+                helitacks: 0,
+                water_used_gal: 0.0,
+                conditions,
+                peak_burning_cells: peak.0,
+                peak_burning_hour: peak.1,
+                burned_per_step,
+                drops: Vec::new(),
+                edge_cells_burned: edge.len() as u32,
+                edge_first_hour: edge.iter().copied().min_by(f32::total_cmp).map(f64::from),
+            },
+            arrival,
+        ));
+        on_run(k);
+    }
+    assemble(setup, "none", MTT_DESCRIPTION.to_string(), out)
+}
