@@ -220,11 +220,12 @@ impl LandscapeSpec {
                 height,
                 cell_size_ft,
             } => {
-                let grid = firecast_data::synth::PlaceGrid::around(*lat, *lon, *width, *height, *cell_size_ft)
-                    .map_err(|e| EpisodeError::LandscapeSpec {
-                        spec: "synthetic".into(),
-                        reason: e.to_string(),
-                    })?;
+                let grid =
+                    firecast_data::synth::PlaceGrid::around(*lat, *lon, *width, *height, *cell_size_ft)
+                        .map_err(|e| EpisodeError::LandscapeSpec {
+                            spec: "synthetic".into(),
+                            reason: e.to_string(),
+                        })?;
                 let place = firecast_data::synth::place_landscape(*seed, grid);
                 Landscape::new(
                     grid.width,
@@ -304,13 +305,17 @@ impl LandscapeSpec {
     pub fn label(&self) -> LandscapeLabel {
         let (kind, synthetic, seed, note) = match self {
             Self::Synthetic {
-                seed, center: [lat, lon], ..
+                seed,
+                center: [lat, lon],
+                ..
             } => (
                 "synthetic",
                 true,
                 Some(*seed),
                 format!(
-                    "synthetic landscape: the terrain and land cover of FireCast's synthetic world (seed {seed})                      around ({lat}, {lon}), from the generator that wrote the synthetic GRIDMET weather;                      not LANDFIRE or MODIS data"
+                    "synthetic landscape: the terrain and land cover of FireCast's synthetic world (seed {seed}) \
+                     around ({lat}, {lon}), from the generator that wrote the synthetic GRIDMET weather; \
+                     not LANDFIRE or MODIS data"
                 ),
             ),
             Self::Procedural { seed, .. } => (
@@ -318,11 +323,14 @@ impl LandscapeSpec {
                 true,
                 Some(*seed),
                 format!(
-                    "synthetic landscape: a procedural map (seed {seed}) that depends on the seed only,                      the same at every place; not the place's terrain"
+                    "synthetic landscape: a procedural map (seed {seed}) that depends on the seed only, \
+                     the same at every place; not the place's terrain"
                 ),
             ),
             Self::Geotiff {
-                land_cover, elevation, ..
+                land_cover,
+                elevation,
+                ..
             } => (
                 "geotiff",
                 false,
