@@ -66,13 +66,28 @@ fn the_synthetic_landscape_is_the_places_own_and_says_it_is_synthetic() {
         assert_eq!(label["synthetic"], true);
         // The world that wrote the weather.
         assert_eq!(label["seed"], 7);
-        assert!(label["note"].as_str().unwrap().contains("synthetic"), "{label}");
+        let note = label["note"].as_str().unwrap();
+        assert!(
+            note.contains("synthetic") && !note.contains('\n') && !note.contains("  "),
+            "{label}"
+        );
         assert_eq!(e["border_cells"], 2 * (48 + 32) - 4);
         for run in e["episodes"].as_array().unwrap() {
             assert!(run["edge_cells_burned"].as_u64().is_some(), "{run}");
             assert!(run.get("edge_first_hour").is_some(), "{run}");
         }
     }
+    // The stage's log says so too.
+    let logs: String = std::fs::read_dir(p.path(".firecast/logs"))
+        .unwrap()
+        .map(|f| std::fs::read_to_string(f.unwrap().path()).unwrap())
+        .collect();
+    assert!(
+        logs.contains(
+            "synthetic landscape: the terrain and land cover of FireCast's synthetic world (seed 7)"
+        ),
+        "{logs}"
+    );
     let cells = |e: &serde_json::Value, key: &str| -> Vec<f64> {
         e[key]
             .as_array()
