@@ -459,13 +459,16 @@ pub struct DropOutcome {
     pub quenched: u32,
 }
 
+/// The cells one drop wets: (dx, dy, fraction of the cell).
+type DropPattern = Vec<(i32, i32, f32)>;
+
 /// Physical drops' per-cell data (the `coverage` footprint).
 #[derive(Clone)]
 struct Coverage {
     /// Coverage level the cell's fuel needs, gal/100 ft² (0: non-burnable).
     level: Vec<f32>,
     /// (level, the drop's cells with the fraction of each it wets) per level in the landscape.
-    patterns: Vec<(f32, Vec<(i32, i32, f32)>)>,
+    patterns: Vec<(f32, DropPattern)>,
     /// Whole-cell coverages received this episode.
     received: Vec<f32>,
 }
