@@ -26,8 +26,8 @@ use serde::{Deserialize, Serialize};
 
 pub use behavior_stage::BehaviorStage;
 pub use stage::{
-    EnsembleParams, EnsembleStage, EpisodesStage, FuelMoistureSource, RenderStage, SpreadEngine, prepare_ensemble,
-    write_ensemble,
+    EnsembleParams, EnsembleStage, EpisodesStage, FuelMoistureSource, RenderStage, SpreadEngine,
+    prepare_ensemble, write_ensemble,
 };
 pub use weather::{DayFuelMoisture, ResolvedWeather, WeatherSpec};
 
@@ -389,7 +389,9 @@ impl Scenario {
                 self.env.sim.wind = w.wind;
                 if let Some(day) = &w.fuel_moisture {
                     match &mut self.env.sim.kernel {
-                        firecast_sim::KernelConfig::Rothermel { moisture, .. } => *moisture = day.fuel_moisture(),
+                        firecast_sim::KernelConfig::Rothermel { moisture, .. } => {
+                            *moisture = day.fuel_moisture()
+                        }
                         firecast_sim::KernelConfig::Concord { .. } => {
                             return Err(EpisodeError::Weather {
                                 path: root.join(match spec {

@@ -734,9 +734,10 @@ impl EnsembleParams {
         if self.engine == SpreadEngine::Mtt && (!agent_required || self.agent != Some(AgentKind::None)) {
             return Err(ParamsError {
                 path: "engine".into(),
-                message: "the mtt engine spreads the fire freely (no helicopter): use it with sim.ensemble and \
+                message:
+                    "the mtt engine spreads the fire freely (no helicopter): use it with sim.ensemble and \
                           agent: none"
-                    .into(),
+                        .into(),
             });
         }
         match (agent_required, self.agent) {
@@ -863,7 +864,9 @@ impl StageKind for EnsembleStage {
             SpreadEngine::Automaton => {
                 crate::ensemble::run_agent(&setup, agent, params.runs, params.seed, |_| bar.inc(1))?
             }
-            SpreadEngine::Mtt => crate::free_spread::run_mtt(&setup, params.runs, params.seed, |_| bar.inc(1))?,
+            SpreadEngine::Mtt => {
+                crate::free_spread::run_mtt(&setup, params.runs, params.seed, |_| bar.inc(1))?
+            }
         };
         bar.finish_and_clear();
         write_ensemble(ctx, &ensemble, agent.name())
