@@ -31,7 +31,8 @@ pub struct ReportArgs {
     /// An asset to watch, `NAME,LAT,LON` (repeatable).
     #[arg(long = "asset", value_name = "NAME,LAT,LON", allow_hyphen_values = true)]
     pub assets: Vec<String>,
-    /// Output folder: report.html, report.pdf, report.json, report.geojson.
+    /// Output folder: report.html, report.pdf, report.json, report.geojson, arrival_h.tif,
+    /// burn_probability_pct.tif.
     #[arg(long, value_name = "DIR", default_value = "build/report")]
     pub out: PathBuf,
     /// Skip the PDF (no Chromium needed).
@@ -80,6 +81,8 @@ pub fn run(settings: &Settings, args: &ReportArgs) -> anyhow::Result<ExitCode> {
         "html": out.join("report.html").display().to_string(),
         "json": out.join("report.json").display().to_string(),
         "geojson": out.join("report.geojson").display().to_string(),
+        "arrival_tif": out.join("arrival_h.tif").display().to_string(),
+        "burn_probability_tif": out.join("burn_probability_pct.tif").display().to_string(),
     });
     if !args.no_pdf {
         outputs["pdf"] = serde_json::Value::String(out.join("report.pdf").display().to_string());

@@ -1,8 +1,15 @@
 //! The threat-report flow through the real binary on a small fire: synthetic GRIDMET files,
 //! a PPO agent trained for a few steps, ensembles without suppression, under the rule-based
 //! plan and under the agent, then the `report` stage — and bad input that must not leave a
-//! report behind. (The forecast comes from a file in the `forecast.predict` format: training
-//! a forecaster needs a whole dataset, which the demo and `pipelines/threat.yaml` build.)
+//! report behind, nor touch the report of another place or day. (The forecast comes from a
+//! file in the `forecast.predict` format: training a forecaster needs a whole dataset, which
+//! the demo and `pipelines/threat.yaml` build.)
+//!
+//! As in `pipelines/threat.yaml`, each place and day has its own folders: the report in
+//! `build/<lat>_<lon>/<date>/`, the ensembles it is made from in `build/work/<lat>_<lon>/<date>/`.
+
+use std::collections::BTreeMap;
+use std::path::Path;
 
 use crate::{Project, describe};
 
@@ -16,6 +23,8 @@ vars:
   lat: {lat}
   lon: {lon}
   date: "2019-08-01"
+  report_dir: build/${{lat}}_${{lon}}/${{date}}
+  work_dir: build/work/${{lat}}_${{lon}}/${{date}}
 stages:
   sources:
     uses: data.synthesize
@@ -55,7 +64,7 @@ stages:
     inputs:
       gridmet: {{from: sources.gridmet}}
     outputs:
-      ensemble: build/none.json
+      ensemble: ${{work_dir}}/none.json
   rule_plan:
     uses: sim.ensemble
     params:
@@ -68,7 +77,7 @@ stages:
     inputs:
       gridmet: {{from: sources.gridmet}}
     outputs:
-      ensemble: build/rule.json
+      ensemble: ${{work_dir}}/rule.json
   agent_plan:
     uses: rl.ensemble
     params:
@@ -82,7 +91,7 @@ stages:
       run: {{from: agent.run}}
       gridmet: {{from: sources.gridmet}}
     outputs:
-      ensemble: build/ppo.json
+      ensemble: ${{work_dir}}/ppo.json
   report:
     uses: report
     params:
@@ -95,10 +104,12 @@ stages:
       forecast: forecast.json
       gridmet: {{from: sources.gridmet}}
     outputs:
-      html: {{path: build/report.html, artifact: true}}
-      json: {{path: build/report.json, artifact: true}}
-      geojson: {{path: build/report.geojson, artifact: true}}
-      pdf: {{path: build/report.pdf, artifact: true}}
+      html: {{path: "${{report_dir}}/report.html", artifact: true}}
+      json: {{path: "${{report_dir}}/report.json", artifact: true}}
+      geojson: {{path: "${{report_dir}}/report.geojson", artifact: true}}
+      pdf: {{path: "${{report_dir}}/report.pdf", artifact: true}}
+      arrival_tif: {{path: "${{report_dir}}/arrival_h.tif", artifact: true}}
+      burn_probability_tif: {{path: "${{report_dir}}/burn_probability_pct.tif", artifact: true}}
 "#
     )
 }
@@ -139,6 +150,37 @@ pub(crate) fn forecast(lat: f64, lon: f64) -> String {
     .to_string()
 }
 
+/// The report folder of a place and day, as the fixture pipeline (and `pipelines/threat.yaml`)
+/// names it.
+pub(crate) fn report_dir(lat: f64, lon: f64, date: &str) -> String {
+    format!("build/{lat}_{lon}/{date}")
+}
+
+/// The folder of the ensembles a place and day's report is made from.
+fn work_dir(lat: f64, lon: f64, date: &str) -> String {
+    format!("build/work/{lat}_{lon}/{date}")
+}
+
+const DATE: &str = "2019-08-01";
+
+/// Every file under `dir` (relative path → bytes).
+fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
+        for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                walk(root, &path, out);
+            } else {
+                let rel = path.strip_prefix(root).unwrap().display().to_string();
+                out.insert(rel, std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk(dir, dir, &mut out);
+    out
+}
+
 fn project(lat: f64, lon: f64) -> Project {
     let p = Project::new();
     p.write("pipelines/threat.yaml", &pipeline(lat, lon));
@@ -152,7 +194,21 @@ fn threat_report_end_to_end_is_cached_and_registered() {
     let p = project(LAT, LON);
     let first = p.run_pipeline("pipelines/threat.yaml", &[]);
     assert!(first.values().all(|o| o == "ran"), "{first:?}");
-    let report: serde_json::Value = serde_json::from_str(&p.read("build/report.json")).unwrap();
+    let (dir, work) = (report_dir(LAT, LON, DATE), work_dir(LAT, LON, DATE));
+    // The report's folder holds the report and nothing else.
+    let written: Vec<String> = files(&p.path(&dir)).into_keys().collect();
+    assert_eq!(
+        written,
+        [
+            "arrival_h.tif",
+            "burn_probability_pct.tif",
+            "report.geojson",
+            "report.html",
+            "report.json",
+            "report.pdf"
+        ]
+    );
+    let report: serde_json::Value = serde_json::from_str(&p.read(&format!("{dir}/report.json"))).unwrap();
     let strategies: Vec<&str> = report["strategies"]
         .as_array()
         .unwrap()
@@ -162,7 +218,7 @@ fn threat_report_end_to_end_is_cached_and_registered() {
     assert_eq!(strategies, ["none", "rule", "ppo"]);
     // The agent's drops, or the rule plan's when the agent's representative run (median
     // burnt area) made none — as a 32-step agent may.
-    let ppo: serde_json::Value = serde_json::from_str(&p.read("build/ppo.json")).unwrap();
+    let ppo: serde_json::Value = serde_json::from_str(&p.read(&format!("{work}/ppo.json"))).unwrap();
     let mut order: Vec<(u64, u64, usize)> = ppo["episodes"]
         .as_array()
         .unwrap()
@@ -185,7 +241,7 @@ fn threat_report_end_to_end_is_cached_and_registered() {
     );
     assert_eq!(report["forecast"]["probability"], 0.3);
     // The numbers come from the ensemble files the stages wrote.
-    let none: serde_json::Value = serde_json::from_str(&p.read("build/none.json")).unwrap();
+    let none: serde_json::Value = serde_json::from_str(&p.read(&format!("{work}/none.json"))).unwrap();
     let runs = none["episodes"].as_array().unwrap();
     let cells: f64 = runs
         .iter()
@@ -195,10 +251,31 @@ fn threat_report_end_to_end_is_cached_and_registered() {
     let acres = report["strategies"][0]["burned_acres"]["value"].as_f64().unwrap();
     assert!((acres - cells * 500.0 * 500.0 / 43_560.0).abs() < 1e-6);
     assert!(
-        std::fs::read(p.path("build/report.pdf"))
+        std::fs::read(p.path(&format!("{dir}/report.pdf")))
             .unwrap()
             .starts_with(b"%PDF-")
     );
+    // The GIS files as GIS users open them: GeoJSON geometries valid by shapely, the
+    // GeoTIFFs read by rasterio and equal to the report's numbers.
+    let check = crate::repo_root().join("crates/firecast-report/tests/gis_check.py");
+    for args in [
+        vec![format!("{dir}/report.geojson")],
+        vec![
+            format!("{dir}/report.json"),
+            format!("{work}/none.json"),
+            format!("{dir}/arrival_h.tif"),
+            format!("{dir}/burn_probability_pct.tif"),
+        ],
+    ] {
+        let what = if args.len() == 1 { "geojson" } else { "rasters" };
+        let out = std::process::Command::new(crate::venv_bin("python"))
+            .arg(&check)
+            .arg(what)
+            .args(args.iter().map(|a| p.path(a)))
+            .output()
+            .expect("the project's Python (cargo xtask setup)");
+        assert!(out.status.success(), "{what}: {}", describe(&out));
+    }
     // Registered artifacts under their final names.
     let runs = p.json(&["runs", "list"]);
     let id = runs
@@ -210,8 +287,8 @@ fn threat_report_end_to_end_is_cached_and_registered() {
         .expect("a report run");
     let shown = p.json(&["runs", "show", &id]);
     let text = shown.to_string();
-    for name in ["report.html", "report.pdf", "report.json", "report.geojson"] {
-        assert!(text.contains(name), "{name} not registered: {text}");
+    for name in written {
+        assert!(text.contains(&name), "{name} not registered: {text}");
     }
     assert!(!text.contains("firecast-tmp"), "temporary names leaked: {text}");
     // A second run is up to date throughout.
@@ -234,5 +311,110 @@ fn a_point_without_fuel_or_outside_the_landscape_leaves_no_report() {
         err.contains("ignition") && err.contains("outside the landscape"),
         "{err}"
     );
-    assert!(!p.path("build/report.html").exists() && !p.path("build/report.json").exists());
+    assert!(!p.path(&report_dir(39.6, -107.4, DATE)).exists());
+}
+
+/// One report per place and day: after a good run at one place, runs that fail — at a water
+/// cell elsewhere, on a day the weather files do not hold, and in the report stage itself
+/// (its forecast is for another day) after the fires of that day were simulated — leave the
+/// good report byte for byte as it was, write no file of a failed report anywhere, and leave
+/// no temporary file behind.
+#[test]
+fn a_failed_run_leaves_the_last_good_report_of_each_place_and_day_untouched() {
+    let p = project(LAT, LON);
+    let first = p.run_pipeline("pipelines/threat.yaml", &[]);
+    assert!(first.values().all(|o| o == "ran"), "{first:?}");
+    let good_dir = report_dir(LAT, LON, DATE);
+    let good = files(&p.path(&good_dir));
+    assert!(
+        good.contains_key("report.json") && good.contains_key("arrival_h.tif"),
+        "{:?}",
+        good.keys()
+    );
+
+    // A water cell of the landscape the fires burnt.
+    let none: serde_json::Value =
+        serde_json::from_str(&p.read(&format!("{}/none.json", work_dir(LAT, LON, DATE)))).unwrap();
+    let g = &none["grid"];
+    assert_eq!(g["crs"], "EPSG:4326");
+    let w = g["width"].as_u64().unwrap() as usize;
+    let water = none["land_cover"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .position(|c| c == 17)
+        .expect("the procedural landscape has water");
+    let f = |k: &str| g[k].as_f64().unwrap();
+    let round = |v: f64| (v * 1e6).round() / 1e6;
+    let water_lon = round(f("origin_x") + ((water % w) as f64 + 0.5) * f("cell_size_x"));
+    let water_lat = round(f("origin_y") + ((water / w) as f64 + 0.5) * f("cell_size_y"));
+
+    let failing: [(f64, f64, &str, &[&str]); 3] = [
+        (
+            water_lat,
+            water_lon,
+            DATE,
+            &["ignition", "nothing there can burn"],
+        ),
+        (LAT, LON, "2021-08-01", &["2021"]),
+        (LAT, LON, "2019-08-02", &["forecast", "2019-08-01"]),
+    ];
+    for (lat, lon, date, says) in failing {
+        let before_work = files(&p.path("build/work"));
+        let out = p
+            .firecast()
+            .args(["pipeline", "run", "pipelines/threat.yaml"])
+            .args(["-S", &format!("lat={lat}"), "-S", &format!("lon={lon}")])
+            .args(["-S", &format!("date={date}")])
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{}", describe(&out));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            says.iter().all(|s| err.contains(s)),
+            "({lat}, {lon}) on {date}: {err}"
+        );
+        // The good report is untouched.
+        assert_eq!(
+            files(&p.path(&good_dir)),
+            good,
+            "({lat}, {lon}) on {date} changed {good_dir}"
+        );
+        // No file of the failed report (the runner may have made its empty folder).
+        let failed = files(&p.path(&report_dir(lat, lon, date)));
+        assert!(
+            failed.is_empty(),
+            "({lat}, {lon}) on {date} left {:?}",
+            failed.keys()
+        );
+        // Outside the work folders, nothing but the good report and the shared sources and
+        // agent; in them, only whole outputs of the stages that succeeded, each in the
+        // folder of its own place and day.
+        let all = files(&p.path("build"));
+        for path in all.keys() {
+            assert!(!path.contains("firecast-tmp"), "temporary file left: {path}");
+            let place = path.starts_with(&format!("{LAT}_{LON}/{DATE}/"))
+                || path.starts_with("sources/")
+                || path.starts_with("agent/")
+                || path.starts_with("work/");
+            assert!(place, "({lat}, {lon}) on {date} left build/{path}");
+        }
+        for (path, bytes) in files(&p.path("build/work")) {
+            if before_work.get(&path) != Some(&bytes) {
+                assert!(
+                    path.starts_with(&format!("{lat}_{lon}/{date}/")),
+                    "({lat}, {lon}) on {date} wrote work/{path}"
+                );
+            }
+        }
+    }
+    // Back at the good place and day nothing runs: the report is up to date, and the stages
+    // whose last run was elsewhere come back from the run cache, byte for byte.
+    let again = p.run_pipeline("pipelines/threat.yaml", &[]);
+    assert_eq!(again["report"], "up_to_date", "{again:?}");
+    assert!(
+        again.values().all(|o| o == "up_to_date" || o == "restored"),
+        "{again:?}"
+    );
+    assert_eq!(files(&p.path(&good_dir)), good);
 }

@@ -632,7 +632,13 @@ fn web_app_end_to_end() {
         .unwrap()
         .text()
         .unwrap();
-    assert_eq!(html, p.read("build/report.html"));
+    assert_eq!(
+        html,
+        p.read(&format!(
+            "{}/report.html",
+            crate::report::report_dir(39.3, -107.4, DATE)
+        ))
+    );
     let (code, again) = post(&s, &format!("/api/jobs/threat?lat=39.3&lon=-107.4&date={DATE}"));
     assert_eq!(
         (code, again["id"].as_str()),

@@ -958,7 +958,7 @@ fn assets(
 ) -> Result<(Vec<Asset>, Vec<Vec<usize>>), ReportError> {
     let bands = &settings.evacuation;
     let r = (bands.buffer_ft / land.cell_size_ft).round().max(0.0) as usize;
-    let mut list: Vec<(String, String, Vec<usize>)> = Vec::new();
+    let mut list: Vec<(String, AssetSource, Vec<usize>)> = Vec::new();
     for (i, a) in settings.assets.iter().enumerate() {
         let (x, y) = land.lat_lon_to_cell(a.lat, a.lon).ok_or_else(|| {
             ReportError::input(
@@ -969,11 +969,11 @@ fn assets(
                 ),
             )
         })?;
-        list.push((a.name.clone(), "listed".into(), vec![land.index(x, y)]));
+        list.push((a.name.clone(), AssetSource::Listed, vec![land.index(x, y)]));
     }
     if settings.developed_land_assets {
         for (k, patch) in developed_patches(land).into_iter().enumerate() {
-            list.push((format!("Developed area {}", k + 1), "developed".into(), patch));
+            list.push((format!("Developed area {}", k + 1), AssetSource::Developed, patch));
         }
     }
     let mut out = Vec::new();
@@ -1005,7 +1005,7 @@ fn assets(
         let first_arrival = first.is_finite().then_some(first);
         let (band, advice, trigger) = match first_arrival {
             Some(t) if t <= bands.go_within_h => (
-                "GO",
+                Band::Go,
                 format!(
                     "Fire can reach it within {} h of ignition: evacuate as soon as a fire is reported.",
                     fmt_num(t, 1)
@@ -1013,7 +1013,7 @@ fn assets(
                 None,
             ),
             Some(t) if t <= bands.set_within_h => (
-                "SET",
+                Band::Set,
                 format!(
                     "Earliest arrival {} h after ignition: be ready to leave; move to GO at hour {} ({} h before arrival).",
                     fmt_num(t, 1),
@@ -1023,7 +1023,7 @@ fn assets(
                 Some(t - bands.go_within_h),
             ),
             Some(t) if t <= bands.ready_within_h => (
-                "READY",
+                Band::Ready,
                 format!(
                     "Earliest arrival {} h after ignition: prepare; move to SET at hour {}.",
                     fmt_num(t, 1),
@@ -1032,14 +1032,14 @@ fn assets(
                 Some(t - bands.set_within_h),
             ),
             Some(t) => (
-                "NONE",
+                Band::None,
                 format!(
                     "Reached only after {} h in the worst run; watch for changes.",
                     fmt_num(t, 1)
                 ),
                 None,
             ),
-            None => ("NONE", "No simulated fire reached it.".to_string(), None),
+            None => (Band::None, "No simulated fire reached it.".to_string(), None),
         };
         let (cx, cy) = centroid(land, &cells);
         let (lat, lon) = land.cell_to_lat_lon(cx, cy);
@@ -1052,7 +1052,7 @@ fn assets(
             first_arrival_h: first_arrival,
             first_arrival_strategy: who.filter(|_| first_arrival.is_some()),
             reached_pct: reached,
-            band: band.into(),
+            band,
             advice,
             trigger_h: trigger,
         });
@@ -1149,7 +1149,12 @@ fn priority_zones(
 }
 
 fn risk(burned_fraction_pct: f64, assets: &[Asset]) -> Risk {
-    let levels = ["LOW", "MODERATE", "HIGH", "SEVERE"];
+    let levels = [
+        RiskLevel::Low,
+        RiskLevel::Moderate,
+        RiskLevel::High,
+        RiskLevel::Severe,
+    ];
     let mut k = if burned_fraction_pct < 1.0 {
         0
     } else if burned_fraction_pct < 5.0 {
@@ -1159,13 +1164,13 @@ fn risk(burned_fraction_pct: f64, assets: &[Asset]) -> Risk {
     } else {
         3
     };
-    let go = assets.iter().filter(|a| a.band == "GO").count();
-    let set = assets.iter().filter(|a| a.band == "SET").count();
+    let go = assets.iter().filter(|a| a.band == Band::Go).count();
+    let set = assets.iter().filter(|a| a.band == Band::Set).count();
     if go > 0 {
         k = (k + 1).min(3);
     }
     Risk {
-        level: levels[k].into(),
+        level: levels[k],
         burned_fraction_pct,
         assets_go: go,
         assets_set: set,

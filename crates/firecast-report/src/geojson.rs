@@ -1,12 +1,20 @@
 //! The report for GIS users: arrival isochrones (median over runs) per strategy,
 //! burn-probability zones, drops, assets with their bands, priority zones and the ignition,
-//! as one RFC 7946 FeatureCollection in WGS84.
+//! as one RFC 7946 FeatureCollection in WGS84 with valid OGC geometries.
+//!
+//! Property conventions (documented per property in `docs/guides/report.md`, "GeoJSON
+//! properties"): times are hours after ignition (`_h`), probabilities and shares percent
+//! 0–100 (`_pct`), areas acres and hectares (`_acres`, `_ha`); every feature has `kind`.
 
 use serde_json::{Value, json};
 
 use crate::ReportError;
 use crate::compute::Computed;
 use crate::geometry::{self, geojson_multipolygon, round7};
+use crate::units::HA_PER_ACRE;
+
+/// The minimum burn probabilities of the burn-probability zones, percent.
+pub const BURN_PROBABILITY_ZONES_PCT: [f64; 3] = [10.0, 50.0, 90.0];
 
 fn point(lat: f64, lon: f64) -> Value {
     json!({"type": "Point", "coordinates": [round7(lon), round7(lat)]})
@@ -20,6 +28,7 @@ fn feature(geometry: Value, properties: Value) -> Value {
 pub fn build(c: &Computed) -> Result<Value, ReportError> {
     let land = &c.landscape;
     let (w, h) = (land.width, land.height);
+    let cell_acres = crate::units::cell_acres(land.cell_size_ft);
     let no_georef = || {
         ReportError::input(
             "landscape",
@@ -31,53 +40,56 @@ pub fn build(c: &Computed) -> Result<Value, ReportError> {
     for e in &c.ensembles {
         for iso in &r.strategies[0].isochrone_acres {
             let t = iso[0];
-            let rings = geometry::rings(w, h, |i| e.arrival_median_h[i].is_some_and(|a| f64::from(a) <= t));
+            let reached = |i: usize| e.arrival_median_h[i].is_some_and(|a| f64::from(a) <= t);
+            let rings = geometry::rings(w, h, reached);
             if rings.is_empty() {
                 continue;
             }
-            let cells = e
-                .arrival_median_h
-                .iter()
-                .flatten()
-                .filter(|&&a| f64::from(a) <= t)
-                .count();
+            let acres = (0..w * h).filter(|&i| reached(i)).count() as f64 * cell_acres;
             let geom = geojson_multipolygon(land, &geometry::polygons(rings)).ok_or_else(no_georef)?;
             features.push(feature(
                 geom,
                 json!({
                     "kind": "arrival_isochrone",
                     "strategy": e.strategy,
-                    "hours_after_ignition": t,
+                    "arrival_h": t,
                     "statistic": "median arrival over runs",
-                    "acres": cells as f64 * crate::units::cell_acres(land.cell_size_ft),
+                    "area_acres": acres,
+                    "area_ha": acres * HA_PER_ACRE,
                 }),
             ));
         }
-        for p in [0.1, 0.5, 0.9] {
-            let runs = e.runs() as f64;
-            let rings = geometry::rings(w, h, |i| f64::from(e.burn_count[i]) / runs >= p);
+        let runs = e.runs() as f64;
+        for p in BURN_PROBABILITY_ZONES_PCT {
+            // Integer counts against the threshold: no rounding at the zone's edge.
+            let zone = |i: usize| f64::from(e.burn_count[i]) * 100.0 >= p * runs;
+            let rings = geometry::rings(w, h, zone);
             if rings.is_empty() {
                 continue;
             }
+            let acres = (0..w * h).filter(|&i| zone(i)).count() as f64 * cell_acres;
             let geom = geojson_multipolygon(land, &geometry::polygons(rings)).ok_or_else(no_georef)?;
             features.push(feature(
                 geom,
                 json!({
                     "kind": "burn_probability_zone",
                     "strategy": e.strategy,
-                    "min_probability": p,
+                    "min_burn_probability_pct": p,
                     "runs": e.runs(),
+                    "area_acres": acres,
+                    "area_ha": acres * HA_PER_ACRE,
                     "note": "burn probability, not a progression map",
                 }),
             ));
         }
     }
     for d in &r.drops.drops {
+        let acres = f64::from(d.quenched_cells) * cell_acres;
         features.push(feature(
             point(d.lat, d.lon),
             json!({"kind": "drop", "strategy": r.drops.strategy, "number": d.number,
-                   "hours_after_ignition": d.hour, "run_seed": r.drops.run_seed,
-                   "quenched_cells": d.quenched_cells}),
+                   "drop_h": d.hour, "run_seed": r.drops.run_seed,
+                   "quenched_acres": acres, "quenched_ha": acres * HA_PER_ACRE}),
         ));
     }
     for a in &r.assets {
@@ -85,7 +97,8 @@ pub fn build(c: &Computed) -> Result<Value, ReportError> {
             point(a.lat, a.lon),
             json!({"kind": "asset", "name": a.name, "source": a.source, "band": a.band,
                    "first_arrival_h": a.first_arrival_h, "trigger_h": a.trigger_h,
-                   "advice": a.advice}),
+                   "area_acres": a.area_acres, "area_ha": a.area_acres * HA_PER_ACRE,
+                   "buffer_ft": r.evacuation_bands.buffer_ft, "advice": a.advice}),
         ));
     }
     for z in &r.priority_zones {
@@ -99,14 +112,19 @@ pub fn build(c: &Computed) -> Result<Value, ReportError> {
         let geom = geojson_multipolygon(land, &[vec![ring]]).ok_or_else(no_georef)?;
         features.push(feature(
             geom,
-            json!({"kind": "priority_zone", "rank": z.rank, "acres_protected": z.acres_protected,
-                   "drops_per_run": z.drops_per_run}),
+            json!({"kind": "priority_zone", "rank": z.rank,
+                   "protected_acres": z.acres_protected, "protected_ha": z.acres_protected * HA_PER_ACRE,
+                   "drops_per_run": z.drops_per_run,
+                   "burn_probability_unsuppressed_pct": z.burn_probability_unsuppressed_pct,
+                   "burn_probability_agent_pct": z.burn_probability_agent_pct}),
         ));
     }
     let [ilat, ilon] = c.ensembles[0].ignition_lat_lon;
     features.push(feature(
         point(ilat, ilon),
-        json!({"kind": "ignition", "date": r.header.date, "probability": r.forecast.probability}),
+        json!({"kind": "ignition", "date": r.header.date,
+               "ignition_probability_pct": r.forecast.probability * 100.0,
+               "ignition_threshold_pct": r.forecast.threshold * 100.0}),
     ));
     Ok(json!({
         "type": "FeatureCollection",

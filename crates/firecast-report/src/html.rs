@@ -106,8 +106,8 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         esc(&lat_lon_text(hd.lat, hd.lon)),
         esc(&hd.grid_location),
         esc(&hd.date),
-        esc(&r.risk.level),
-        esc(&r.risk.level),
+        r.risk.level.as_str(),
+        r.risk.level.as_str(),
         esc(&hd.issued_at),
         esc(&hd.valid_from),
         esc(&hd.valid_until),
@@ -181,8 +181,8 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             cmp.runs_better_pct
         )?;
     }
-    let go: Vec<&Asset> = r.assets.iter().filter(|a| a.band == "GO").collect();
-    let set: Vec<&Asset> = r.assets.iter().filter(|a| a.band == "SET").collect();
+    let go: Vec<&Asset> = r.assets.iter().filter(|a| a.band == Band::Go).collect();
+    let set: Vec<&Asset> = r.assets.iter().filter(|a| a.band == Band::Set).collect();
     write!(
         h,
         "<li>Evacuation: <b>{}</b> asset(s) in GO, <b>{}</b> in SET{}.</li>",
@@ -515,8 +515,8 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             h,
             "<tr><td><span class=\"band {}\">{}</span></td><td>{}</td><td class=n>{:.5}, {:.5}</td><td class=n>{}</td>\
              <td class=n>{}</td><td class=n>{}</td><td>{}</td></tr>",
-            esc(&a.band),
-            esc(&a.band),
+            a.band.as_str(),
+            a.band.as_str(),
             esc(&a.name),
             a.lat,
             a.lon,
@@ -585,8 +585,8 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         h,
         "<h2>8. Risk level</h2><p><span class=\"badge {}\">{}</span> — unsuppressed fires burn {:.1} % of the burnable \
          land on average; {} asset(s) in GO, {} in SET.</p><p class=muted>{}</p>",
-        esc(&r.risk.level),
-        esc(&r.risk.level),
+        r.risk.level.as_str(),
+        r.risk.level.as_str(),
         r.risk.burned_fraction_pct,
         r.risk.assets_go,
         r.risk.assets_set,

@@ -2,10 +2,11 @@
 //! weather and fire behaviour at the point, and the simulated fire without suppression, under
 //! the rule-based plan and under the trained agent over many seeds — turned into one report a
 //! duty officer can read in two minutes (HTML, and the same page printed to PDF by Chromium)
-//! and its machine-readable twins (JSON with a versioned schema, GeoJSON for GIS).
+//! and its machine-readable twins (JSON with a versioned schema, GeoJSON and GeoTIFFs for
+//! GIS).
 //!
-//! [`compute`] turns the inputs into [`model::ThreatReport`]; [`html`], [`geojson`] and
-//! [`pdf`] write it; [`ReportStage`] is the `report` pipeline stage kind.
+//! [`compute`] turns the inputs into [`model::ThreatReport`]; [`html`], [`geojson`],
+//! [`rasters`] and [`pdf`] write it; [`ReportStage`] is the `report` pipeline stage kind.
 
 pub mod compute;
 pub mod figures;
@@ -14,6 +15,7 @@ pub mod geometry;
 pub mod html;
 pub mod model;
 pub mod pdf;
+pub mod rasters;
 mod stage;
 pub mod units;
 pub mod weather;

