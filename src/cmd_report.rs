@@ -15,6 +15,10 @@ pub struct ReportArgs {
     /// Ensemble files from `sim.ensemble` / `rl.ensemble` (one must be the `none` strategy).
     #[arg(long = "ensemble", value_name = "FILE", required = true)]
     pub ensembles: Vec<PathBuf>,
+    /// The free fire of `sim.ensemble` with `engine: mtt` (the verified engine): it then draws
+    /// the isochrones, burn probability, GeoTIFFs and assets' arrival.
+    #[arg(long, value_name = "FILE")]
+    pub spread: Option<PathBuf>,
     /// The `forecast.predict` output for the same place and date.
     #[arg(long, value_name = "FILE")]
     pub forecast: PathBuf,
@@ -87,7 +91,7 @@ pub fn run(settings: &Settings, args: &ReportArgs) -> anyhow::Result<ExitCode> {
     if !args.no_pdf {
         outputs["pdf"] = serde_json::Value::String(out.join("report.pdf").display().to_string());
     }
-    let stage = serde_json::json!({
+    let mut stage = serde_json::json!({
         "uses": "report",
         "description": format!("Threat report for ({}, {}) on {}", args.lat, args.lon, args.date),
         "params": params,
@@ -98,6 +102,9 @@ pub fn run(settings: &Settings, args: &ReportArgs) -> anyhow::Result<ExitCode> {
         },
         "outputs": outputs,
     });
+    if let Some(spread) = &args.spread {
+        stage["inputs"]["spread"] = serde_json::Value::String(rel(spread));
+    }
     let file = settings.root.join("firecast-report.yaml");
     let (outcome, secs, run_id) = crate::cmd_pipeline::run_one_stage(
         settings,
@@ -122,6 +129,15 @@ pub fn run(settings: &Settings, args: &ReportArgs) -> anyhow::Result<ExitCode> {
         "report {outcome} in {secs:.1} s (run {run_id}): risk {}, ignition probability {:.2}",
         report.risk.level, report.forecast.probability
     );
+    if let Some(f) = &report.free_spread {
+        println!(
+            "  {:<28} {:>9.0} acres [{:.0}, {:.0}]",
+            "Free fire (verified engine)",
+            f.fire.burned_acres.value,
+            f.fire.burned_acres.low,
+            f.fire.burned_acres.high
+        );
+    }
     for s in &report.strategies {
         println!(
             "  {:<28} {:>9.0} acres [{:.0}, {:.0}]",

@@ -65,6 +65,20 @@ stages:
       gridmet: {{from: sources.gridmet}}
     outputs:
       ensemble: ${{work_dir}}/none.json
+  free_spread:
+    uses: sim.ensemble
+    params:
+      landscape: {{procedural: {{seed: 2, width: 48, height: 32, center: [{LAT}, {LON}]}}}}
+      engine: mtt
+      agent: none
+      runs: 4
+      weather_date: ${{date}}
+      ignition: ["${{lat}}", "${{lon}}"]
+      env: *env
+    inputs:
+      gridmet: {{from: sources.gridmet}}
+    outputs:
+      ensemble: ${{work_dir}}/mtt.json
   rule_plan:
     uses: sim.ensemble
     params:
@@ -101,6 +115,7 @@ stages:
       bootstrap_resamples: 200
     inputs:
       ensembles: [{{from: unsuppressed.ensemble}}, {{from: rule_plan.ensemble}}, {{from: agent_plan.ensemble}}]
+      spread: {{from: free_spread.ensemble}}
       forecast: forecast.json
       gridmet: {{from: sources.gridmet}}
     outputs:
@@ -250,6 +265,18 @@ fn threat_report_end_to_end_is_cached_and_registered() {
         / runs.len() as f64;
     let acres = report["strategies"][0]["burned_acres"]["value"].as_f64().unwrap();
     assert!((acres - cells * 500.0 * 500.0 / 43_560.0).abs() < 1e-6);
+    // The free fire from the verified engine's ensemble, beside the automaton's.
+    let mtt: serde_json::Value = serde_json::from_str(&p.read(&format!("{work}/mtt.json"))).unwrap();
+    let runs = mtt["episodes"].as_array().unwrap();
+    let cells: f64 = runs
+        .iter()
+        .map(|r| r["cells_burned"].as_f64().unwrap())
+        .sum::<f64>()
+        / runs.len() as f64;
+    let free = report["free_spread"]["fire"]["burned_acres"]["value"]
+        .as_f64()
+        .unwrap();
+    assert!((free - cells * 500.0 * 500.0 / 43_560.0).abs() < 1e-6);
     assert!(
         std::fs::read(p.path(&format!("{dir}/report.pdf")))
             .unwrap()
@@ -262,7 +289,7 @@ fn threat_report_end_to_end_is_cached_and_registered() {
         vec![format!("{dir}/report.geojson")],
         vec![
             format!("{dir}/report.json"),
-            format!("{work}/none.json"),
+            format!("{work}/mtt.json"),
             format!("{dir}/arrival_h.tif"),
             format!("{dir}/burn_probability_pct.tif"),
         ],

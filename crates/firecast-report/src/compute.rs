@@ -127,6 +127,9 @@ pub struct DayWeather {
 /// Inputs of one report.
 pub struct Inputs {
     pub ensembles: Vec<Ensemble>,
+    /// The free fire of `sim.ensemble` with `engine: mtt` (the verified engine): where given,
+    /// it answers where the fire goes and when; the strategies stay on the automaton.
+    pub spread: Option<Ensemble>,
     pub forecast: ForecastFile,
     pub weather: DayWeather,
     pub run_id: String,
@@ -143,8 +146,25 @@ pub struct Computed {
     /// Index of the agent whose drops and isochrones are drawn (None: only no suppression).
     pub agent: Option<usize>,
     pub baseline: usize,
+    /// The verified engine's free fire, when given.
+    pub spread: Option<Ensemble>,
     /// Asset cells (for the map).
     pub asset_cells: Vec<Vec<usize>>,
+}
+
+/// Key of the verified engine's free fire where strategies are listed (assets' arrival).
+pub const FREE_SPREAD_KEY: &str = "free-spread";
+
+/// The engine of a `free_spread` ensemble, as the report names it.
+pub const FREE_SPREAD_ENGINE: &str = "minimum travel time (firecast-spread, radius-8 stencil), verified against \
+     Rothermel's ellipse in docs/results/spread-verification.md";
+
+impl Computed {
+    /// The fire that answers where the fire goes and when: the verified engine's free fire
+    /// when given, otherwise the automaton's unsuppressed runs.
+    pub fn free_fire(&self) -> &Ensemble {
+        self.spread.as_ref().unwrap_or(&self.ensembles[self.baseline])
+    }
 }
 
 pub fn strategy_label(s: &str) -> String {
@@ -173,6 +193,7 @@ fn order(s: &str) -> usize {
 pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, ReportError> {
     let Inputs {
         mut ensembles,
+        spread,
         forecast,
         weather,
         run_id,
@@ -213,6 +234,9 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
                 "no `none` (unsuppressed) ensemble: nothing to compare with",
             )
         })?;
+    if let Some(sp) = &spread {
+        check_spread(sp, &ensembles[baseline])?;
+    }
     let agent = ensembles
         .iter()
         .position(|e| e.strategy == "ppo")
@@ -313,6 +337,25 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
     for (k, e) in ensembles.iter().enumerate() {
         strategies.push(strategy_summary(e, settings, cell_acres, burnable, k as u64)?);
     }
+    let free_spread = match &spread {
+        Some(sp) => {
+            let fire = strategy_summary(sp, settings, cell_acres, burnable, ensembles.len() as u64)?;
+            let mut acres: Vec<f64> = sp
+                .episodes
+                .iter()
+                .map(|r| f64::from(r.cells_burned) * cell_acres)
+                .collect();
+            acres.sort_by(f64::total_cmp);
+            Some(FreeSpread {
+                engine: FREE_SPREAD_ENGINE.into(),
+                burned_acres_p10: percentile(&acres, 0.1),
+                burned_acres_p90: percentile(&acres, 0.9),
+                automaton_burned_acres: strategies[baseline].burned_acres.value,
+                fire,
+            })
+        }
+        None => None,
+    };
     let base = &ensembles[baseline];
     let mut comparisons = Vec::new();
     for (k, e) in ensembles.iter().enumerate() {
@@ -342,14 +385,19 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
     };
 
     // Assets and evacuation bands.
-    let (assets, asset_cells) = assets(settings, &ensembles, &landscape, cell_acres)?;
+    let (assets, asset_cells) = assets(settings, &ensembles, spread.as_ref(), &landscape, cell_acres)?;
 
     let priority_zones = match agent {
         Some(a) => priority_zones(base, &ensembles[a], &landscape, settings, cell_acres),
         None => Vec::new(),
     };
 
-    let burned_fraction_pct = strategies[baseline].burned_acres.value / cell_acres / burnable as f64 * 100.0;
+    let free_acres = free_spread
+        .as_ref()
+        .map_or(strategies[baseline].burned_acres.value, |f| {
+            f.fire.burned_acres.value
+        });
+    let burned_fraction_pct = free_acres / cell_acres / burnable as f64 * 100.0;
     let risk = risk(burned_fraction_pct, &assets);
 
     let moisture = first.moisture;
@@ -365,7 +413,11 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
         format!(
             "Fire spread: FireCast's cellular automaton with the {} kernel; one step is {:.1} simulated minutes; the \
              fire starts at the point at hour 0.",
-            if moisture.is_some() { "Rothermel (behave)" } else { "Concord (FireCastRL)" },
+            if moisture.is_some() {
+                "Rothermel (behave)"
+            } else {
+                "Concord (FireCastRL)"
+            },
             first.step_minutes
         ),
         format!(
@@ -389,10 +441,35 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
             short(&forecast.dataset_version),
             forecast.per_seed.len()
         ),
-        "Times are hours after ignition; areas are acres and hectares. Evacuation bands use the earliest arrival \
-         within the asset buffer over every run of every strategy (the worst case)."
-            .into(),
+        if spread.is_some() {
+            "Times are hours after ignition; areas are acres and hectares. Evacuation bands use the earliest \
+             arrival within the asset buffer over every run of the verified engine's free fire (the worst case \
+             without suppression)."
+                .into()
+        } else {
+            "Times are hours after ignition; areas are acres and hectares. Evacuation bands use the earliest arrival \
+             within the asset buffer over every run of every strategy (the worst case)."
+                .into()
+        },
     ];
+    if let Some(f) = &free_spread {
+        // Which engine drew what, with both engines' free fires measured on the same runs.
+        assumptions.insert(
+            2,
+            format!(
+                "Where the fire goes and when: the minimum-travel-time engine verified against Rothermel's ellipse \
+                 (docs/results/spread-verification.md) draws the isochrones, the final perimeter, the burn \
+                 probability, the GeoTIFFs, the free fire's burnt area, the assets' arrival and the risk level; the \
+                 strategies are compared on FireCastRL's automaton because drops act on its state; the automaton's \
+                 free fire burned {} acres against the verified engine's {} (means over {} and {} runs; the \
+                 automaton's head advances at most 2.5 cells a step).",
+                fmt_num(f.automaton_burned_acres, 0),
+                fmt_num(f.fire.burned_acres.value, 0),
+                strategies[baseline].runs,
+                f.fire.runs
+            ),
+        );
+    }
     let day_moisture = first.weather.as_ref().and_then(|w| w.fuel_moisture.as_ref());
     if let Some(d) = day_moisture {
         assumptions.push(format!(
@@ -448,6 +525,7 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
         forecast: fc,
         fire_behaviour,
         contingencies,
+        free_spread,
         strategies,
         comparisons,
         drops,
@@ -465,8 +543,34 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
         ensembles,
         agent,
         baseline,
+        spread,
         asset_cells,
     })
+}
+
+/// The free fire must be the verified engine's, on the automaton's fire: same landscape,
+/// ignition, wind and perturbations, and the same seeds.
+fn check_spread(sp: &Ensemble, base: &Ensemble) -> Result<(), ReportError> {
+    let bad = |m: String| Err(ReportError::input("spread", m));
+    if sp.strategy != "none" || sp.description != firecast_episodes::free_spread::MTT_DESCRIPTION {
+        return bad(format!(
+            "`{}` ({}) is not a free fire of the minimum-travel-time engine: give `sim.ensemble` with `engine: mtt`",
+            sp.strategy, sp.description
+        ));
+    }
+    if sp.grid != base.grid || sp.ignition != base.ignition || sp.land_cover != base.land_cover {
+        return bad("burned another landscape or ignition than the strategies' ensembles".into());
+    }
+    if sp.wind != base.wind || sp.perturbation != base.perturbation || sp.moisture != base.moisture {
+        return bad("ran under another wind, moisture or perturbation than the strategies' ensembles".into());
+    }
+    let seeds = |e: &Ensemble| e.episodes.iter().map(|r| r.seed).collect::<Vec<_>>();
+    if seeds(sp) != seeds(base) {
+        return bad(
+            "ran other seeds than the unsuppressed automaton: give both the same `runs` and `seed`".into(),
+        );
+    }
+    Ok(())
 }
 
 fn short(version: &str) -> &str {
@@ -953,6 +1057,7 @@ fn developed_patches(land: &Landscape) -> Vec<Vec<usize>> {
 fn assets(
     settings: &ReportSettings,
     ensembles: &[Ensemble],
+    spread: Option<&Ensemble>,
     land: &Landscape,
     cell_acres: f64,
 ) -> Result<(Vec<Asset>, Vec<Vec<usize>>), ReportError> {
@@ -982,25 +1087,31 @@ fn assets(
         let zone = buffer(land, &cells, r);
         let (mut first, mut who) = (f64::INFINITY, None);
         let mut reached = Vec::new();
-        for e in ensembles {
+        // With the verified engine's free fire, arrival comes from it alone (the automaton's
+        // capped head arrives late); its reach is listed first, the strategies' after it.
+        let arriving: Vec<(&Ensemble, String)> = match spread {
+            Some(sp) => std::iter::once((sp, FREE_SPREAD_KEY.to_string()))
+                .chain(ensembles.iter().map(|e| (e, e.strategy.clone())))
+                .collect(),
+            None => ensembles.iter().map(|e| (e, e.strategy.clone())).collect(),
+        };
+        for (k, (e, key)) in arriving.iter().enumerate() {
+            let counts_arrival = spread.is_none() || k == 0;
             // The ensemble keeps per-cell statistics over runs: the earliest arrival in the
             // zone is the minimum of its cells' earliest arrivals; the share of runs that
             // reached the zone is at least the burn probability of its most-burned cell.
             let mut best_count = 0u32;
             for &c in &zone {
-                if let Some(t) = e.arrival_first_h[c] {
+                if let Some(t) = e.arrival_first_h[c].filter(|_| counts_arrival) {
                     let t = f64::from(t);
                     if t < first {
                         first = t;
-                        who = Some(e.strategy.clone());
+                        who = Some(key.clone());
                     }
                 }
                 best_count = best_count.max(e.burn_count[c]);
             }
-            reached.push((
-                e.strategy.clone(),
-                f64::from(best_count) / e.runs() as f64 * 100.0,
-            ));
+            reached.push((key.clone(), f64::from(best_count) / e.runs() as f64 * 100.0));
         }
         let first_arrival = first.is_finite().then_some(first);
         let (band, advice, trigger) = match first_arrival {

@@ -13,6 +13,11 @@ use crate::compute::Computed;
 use crate::geometry::{self, geojson_multipolygon, round7};
 use crate::units::HA_PER_ACRE;
 
+/// `engine` of the features drawn from the verified engine's free fire.
+pub const ENGINE_MTT: &str = "minimum travel time";
+/// `engine` of the features drawn from FireCastRL's automaton (every strategy).
+pub const ENGINE_AUTOMATON: &str = "automaton";
+
 /// The minimum burn probabilities of the burn-probability zones, percent.
 pub const BURN_PROBABILITY_ZONES_PCT: [f64; 3] = [10.0, 50.0, 90.0];
 
@@ -37,7 +42,13 @@ pub fn build(c: &Computed) -> Result<Value, ReportError> {
     };
     let mut features = Vec::new();
     let r = &c.report;
-    for e in &c.ensembles {
+    // The verified engine's free fire first (when given), then the strategies on the automaton.
+    let fires = c
+        .spread
+        .iter()
+        .map(|e| (e, ENGINE_MTT))
+        .chain(c.ensembles.iter().map(|e| (e, ENGINE_AUTOMATON)));
+    for (e, engine) in fires {
         for iso in &r.strategies[0].isochrone_acres {
             let t = iso[0];
             let reached = |i: usize| e.arrival_median_h[i].is_some_and(|a| f64::from(a) <= t);
@@ -52,6 +63,7 @@ pub fn build(c: &Computed) -> Result<Value, ReportError> {
                 json!({
                     "kind": "arrival_isochrone",
                     "strategy": e.strategy,
+                    "engine": engine,
                     "arrival_h": t,
                     "statistic": "median arrival over runs",
                     "area_acres": acres,
@@ -74,6 +86,7 @@ pub fn build(c: &Computed) -> Result<Value, ReportError> {
                 json!({
                     "kind": "burn_probability_zone",
                     "strategy": e.strategy,
+                    "engine": engine,
                     "min_burn_probability_pct": p,
                     "runs": e.runs(),
                     "area_acres": acres,

@@ -13,6 +13,8 @@ use crate::units::{compass, fmt_num, lat_lon_text};
 
 /// Drops numbered on the map and listed in the table (the rest are in the JSON and GeoJSON).
 pub const DROPS_LISTED: usize = 30;
+/// Colour of the verified free fire's final perimeter on the map.
+const FINAL_PERIMETER: &str = "#4a148c";
 
 pub fn esc(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
@@ -160,14 +162,31 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         esc(r.fire_behaviour.flame_length.class.as_deref().unwrap_or("")),
         esc(&r.fire_behaviour.tactic)
     )?;
-    write!(
-        h,
-        "<li>Unsuppressed, the fire burns <b>{} acres</b> on average (95 % interval {}–{}); {} acres after 24 h.</li>",
-        fmt_num(base.burned_acres.value, 0),
-        fmt_num(base.burned_acres.low, 0),
-        fmt_num(base.burned_acres.high, 0),
-        fmt_num(day(base, 24.0), 0)
-    )?;
+    match &r.free_spread {
+        Some(f) => write!(
+            h,
+            "<li>Unsuppressed, the fire burns <b>{} acres</b> (median of {} runs; 10–90 % of runs {}–{}; mean {}, 95 % \
+             interval {}–{}); {} acres after 24 h — spread by the verified minimum-travel-time engine. On the \
+             automaton the strategies are compared on, the free fire burns {} acres.</li>",
+            fmt_num(f.fire.burned_acres_median, 0),
+            f.fire.runs,
+            fmt_num(f.burned_acres_p10, 0),
+            fmt_num(f.burned_acres_p90, 0),
+            fmt_num(f.fire.burned_acres.value, 0),
+            fmt_num(f.fire.burned_acres.low, 0),
+            fmt_num(f.fire.burned_acres.high, 0),
+            fmt_num(day(&f.fire, 24.0), 0),
+            fmt_num(f.automaton_burned_acres, 0)
+        )?,
+        None => write!(
+            h,
+            "<li>Unsuppressed, the fire burns <b>{} acres</b> on average (95 % interval {}–{}); {} acres after 24 h.</li>",
+            fmt_num(base.burned_acres.value, 0),
+            fmt_num(base.burned_acres.low, 0),
+            fmt_num(base.burned_acres.high, 0),
+            fmt_num(day(base, 24.0), 0)
+        )?,
+    }
     for cmp in &r.comparisons {
         let label = crate::compute::strategy_label(&cmp.strategy);
         write!(
@@ -337,27 +356,45 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     // Map.
     w(
         &mut h,
-        "<h2 class=pb>3. Map: fire arrival and the agent's drops</h2>",
+        if c.spread.is_some() {
+            "<h2 class=pb>3. Map: where the free fire goes and when, and the agent's drops</h2>"
+        } else {
+            "<h2 class=pb>3. Map: fire arrival and the agent's drops</h2>"
+        },
     );
     h.push_str(&map_svg(c)?);
     let agent_label = c
         .agent
         .map(|a| crate::compute::strategy_label(&c.ensembles[a].strategy))
         .unwrap_or_default();
-    write!(
-        h,
-        "<div class=legend><span><i class=sw style=\"border-color:{}\"></i>no suppression</span>{}\
+    if c.spread.is_some() {
+        write!(
+            h,
+            "<div class=legend><span><i class=sw style=\"border-color:{}\"></i>free fire, minimum-travel-time engine</span>\
+             <span>isochrones: {} h after ignition (thicker = later), median arrival over runs</span>\
+             <span><i class=sw style=\"border-color:{}\"></i>final perimeter: burnt in at least half of the runs</span>\
+             <span>● numbered drops ({}, on the automaton: section 5)</span><span>■ assets</span><span>★ ignition</span></div>",
+            hex(strategy_color("none")),
+            r.header_isochrones(),
+            FINAL_PERIMETER,
+            esc(&crate::compute::strategy_label(&r.drops.strategy))
+        )?;
+    } else {
+        write!(
+            h,
+            "<div class=legend><span><i class=sw style=\"border-color:{}\"></i>no suppression</span>{}\
          <span>isochrones: {} h after ignition (thicker = later), median arrival over runs</span>\
          <span>● numbered drops ({})</span><span>■ assets</span><span>★ ignition</span></div>",
-        hex(strategy_color("none")),
-        c.agent.map_or(String::new(), |a| format!(
-            "<span><i class=sw style=\"border-color:{}\"></i>{}</span>",
-            hex(strategy_color(&c.ensembles[a].strategy)),
-            esc(&agent_label)
-        )),
-        r.header_isochrones(),
-        esc(&crate::compute::strategy_label(&r.drops.strategy))
-    )?;
+            hex(strategy_color("none")),
+            c.agent.map_or(String::new(), |a| format!(
+                "<span><i class=sw style=\"border-color:{}\"></i>{}</span>",
+                hex(strategy_color(&c.ensembles[a].strategy)),
+                esc(&agent_label)
+            )),
+            r.header_isochrones(),
+            esc(&crate::compute::strategy_label(&r.drops.strategy))
+        )?;
+    }
     let d = &r.drops;
     if d.drops.is_empty() {
         w(
@@ -421,6 +458,10 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     // Burn probability.
     let agent_ens = c.agent.map_or(&c.ensembles[c.baseline], |a| &c.ensembles[a]);
     let bp = figures::png_bytes(&figures::burn_probability(&c.landscape, &c.ensembles[c.baseline]))?;
+    let bp_free = match &c.spread {
+        Some(sp) => Some(figures::png_bytes(&figures::burn_probability(&c.landscape, sp))?),
+        None => None,
+    };
     let bp_agent = figures::png_bytes(&figures::burn_probability(&c.landscape, agent_ens))?;
     let swatches: String = [0.1, 0.3, 0.5, 0.7, 0.9, 1.0]
         .iter()
@@ -435,8 +476,22 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     write!(
         h,
         "<h2>4. Burn probability across the runs</h2><p><b>This is a probability map, not a progression map:</b> \
-         the colour is the share of simulated runs in which the cell burned, not when it burned.</p>\
-         <div class=keep><div class=grid2><figure><img alt=\"Burn probability without suppression\" src=\"{}\"><figcaption>No suppression, {} runs</figcaption></figure>\
+         the colour is the share of simulated runs in which the cell burned, not when it burned.</p>"
+    )?;
+    if let (Some(png), Some(sp)) = (&bp_free, &c.spread) {
+        write!(
+            h,
+            "<div class=keep><figure><img alt=\"Burn probability of the free fire, minimum-travel-time engine\" src=\"{}\">\
+             <figcaption>Free fire, verified minimum-travel-time engine, {} runs</figcaption></figure></div>\
+             <p class=muted>Below: the same runs on FireCastRL's automaton, where the strategies are compared (its head \
+             advances at most 2.5 cells a step, so its fires are smaller).</p>",
+            figures::data_uri(png),
+            sp.runs()
+        )?;
+    }
+    write!(
+        h,
+        "<div class=keep><div class=grid2><figure><img alt=\"Burn probability without suppression\" src=\"{}\"><figcaption>No suppression, {} runs</figcaption></figure>\
          <figure><img alt=\"Burn probability with the agent\" src=\"{}\"><figcaption>{}, {} runs</figcaption></figure></div>\
          <div class=legend>{swatches}</div></div>",
         figures::data_uri(&bp),
@@ -450,9 +505,14 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     let chart = figures::png_bytes(&figures::burnt_area_chart(&r.strategies))?;
     write!(
         h,
-        "<h2 class=pb>5. Strategies compared (Table IV)</h2><figure><img alt=\"Burnt area over time\" src=\"{}\"></figure>\
+        "<h2 class=pb>5. Strategies compared (Table IV){}</h2><figure><img alt=\"Burnt area over time\" src=\"{}\"></figure>\
          <table><tr><th>Strategy</th><th>runs</th><th>burnt acres, mean [95 %]</th><th>hectares</th><th>median acres</th>\
          <th>share of burnable land</th><th>fire out</th><th>hours to out (median)</th><th>peak spread at (median)</th><th>drops</th><th>water, gal</th></tr>",
+        if c.spread.is_some() {
+            ", on FireCastRL's automaton"
+        } else {
+            ""
+        },
         figures::data_uri(&chart)
     )?;
     for s in &r.strategies {
@@ -662,10 +722,17 @@ fn map_svg(c: &Computed) -> Result<String, ReportError> {
         .iter()
         .map(|p| p[0])
         .collect();
-    let mut strategies = vec![c.baseline];
-    strategies.extend(c.agent);
-    for &k in &strategies {
-        let e = &c.ensembles[k];
+    // With the verified engine's free fire, the map shows it alone: the agent's isochrones
+    // are on the automaton, whose capped head would read as suppression.
+    let mut strategies: Vec<(&firecast_episodes::ensemble::Ensemble, bool)> = Vec::new();
+    match &c.spread {
+        Some(sp) => strategies.push((sp, true)),
+        None => {
+            strategies.push((&c.ensembles[c.baseline], true));
+            strategies.extend(c.agent.map(|a| (&c.ensembles[a], false)));
+        }
+    }
+    for &(e, free) in &strategies {
         let color = hex(strategy_color(&e.strategy));
         for (j, &t) in times.iter().enumerate() {
             let rings = geometry::rings(gw, gh, |i| {
@@ -679,13 +746,21 @@ fn map_svg(c: &Computed) -> Result<String, ReportError> {
                 "<path d=\"{}\" fill=\"none\" stroke=\"{color}\" stroke-width=\"{:.1}\" stroke-opacity=\"0.9\" fill-rule=\"evenodd\"{}><title>{} — {} h</title></path>",
                 geometry::svg_path(&rings, gh, s),
                 1.0 + j as f64 * 0.8,
-                if k == c.baseline {
-                    " stroke-dasharray=\"6 3\""
-                } else {
-                    ""
-                },
+                if free { " stroke-dasharray=\"6 3\"" } else { "" },
                 esc(&crate::compute::strategy_label(&e.strategy)),
                 fmt_num(t, 0)
+            )?;
+        }
+    }
+    // The verified free fire's final perimeter: the cells at least half of the runs burnt.
+    if let Some(sp) = &c.spread {
+        let rings = geometry::rings(gw, gh, |i| sp.arrival_median_h[i].is_some());
+        if !rings.is_empty() {
+            write!(
+                svg,
+                "<path d=\"{}\" fill=\"none\" stroke=\"{FINAL_PERIMETER}\" stroke-width=\"3.5\" fill-rule=\"evenodd\"><title>Free fire: final perimeter ({} h)</title></path>",
+                geometry::svg_path(&rings, gh, s),
+                fmt_num(c.report.header.horizon_h, 0)
             )?;
         }
     }

@@ -12,7 +12,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Version of the JSON layout (semantic: a new field is a minor bump).
-pub const SCHEMA_VERSION: &str = "1.0.0";
+pub const SCHEMA_VERSION: &str = "1.1.0";
 /// `$id` of the schema.
 pub const SCHEMA_ID: &str = "https://firecast.dev/schemas/threat-report-1.schema.json";
 
@@ -35,7 +35,12 @@ pub struct ThreatReport {
     /// The 10-m winds at which the head fire passes the flame-length limits of suppression
     /// resources (4, 8 and 11 ft).
     pub contingencies: Vec<Contingency>,
-    /// One entry per strategy simulated (no suppression first).
+    /// The free fire spread by the minimum-travel-time engine verified against Rothermel's
+    /// ellipse, when the report was given it (absent otherwise): then it, not the automaton,
+    /// gives the isochrones, burn probability, GeoTIFFs, assets' arrival and risk.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub free_spread: Option<FreeSpread>,
+    /// One entry per strategy simulated on FireCastRL's automaton (no suppression first).
     pub strategies: Vec<StrategySummary>,
     /// Each strategy against no suppression on the same runs (paired).
     pub comparisons: Vec<Comparison>,
@@ -342,6 +347,24 @@ pub struct StrategySummary {
     pub isochrone_acres: Vec<[f64; 2]>,
 }
 
+/// The free (unsuppressed) fire spread by the verified minimum-travel-time engine.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FreeSpread {
+    /// The spread engine, as text.
+    pub engine: String,
+    /// Its runs summarised like a strategy (key "none"; no drops). Its `isochrone_acres` are
+    /// the report's isochrones.
+    pub fire: StrategySummary,
+    /// 10th percentile over runs of the final burnt area, acres.
+    pub burned_acres_p10: f64,
+    /// 90th percentile over runs of the final burnt area, acres.
+    pub burned_acres_p90: f64,
+    /// Mean final burnt area of the automaton's unsuppressed runs (`strategies`' "none") on
+    /// the same runs, acres, for comparison.
+    pub automaton_burned_acres: f64,
+}
+
 /// A strategy against no suppression on the same seeds.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -456,14 +479,16 @@ pub struct Asset {
     pub lon: f64,
     /// Area of the asset's cells, acres.
     pub area_acres: f64,
-    /// Earliest fire arrival within `evacuation_bands.buffer_ft` of the asset over every run
-    /// of every strategy, hours after ignition (null: never reached).
+    /// Earliest fire arrival within `evacuation_bands.buffer_ft` of the asset, hours after
+    /// ignition (null: never reached): over every run of the free fire of the verified engine
+    /// when the report has one (`free_spread`), otherwise over every run of every strategy.
     pub first_arrival_h: Option<f64>,
-    /// The strategy of the run that arrived first (null: never reached).
+    /// The strategy of the run that arrived first: "free-spread" for the verified engine's
+    /// free fire (null: never reached).
     pub first_arrival_strategy: Option<String>,
-    /// Per strategy: [strategy, the highest burn probability among the cells within the
-    /// buffer in percent (0–100)] — a lower bound on the share of runs in which fire reached
-    /// the asset.
+    /// Per strategy ("free-spread" first when the verified engine's free fire is given):
+    /// [strategy, the highest burn probability among the cells within the buffer in percent
+    /// (0–100)] — a lower bound on the share of runs in which fire reached the asset.
     pub reached_pct: Vec<(String, f64)>,
     /// The Ready/Set/Go band: GO when fire can arrive within `go_within_h`, SET within
     /// `set_within_h`, READY within `ready_within_h`, NONE otherwise.
@@ -544,10 +569,11 @@ impl std::fmt::Display for RiskLevel {
 #[serde(deny_unknown_fields)]
 pub struct Risk {
     /// LOW, MODERATE, HIGH or SEVERE, from the unsuppressed burnt share of burnable land
-    /// (below 1, 5, 15 % and above), one level up when an asset is in GO.
+    /// (below 1, 5, 15 % and above; the verified engine's free fire when given), one level
+    /// up when an asset is in GO.
     pub level: RiskLevel,
-    /// Mean unsuppressed burnt area as a share of the landscape's burnable land, percent
-    /// (0–100).
+    /// Mean unsuppressed burnt area as a share of the landscape's burnable land (the verified
+    /// engine's free fire when given, else the automaton's), percent (0–100).
     pub burned_fraction_pct: f64,
     /// Number of assets in the GO band.
     pub assets_go: usize,

@@ -10,7 +10,9 @@
 //!   percent 0–100 (0 where none did; no cell is nodata).
 //!
 //! The unsuppressed fire is the one planning starts from (FSPro's and WFDSS's products are
-//! unsuppressed too); the other strategies' isochrones and zones are in the GeoJSON.
+//! unsuppressed too); the other strategies' isochrones and zones are in the GeoJSON. With the
+//! report's `spread` input it is the verified minimum-travel-time engine's free fire (the
+//! stage passes that ensemble), otherwise the automaton's unsuppressed runs.
 
 use firecast_episodes::ensemble::Ensemble;
 use firecast_landscape::Landscape;

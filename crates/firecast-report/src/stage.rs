@@ -24,6 +24,12 @@ const INPUTS: &[Port] = &[
         description: "ensemble files of sim.ensemble / rl.ensemble, one of them `none`",
     },
     Port {
+        name: "spread",
+        required: false,
+        many: false,
+        description: "the free fire of sim.ensemble with `engine: mtt` (the verified engine): isochrones, burn probability, GeoTIFFs and arrival at assets come from it",
+    },
+    Port {
         name: "forecast",
         required: true,
         many: false,
@@ -65,13 +71,13 @@ const OUTPUTS: &[Port] = &[
         name: "arrival_tif",
         required: false,
         many: false,
-        description: "GeoTIFF of the unsuppressed runs' median arrival, hours after ignition (nodata -9999)",
+        description: "GeoTIFF of the free fire's median arrival (the verified engine's when `spread` is given), hours after ignition (nodata -9999)",
     },
     Port {
         name: "burn_probability_tif",
         required: false,
         many: false,
-        description: "GeoTIFF of the unsuppressed runs' burn probability, percent 0-100",
+        description: "GeoTIFF of the free fire's burn probability (the verified engine's when `spread` is given), percent 0-100",
     },
 ];
 
@@ -120,6 +126,8 @@ fn rel(root: &Path, p: &Path) -> String {
 pub struct ReportFiles<'a> {
     /// Ensemble files (`sim.ensemble`, `rl.ensemble`), one of them `none`.
     pub ensembles: &'a [PathBuf],
+    /// The verified engine's free fire (`sim.ensemble` with `engine: mtt`), if any.
+    pub spread: Option<&'a Path>,
     /// The `forecast.predict` output.
     pub forecast: &'a Path,
     /// The GRIDMET folder holding the day.
@@ -137,6 +145,7 @@ pub fn build(
 ) -> Result<crate::model::ThreatReport, ReportError> {
     let ReportFiles {
         ensembles,
+        spread,
         forecast,
         gridmet,
     } = files;
@@ -151,6 +160,18 @@ pub fn build(
         });
         loaded.push(e);
     }
+    let spread = match spread {
+        Some(p) => {
+            let e = Ensemble::read(p)?;
+            lineage.push(Lineage {
+                role: "free fire (none, minimum travel time)".into(),
+                path: rel(root, p),
+                detail: format!("{} runs — {}", e.runs(), e.description),
+            });
+            Some(e)
+        }
+        None => None,
+    };
     let text = std::fs::read(forecast).map_err(ReportError::io("reading the forecast", forecast))?;
     let fc: ForecastFile = serde_json::from_slice(&text)
         .map_err(|e| ReportError::input(rel(root, forecast), format!("line {}: {e}", e.line())))?;
@@ -187,6 +208,7 @@ pub fn build(
         settings,
         Inputs {
             ensembles: loaded,
+            spread,
             forecast: fc,
             weather: day,
             run_id: run_id.to_string(),
@@ -204,7 +226,8 @@ pub fn build(
     write("html", doc.as_bytes())?;
     write("json", &serde_json::to_vec_pretty(&computed.report)?)?;
     write("geojson", &serde_json::to_vec(&geojson::build(&computed)?)?)?;
-    let baseline = &computed.ensembles[computed.baseline];
+    // The GeoTIFFs answer where the free fire goes: the verified engine's when given.
+    let baseline = computed.free_fire();
     if out("arrival_tif").is_some() {
         write("arrival_tif", &rasters::arrival_h(&computed.landscape, baseline)?)?;
     }
@@ -232,9 +255,17 @@ pub fn build(
         result?;
     }
     log(format!(
-        "risk {}: unsuppressed {:.0} acres; {} assets in GO, {} in SET",
+        "risk {}: unsuppressed {:.0} acres{}; {} assets in GO, {} in SET",
         computed.report.risk.level,
         computed.report.strategies[computed.baseline].burned_acres.value,
+        computed
+            .report
+            .free_spread
+            .as_ref()
+            .map_or(String::new(), |f| format!(
+                " on the automaton, {:.0} by the verified engine",
+                f.fire.burned_acres.value
+            )),
         computed.report.risk.assets_go,
         computed.report.risk.assets_set
     ));
@@ -248,7 +279,9 @@ impl StageKind for ReportStage {
 
     fn version(&self) -> u32 {
         // 2: valid GeoJSON rings, properties with units, the GeoTIFFs.
-        2
+        // 3: the verified engine's free fire (`spread`) draws where the fire goes and when;
+        //    GeoJSON isochrones and zones carry their `engine`.
+        3
     }
 
     fn summary(&self) -> &'static str {
@@ -272,6 +305,10 @@ impl StageKind for ReportStage {
     fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
         let params: ReportSettings = ctx.params()?;
         let ensembles = ctx.input_list("ensembles").to_vec();
+        let spread = match ctx.input_list("spread") {
+            [] => None,
+            _ => Some(ctx.input("spread")?.to_path_buf()),
+        };
         let forecast = ctx.input("forecast")?.to_path_buf();
         let gridmet = ctx.input("gridmet")?.to_path_buf();
         let outputs: Vec<(String, PathBuf)> = ctx
@@ -287,6 +324,7 @@ impl StageKind for ReportStage {
             &params,
             ReportFiles {
                 ensembles: &ensembles,
+                spread: spread.as_deref(),
                 forecast: &forecast,
                 gridmet: &gridmet,
             },
@@ -297,6 +335,9 @@ impl StageKind for ReportStage {
         ctx.metric("ignition_probability", 0, report.forecast.probability);
         for s in &report.strategies {
             ctx.metric(&format!("burned_acres_{}", s.strategy), 0, s.burned_acres.value);
+        }
+        if let Some(f) = &report.free_spread {
+            ctx.metric("burned_acres_free_spread", 0, f.fire.burned_acres.value);
         }
         Ok(())
     }

@@ -9,6 +9,7 @@ use std::process::Command;
 use firecast_data::gridmet::GridmetVariable;
 use firecast_data::synth::{self, Region, SynthConfig};
 use firecast_episodes::ensemble::{Ensemble, Setup, run_agent};
+use firecast_episodes::free_spread::run_mtt;
 use firecast_episodes::{AgentKind, LandscapeSpec, Scenario, WeatherSpec};
 use firecast_report::model::ThreatReport;
 use firecast_report::{ReportFiles, ReportSettings, build};
@@ -29,6 +30,8 @@ struct Fixture {
     dir: PathBuf,
     settings: ReportSettings,
     ensembles: Vec<PathBuf>,
+    /// The same fire spread by the verified (MTT) engine.
+    spread: PathBuf,
     forecast: PathBuf,
     gridmet: PathBuf,
 }
@@ -89,6 +92,9 @@ fn fixture() -> Fixture {
         .expect("a burnable ignition");
     let none = run_agent(&setup_none, AgentKind::None, 6, 0, |_| {}).expect("none");
     let rule = run_agent(&setup_rule, AgentKind::Rule, 6, 0, |_| {}).expect("rule");
+    let mtt = run_mtt(&setup_none, 6, 0, |_| {}).expect("mtt");
+    let spread = dir.join("mtt.json");
+    std::fs::write(&spread, serde_json::to_vec(&mtt).expect("json")).expect("write");
     let [lat, lon] = none.ignition_lat_lon;
     let mut ensembles = Vec::new();
     for e in [&none, &rule] {
@@ -125,13 +131,24 @@ fn fixture() -> Fixture {
         dir,
         settings,
         ensembles,
+        spread,
         forecast,
         gridmet,
     }
 }
 
 fn make(f: &Fixture, pdf: bool) -> (ThreatReport, PathBuf) {
-    let out = f.dir.join("report");
+    make_with(f, pdf, None, "report").expect("report")
+}
+
+/// A report into `f.dir/folder`, with the verified engine's free fire when `spread` is given.
+fn make_with(
+    f: &Fixture,
+    pdf: bool,
+    spread: Option<&Path>,
+    folder: &str,
+) -> Result<(ThreatReport, PathBuf), firecast_report::ReportError> {
+    let out = f.dir.join(folder);
     std::fs::create_dir_all(&out).expect("out");
     let o = out.clone();
     let outputs = move |name: &str| -> Option<PathBuf> {
@@ -151,15 +168,15 @@ fn make(f: &Fixture, pdf: bool) -> (ThreatReport, PathBuf) {
         &f.settings,
         ReportFiles {
             ensembles: &f.ensembles,
+            spread,
             forecast: &f.forecast,
             gridmet: &f.gridmet,
         },
         "test-run",
         &outputs,
         &|_| {},
-    )
-    .expect("report");
-    (report, out)
+    )?;
+    Ok((report, out))
 }
 
 #[test]
@@ -588,5 +605,211 @@ fn every_geojson_property_is_documented() {
     assert!(
         undocumented.is_empty(),
         "not in the guide's GeoJSON table: {undocumented:?}"
+    );
+}
+
+/// With the verified engine's free fire, where the fire goes and when comes from it (the
+/// GeoTIFFs cell by cell, the isochrones, the free burnt area, the assets' arrival) and the
+/// strategy comparison stays on the automaton, paired as without it.
+#[test]
+fn the_verified_engine_draws_where_the_fire_goes() {
+    let f = fixture();
+    let (plain, _) = make(&f, false);
+    let (report, out) = make_with(&f, false, Some(&f.spread), "with-spread").expect("report");
+    let none = Ensemble::read(&f.ensembles[0]).expect("none");
+    let rule = Ensemble::read(&f.ensembles[1]).expect("rule");
+    let mtt = Ensemble::read(&f.spread).expect("mtt");
+    let cell_acres = firecast_report::units::cell_acres(report.header.cell_size_ft);
+    let mean_acres = |e: &Ensemble| {
+        e.episodes.iter().map(|r| f64::from(r.cells_burned)).sum::<f64>() / e.runs() as f64 * cell_acres
+    };
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
+    // The two engines burn differently here, so the checks below tell them apart.
+    assert!(
+        !close(mean_acres(&mtt), mean_acres(&none)),
+        "the engines agree on this fire: the test cannot tell them apart"
+    );
+
+    // The free fire: the MTT ensemble's runs.
+    let free = report.free_spread.as_ref().expect("free_spread");
+    assert!(close(free.fire.burned_acres.value, mean_acres(&mtt)));
+    assert!(close(free.automaton_burned_acres, mean_acres(&none)));
+    let mut acres: Vec<f64> = mtt
+        .episodes
+        .iter()
+        .map(|r| f64::from(r.cells_burned) * cell_acres)
+        .collect();
+    acres.sort_by(f64::total_cmp);
+    assert!(acres[0] <= free.burned_acres_p10 && free.burned_acres_p10 <= free.fire.burned_acres_median);
+    assert!(
+        free.fire.burned_acres_median <= free.burned_acres_p90
+            && free.burned_acres_p90 <= acres[acres.len() - 1]
+    );
+    for &[t, a] in &free.fire.isochrone_acres {
+        let n = mtt
+            .arrival_median_h
+            .iter()
+            .flatten()
+            .filter(|&&x| f64::from(x) <= t)
+            .count();
+        assert!(close(a, n as f64 * cell_acres), "isochrone {t} h");
+    }
+
+    // The strategy comparison stays on the automaton, identical to the report without MTT.
+    assert_eq!(report.strategies, plain.strategies);
+    assert_eq!(report.comparisons, plain.comparisons);
+    assert_eq!(report.drops, plain.drops);
+    assert_eq!(report.priority_zones, plain.priority_zones);
+    assert!(close(report.strategies[0].burned_acres.value, mean_acres(&none)));
+    let saved: f64 = none
+        .episodes
+        .iter()
+        .zip(&rule.episodes)
+        .map(|(n, r)| {
+            assert_eq!(n.seed, r.seed);
+            (f64::from(n.cells_burned) - f64::from(r.cells_burned)) * cell_acres
+        })
+        .sum::<f64>()
+        / none.runs() as f64;
+    assert!(close(report.comparisons[0].acres_saved.value, saved));
+
+    // The GeoTIFFs are the MTT ensemble's, cell by cell (north row first in the file).
+    let (w, h, arrival) =
+        firecast_landscape::gridio::read_band_f32(&out.join("arrival_h.tif")).expect("arrival");
+    let (_, _, bp) = firecast_landscape::gridio::read_band_f32(&out.join("burn_probability_pct.tif"))
+        .expect("burn probability");
+    assert_eq!((w, h), (mtt.grid.width, mtt.grid.height));
+    let mut differs = false;
+    for row in 0..h {
+        for x in 0..w {
+            let i = (h - 1 - row) * w + x;
+            assert_eq!(
+                arrival[row * w + x],
+                mtt.arrival_median_h[i].unwrap_or(-9999.0),
+                "arrival at ({x}, {row})"
+            );
+            assert_eq!(
+                bp[row * w + x],
+                mtt.burn_count[i] as f32 * 100.0 / mtt.runs() as f32
+            );
+            differs |= mtt.arrival_median_h[i] != none.arrival_median_h[i];
+        }
+    }
+    assert!(
+        differs,
+        "the automaton's arrival equals the engine's: nothing was told apart"
+    );
+
+    // The assets' earliest arrival: the MTT runs' earliest within the buffer.
+    let land = mtt.landscape().expect("landscape");
+    let camp = report
+        .assets
+        .iter()
+        .find(|a| a.name == "Ridge camp")
+        .expect("listed asset");
+    let spec = &f.settings.assets[0];
+    let (ax, ay) = land.lat_lon_to_cell(spec.lat, spec.lon).expect("inside");
+    let r = (report.evacuation_bands.buffer_ft / land.cell_size_ft).round() as usize;
+    let mut first: Option<f32> = None;
+    for y in ay.saturating_sub(r)..=(ay + r).min(land.height - 1) {
+        for x in ax.saturating_sub(r)..=(ax + r).min(land.width - 1) {
+            if let Some(t) = mtt.arrival_first_h[y * land.width + x] {
+                first = Some(first.map_or(t, |f| f.min(t)));
+            }
+        }
+    }
+    assert_eq!(camp.first_arrival_h, first.map(f64::from));
+    assert_eq!(
+        camp.first_arrival_strategy.as_deref(),
+        first.map(|_| firecast_report::compute::FREE_SPREAD_KEY)
+    );
+    assert_eq!(camp.reached_pct[0].0, firecast_report::compute::FREE_SPREAD_KEY);
+
+    // Which engine drew what, with both measured burnt areas.
+    let fmt = |v: f64| firecast_report::units::fmt_num(v, 0);
+    let line = report
+        .assumptions
+        .iter()
+        .find(|a| a.starts_with("Where the fire goes and when: the minimum-travel-time engine verified"))
+        .expect("the engines' assumption line");
+    assert!(
+        line.contains(&format!(
+            "burned {} acres against the verified engine's {}",
+            fmt(mean_acres(&none)),
+            fmt(mean_acres(&mtt))
+        )),
+        "{line}"
+    );
+    assert!(
+        !plain
+            .assumptions
+            .iter()
+            .any(|a| a.starts_with("Where the fire goes"))
+    );
+    let html = std::fs::read_to_string(out.join("report.html")).expect("html");
+    assert!(html.contains("Free fire, verified minimum-travel-time engine"));
+    assert!(html.contains("free fire, minimum-travel-time engine"));
+
+    // The GeoJSON carries both engines' isochrones, named.
+    let gj: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.geojson")).expect("geojson")).expect("parse");
+    let isochrones = |engine: &str| {
+        gj["features"]
+            .as_array()
+            .expect("features")
+            .iter()
+            .filter(|f| f["properties"]["kind"] == "arrival_isochrone" && f["properties"]["engine"] == engine)
+            .map(|f| f["properties"]["area_acres"].as_f64().expect("acres"))
+            .collect::<Vec<f64>>()
+    };
+    let expected: Vec<f64> = free
+        .fire
+        .isochrone_acres
+        .iter()
+        .map(|p| p[1])
+        .filter(|&a| a > 0.0)
+        .collect();
+    let got = isochrones("minimum travel time");
+    assert_eq!(got.len(), expected.len());
+    assert!(
+        got.iter().zip(&expected).all(|(&g, &e)| close(g, e)),
+        "{got:?} {expected:?}"
+    );
+    assert!(!isochrones("automaton").is_empty());
+
+    // GDAL and the schema agree too.
+    gis_check(&[
+        "rasters".as_ref(),
+        out.join("report.json").as_os_str(),
+        f.spread.as_os_str(),
+        out.join("arrival_h.tif").as_os_str(),
+        out.join("burn_probability_pct.tif").as_os_str(),
+    ]);
+    gis_check(&["geojson".as_ref(), out.join("report.geojson").as_os_str()]);
+    if let Some(py) = python() {
+        let status = Command::new(py)
+            .args([
+                "-c",
+                "import json,sys,jsonschema; s=json.load(open(sys.argv[1])); \
+                 jsonschema.validate(json.load(open(sys.argv[2])), s, cls=jsonschema.Draft202012Validator)",
+            ])
+            .arg(root().join("schemas/threat-report-1.schema.json"))
+            .arg(out.join("report.json"))
+            .status()
+            .expect("python");
+        assert!(status.success(), "report.json with free_spread does not validate");
+    }
+}
+
+/// An automaton ensemble given as the verified engine's free fire is refused.
+#[test]
+fn only_the_verified_engine_is_taken_as_the_free_fire() {
+    let f = fixture();
+    let err =
+        make_with(&f, false, Some(&f.ensembles[0]), "wrong").expect_err("an automaton fire is not verified");
+    assert!(
+        err.to_string()
+            .contains("not a free fire of the minimum-travel-time engine"),
+        "{err}"
     );
 }
