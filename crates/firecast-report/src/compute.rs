@@ -346,8 +346,17 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
                 .map(|r| f64::from(r.cells_burned) * cell_acres)
                 .collect();
             acres.sort_by(f64::total_cmp);
+            let edge_hours: Vec<f64> = sp
+                .episodes
+                .iter()
+                .filter(|r| r.edge_cells_burned > 0)
+                .filter_map(|r| r.edge_first_hour)
+                .collect();
+            let edge_runs = sp.episodes.iter().filter(|r| r.edge_cells_burned > 0).count();
             Some(FreeSpread {
                 engine: FREE_SPREAD_ENGINE.into(),
+                edge_runs_pct: edge_runs as f64 / sp.runs().max(1) as f64 * 100.0,
+                edge_first_h_median: (!edge_hours.is_empty()).then(|| median(&edge_hours)),
                 burned_acres_p10: percentile(&acres, 0.1),
                 burned_acres_p90: percentile(&acres, 0.9),
                 automaton_burned_acres: strategies[baseline].burned_acres.value,

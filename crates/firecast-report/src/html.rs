@@ -167,7 +167,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             h,
             "<li>Unsuppressed, the fire burns <b>{} acres</b> (median of {} runs; 10–90 % of runs {}–{}; mean {}, 95 % \
              interval {}–{}); {} acres after 24 h — spread by the verified minimum-travel-time engine. On the \
-             automaton the strategies are compared on, the free fire burns {} acres.</li>",
+             automaton the strategies are compared on, the free fire burns {} acres.{}</li>",
             fmt_num(f.fire.burned_acres_median, 0),
             f.fire.runs,
             fmt_num(f.burned_acres_p10, 0),
@@ -176,7 +176,16 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             fmt_num(f.fire.burned_acres.low, 0),
             fmt_num(f.fire.burned_acres.high, 0),
             fmt_num(day(&f.fire, 24.0), 0),
-            fmt_num(f.automaton_burned_acres, 0)
+            fmt_num(f.automaton_burned_acres, 0),
+            match f.edge_first_h_median {
+                Some(t) if f.edge_runs_pct > 0.0 => format!(
+                    " The fire reached the map's edge in <b>{:.0} % of runs</b> (median hour {}): the burnt area is a lower \
+                     bound.",
+                    f.edge_runs_pct,
+                    fmt_num(t, 0)
+                ),
+                _ => String::new(),
+            }
         )?,
         None => write!(
             h,

@@ -360,6 +360,12 @@ pub struct FreeSpread {
     pub burned_acres_p10: f64,
     /// 90th percentile over runs of the final burnt area, acres.
     pub burned_acres_p90: f64,
+    /// Share of runs in which the free fire reached the grid's outer ring, percent (0–100):
+    /// the fire left the simulated landscape, so its burnt area is a lower bound.
+    pub edge_runs_pct: f64,
+    /// Median, over the runs that reached the outer ring, of the hour it was first reached,
+    /// hours after ignition (null: no run reached it).
+    pub edge_first_h_median: Option<f64>,
     /// Mean final burnt area of the automaton's unsuppressed runs (`strategies`' "none") on
     /// the same runs, acres, for comparison.
     pub automaton_burned_acres: f64,

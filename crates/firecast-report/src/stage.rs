@@ -281,7 +281,8 @@ impl StageKind for ReportStage {
         // 2: valid GeoJSON rings, properties with units, the GeoTIFFs.
         // 3: the verified engine's free fire (`spread`) draws where the fire goes and when;
         //    GeoJSON isochrones and zones carry their `engine`.
-        3
+        // 4: the free fire's edge (`free_spread.edge_runs_pct`, `edge_first_h_median`).
+        4
     }
 
     fn summary(&self) -> &'static str {

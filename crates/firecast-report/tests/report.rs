@@ -645,6 +645,9 @@ fn the_verified_engine_draws_where_the_fire_goes() {
         free.fire.burned_acres_median <= free.burned_acres_p90
             && free.burned_acres_p90 <= acres[acres.len() - 1]
     );
+    let edge = mtt.episodes.iter().filter(|r| r.edge_cells_burned > 0).count();
+    assert!(close(free.edge_runs_pct, edge as f64 / mtt.runs() as f64 * 100.0));
+    assert_eq!(free.edge_first_h_median.is_some(), edge > 0);
     for &[t, a] in &free.fire.isochrone_acres {
         let n = mtt
             .arrival_median_h
