@@ -260,7 +260,8 @@ impl StageKind for EnsembleStage {
     }
 
     fn version(&self) -> u32 {
-        1
+        // 2: the landscape's label and each run's edge cells in the file (as sim.ensemble v2).
+        2
     }
 
     fn summary(&self) -> &'static str {
