@@ -73,8 +73,11 @@ pub struct PredictArgs {
     /// GRIDMET folder with `<var>_<year>.nc` files covering the input window.
     #[arg(long, value_name = "DIR")]
     pub gridmet: PathBuf,
+    /// Latitude of the place, decimal degrees north (WGS84); the GRIDMET cell nearest it is
+    /// read. With --lon and --date; or give --points instead.
     #[arg(long, allow_hyphen_values = true)]
     pub lat: Option<f64>,
+    /// Longitude of the place, decimal degrees east (west is negative, e.g. -107.4).
     #[arg(long, allow_hyphen_values = true)]
     pub lon: Option<f64>,
     /// The day to forecast, YYYY-MM-DD.
