@@ -445,11 +445,16 @@ fn bad_experiments_name_the_file_line_and_key() {
     assert!(e.contains("experiments/bad.yaml") && e.contains("colour"), "{e}");
     let e = err("name: x\ndataset: data/a\nmodels:\n  - {kind: majority}\n  - {kind: svm}\n");
     assert!(
-        e.contains("models[1].kind") && e.contains("unknown model `svm`"),
+        e.contains("experiments/bad.yaml:5:3:")
+            && e.contains("models[1].kind")
+            && e.contains("unknown model `svm`"),
         "{e}"
     );
     let e = err("name: x\ndataset: data/a\nmodels:\n  - {kind: random_forest, params: {n_trees: 3}}\n");
-    assert!(e.contains("models[0].params") && e.contains("n_trees"), "{e}");
+    assert!(
+        e.contains("experiments/bad.yaml:4:3:") && e.contains("models[0].params") && e.contains("n_trees"),
+        "{e}"
+    );
     let e = err("name: x\ndataset: data/a\nmodels:\n  - {kind: firecast, params: {max_epochs: 0}}\n");
     assert!(e.contains("max_epochs"), "{e}");
     let e = err(base);

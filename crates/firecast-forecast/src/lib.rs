@@ -61,6 +61,15 @@ pub enum ForecastError {
     Spec(Box<firecast_pipeline::SpecError>),
     #[error("`{key}`: {message}")]
     Config { key: String, message: String },
+    /// A [`ForecastError::Config`] of an experiment file, with the line its key is on.
+    #[error("{}:{line}:{column}: `{key}`: {message}", path.display())]
+    ConfigAt {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+        key: String,
+        message: String,
+    },
     #[error("unknown model kind `{kind}`")]
     UnknownModel { kind: String },
     #[error("{0}")]

@@ -271,7 +271,20 @@ impl ExperimentSpec {
             })?;
             firecast_pipeline::spec::deserialize_mapping_enums(file, &merged)?
         };
-        spec.validate()?;
+        // Checks beyond the types name the file and the line of the key they refuse.
+        spec.validate().map_err(|e| match e {
+            ForecastError::Config { key, message } => match firecast_pipeline::locate_path(&text, &key) {
+                Some((line, column)) => ForecastError::ConfigAt {
+                    path: file.to_path_buf(),
+                    line,
+                    column,
+                    key,
+                    message,
+                },
+                None => ForecastError::Config { key, message },
+            },
+            other => other,
+        })?;
         Ok(spec)
     }
 

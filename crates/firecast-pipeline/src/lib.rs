@@ -32,6 +32,7 @@ pub mod stage;
 
 pub use error::{PipelineError, SpecError, StageError, chain_text};
 pub use executor::{JobFailure, JobOutcome, StageExecutor, StageJob};
+pub use locate::locate_path;
 pub use observer::{DatasetRecord, NoObserver, RunObserver, RunStatus};
 pub use plan::{Plan, load_plan};
 pub use resources::Resources;

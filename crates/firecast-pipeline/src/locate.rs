@@ -43,6 +43,74 @@ pub fn locate_key(source: &str, path: &[&str]) -> Option<(usize, usize)> {
     best
 }
 
+/// 1-based (line, column) of a dotted key path whose segments may index a sequence
+/// (`models[3].kind`), in block-style YAML: the deepest part found (inside a flow item such as
+/// `- {kind: x}`, the item's line).
+pub fn locate_path(source: &str, dotted: &str) -> Option<(usize, usize)> {
+    let lines: Vec<&str> = source.lines().collect();
+    let content = |i: usize| {
+        let raw = lines[i];
+        let t = raw.trim_start();
+        (!t.is_empty() && !t.starts_with('#')).then(|| (raw.len() - t.len(), t))
+    };
+    let mut best = None;
+    // Search lines from `start`, inside the block deeper than `parent` (the line `start`
+    // itself may sit at `parent` when it is a sequence item holding the key after its dash).
+    let (mut start, mut parent): (usize, Option<usize>) = (0, None);
+    for segment in dotted.split('.') {
+        let (key, index) = match segment.find('[') {
+            Some(b) => (
+                &segment[..b],
+                segment[b + 1..].trim_end_matches(']').parse::<usize>().ok(),
+            ),
+            None => (segment, None),
+        };
+        let mut found = None;
+        for i in start..lines.len() {
+            let Some((mut indent, mut body)) = content(i) else {
+                continue;
+            };
+            if parent.is_some_and(|p| indent <= p) && !(i == start && body.starts_with("- ")) {
+                break;
+            }
+            while let Some(rest) = body.strip_prefix("- ") {
+                indent += 2;
+                body = rest.trim_start();
+            }
+            if mapping_key(body) == Some(key) {
+                found = Some((i, indent));
+                break;
+            }
+        }
+        let Some((line, indent)) = found else { break };
+        best = Some((line + 1, indent + 1));
+        (start, parent) = (line + 1, Some(indent));
+        let Some(n) = index else { continue };
+        // The n-th item of the sequence under the key (block sequences may sit at the key's
+        // own indentation).
+        let (mut count, mut item_indent, mut item) = (0, None, None);
+        for i in start..lines.len() {
+            let Some((ind, body)) = content(i) else { continue };
+            if ind < indent || (ind == indent && !body.starts_with('-')) {
+                break;
+            }
+            if !body.starts_with('-') || item_indent.is_some_and(|ii| ind != ii) {
+                continue;
+            }
+            item_indent = Some(ind);
+            if count == n {
+                item = Some((i, ind));
+                break;
+            }
+            count += 1;
+        }
+        let Some((line, ind)) = item else { break };
+        best = Some((line + 1, ind + 1));
+        (start, parent) = (line, Some(ind));
+    }
+    best
+}
+
 /// The key of a `key: value` or `key:` line, unquoted.
 fn mapping_key(body: &str) -> Option<&str> {
     if let Some(rest) = body.strip_prefix('"') {
@@ -64,7 +132,21 @@ fn mapping_key(body: &str) -> Option<&str> {
 
 #[cfg(test)]
 mod tests {
-    use super::locate_key;
+    use super::{locate_key, locate_path};
+
+    #[test]
+    fn finds_keys_inside_sequence_items() {
+        let source = "name: t\nmodels:\n  - {kind: a}\n  - kind: b\n    params:\n      depth: 3\n  - {kind: c}\nseeds: [0]\n";
+        assert_eq!(locate_path(source, "models[0].kind"), Some((3, 3)));
+        assert_eq!(locate_path(source, "models[1].kind"), Some((4, 5)));
+        assert_eq!(locate_path(source, "models[1].params.depth"), Some((6, 7)));
+        assert_eq!(locate_path(source, "models[2].kind"), Some((7, 3)));
+        assert_eq!(locate_path(source, "seeds"), Some((8, 1)));
+        // An index past the end stops at the sequence's key.
+        assert_eq!(locate_path(source, "models[5].kind"), Some((2, 1)));
+        let unindented = "models:\n- {kind: a}\n- {kind: b}\nname: x\n";
+        assert_eq!(locate_path(unindented, "models[1].kind"), Some((3, 1)));
+    }
 
     const SOURCE: &str = "\
 # comment
