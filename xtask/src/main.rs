@@ -151,10 +151,20 @@ fn home() -> Result<PathBuf, String> {
 }
 
 fn ensure_venv(root: &Path) -> Result<PathBuf, String> {
-    let venv = root.join(".venv");
+    install_venv(
+        &root.join(".venv"),
+        &root.join("xtask/requirements.txt"),
+        false,
+        "installing Python packages (torch 2.13.0 is large; this happens once)",
+    )
+}
+
+/// Creates `venv` if needed and installs `requirements` into it, once per content of the file
+/// (a stamp inside the venv holds the content it was installed from); `constrain` also passes
+/// the file as pip's constraints, so packages pip builds from source build with the same pins.
+fn install_venv(venv: &Path, requirements: &Path, constrain: bool, what: &str) -> Result<PathBuf, String> {
     let python = venv.join("bin/python");
-    let requirements = root.join("xtask/requirements.txt");
-    let wanted = std::fs::read_to_string(&requirements)
+    let wanted = std::fs::read_to_string(requirements)
         .map_err(|e| format!("cannot read {}: {e}", requirements.display()))?;
     let stamp = venv.join("firecast-requirements.txt");
     if std::fs::read_to_string(&stamp).ok().as_deref() == Some(wanted.as_str()) && python.exists() {
@@ -163,16 +173,19 @@ fn ensure_venv(root: &Path) -> Result<PathBuf, String> {
     if !python.exists() {
         eprintln!("xtask: creating {}", venv.display());
         run(
-            Command::new("python3").args(["-m", "venv"]).arg(&venv),
+            Command::new("python3").args(["-m", "venv"]).arg(venv),
             "python3 -m venv",
         )?;
     }
-    eprintln!("xtask: installing Python packages (torch 2.13.0 is large; this happens once)");
+    eprintln!("xtask: {what}");
+    let mut pip = Command::new(&python);
+    if constrain {
+        pip.env("PIP_CONSTRAINT", requirements);
+    }
     run(
-        Command::new(&python)
-            .args(["-m", "pip", "install", "--disable-pip-version-check", "-q", "-r"])
-            .arg(&requirements),
-        "pip install -r xtask/requirements.txt",
+        pip.args(["-m", "pip", "install", "--disable-pip-version-check", "-q", "-r"])
+            .arg(requirements),
+        &format!("pip install -r {}", requirements.display()),
     )?;
     std::fs::write(&stamp, wanted).map_err(|e| format!("cannot write {}: {e}", stamp.display()))?;
     Ok(python)
@@ -202,33 +215,11 @@ fn ensure_peer_venvs(root: &Path) {
 /// from source (pyretechnics compiles its Cython modules) builds with the same pinned versions.
 fn ensure_peer_venv(root: &Path, name: &str, requirements: &str) -> Result<(), String> {
     let venv = root.join(".venv-peers").join(name);
-    let python = venv.join("bin/python");
-    let requirements = root.join(requirements);
-    let wanted = std::fs::read_to_string(&requirements)
-        .map_err(|e| format!("cannot read {}: {e}", requirements.display()))?;
-    let stamp = venv.join("firecast-requirements.txt");
-    if std::fs::read_to_string(&stamp).ok().as_deref() == Some(wanted.as_str()) && python.exists() {
-        return Ok(());
-    }
-    if !python.exists() {
-        eprintln!("xtask: creating {}", venv.display());
-        run(
-            Command::new("python3").args(["-m", "venv"]).arg(&venv),
-            "python3 -m venv",
-        )?;
-    }
-    eprintln!(
-        "xtask: installing the peer {name} into {} (it compiles; this happens once)",
+    let what = format!(
+        "installing the peer {name} into {} (it compiles; this happens once)",
         venv.display()
     );
-    run(
-        Command::new(&python)
-            .env("PIP_CONSTRAINT", &requirements)
-            .args(["-m", "pip", "install", "--disable-pip-version-check", "-q", "-r"])
-            .arg(&requirements),
-        &format!("pip install -r {}", requirements.display()),
-    )?;
-    std::fs::write(&stamp, wanted).map_err(|e| format!("cannot write {}: {e}", stamp.display()))
+    install_venv(&venv, &root.join(requirements), true, &what).map(|_| ())
 }
 
 /// Download and check the official libduckdb.so (python3 does the HTTP, so no curl is needed).

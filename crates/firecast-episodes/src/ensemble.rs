@@ -278,6 +278,19 @@ fn border(width: usize, height: usize) -> impl Iterator<Item = usize> {
     })
 }
 
+/// A run's edge from its arrival times (hours, +∞ where unburnt): border cells burnt and the
+/// first hour the fire reached the border.
+pub(crate) fn edge_of(arrival: &[f32], width: usize, height: usize) -> (u32, Option<f64>) {
+    let edge: Vec<f32> = border(width, height)
+        .map(|i| arrival[i])
+        .filter(|t| t.is_finite())
+        .collect();
+    (
+        edge.len() as u32,
+        edge.iter().copied().min_by(f32::total_cmp).map(f64::from),
+    )
+}
+
 fn scheme_name(s: LandCoverScheme) -> &'static str {
     match s {
         LandCoverScheme::ModisIgbp => "modis",
@@ -490,10 +503,7 @@ impl Tracker {
             .zip(sim.ignition_times())
             .map(|(&s, &t)| if s != 0 { (t / 60.0) as f32 } else { f32::INFINITY })
             .collect();
-        let edge: Vec<f32> = border(sim.width(), sim.height())
-            .map(|i| arrival[i])
-            .filter(|t| t.is_finite())
-            .collect();
+        let (edge_cells_burned, edge_first_hour) = edge_of(&arrival, sim.width(), sim.height());
         (
             EpisodeRecord {
                 seed,
@@ -508,8 +518,8 @@ impl Tracker {
                 peak_burning_hour: self.peak.1,
                 burned_per_step: self.burned,
                 drops: self.drops,
-                edge_cells_burned: edge.len() as u32,
-                edge_first_hour: edge.iter().copied().min_by(f32::total_cmp).map(f64::from),
+                edge_cells_burned,
+                edge_first_hour,
             },
             arrival,
         )

@@ -8,7 +8,7 @@ use firecast_sim::KernelConfig;
 use firecast_spread::mtt::{self, MttConfig};
 
 use crate::EpisodeError;
-use crate::ensemble::{Ensemble, EpisodeRecord, Setup, assemble};
+use crate::ensemble::{Ensemble, EpisodeRecord, Setup, assemble, edge_of};
 
 /// What the description of an MTT ensemble says.
 pub const MTT_DESCRIPTION: &str = "no suppression, spread by the minimum-travel-time engine (radius-8 stencil, \
@@ -66,15 +66,7 @@ pub fn run_mtt(
         }
         let last = times.last().copied().unwrap_or(0.0);
         let went_out = last + residence_h <= period_h;
-        let (w, h) = (land.width, land.height);
-        let edge: Vec<f32> = (0..w * h)
-            .filter(|&i| {
-                let (x, y) = (i % w, i / w);
-                x == 0 || y == 0 || x + 1 == w || y + 1 == h
-            })
-            .map(|i| arrival[i])
-            .filter(|t| t.is_finite())
-            .collect();
+        let (edge_cells_burned, edge_first_hour) = edge_of(&arrival, land.width, land.height);
         out.push((
             EpisodeRecord {
                 seed: s,
@@ -89,8 +81,8 @@ pub fn run_mtt(
                 peak_burning_hour: peak.1,
                 burned_per_step,
                 drops: Vec::new(),
-                edge_cells_burned: edge.len() as u32,
-                edge_first_hour: edge.iter().copied().min_by(f32::total_cmp).map(f64::from),
+                edge_cells_burned,
+                edge_first_hour,
             },
             arrival,
         ));

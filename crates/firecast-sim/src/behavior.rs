@@ -296,6 +296,24 @@ pub fn lcp_slope_percent(slope_percent: f64) -> f64 {
     degrees.to_radians().tan() * 100.0
 }
 
+/// The canopy that shelters cell `i`'s surface fuel from the wind: cover as a fraction and
+/// height in feet (none where the layers are absent or nodata).
+pub fn sheltering_canopy(land: &LandfireLandscape, i: usize) -> (f64, f64) {
+    let cover = land
+        .canopy_cover_pct
+        .as_ref()
+        .map_or(0.0, |c| f64::from(c[i]) / 100.0);
+    let canopy_ft = land
+        .canopy_height_m
+        .as_ref()
+        .map_or(0.0, |c| f64::from(c[i]) / 0.3048);
+    if cover.is_nan() || canopy_ft.is_nan() {
+        (0.0, 0.0)
+    } else {
+        (cover, canopy_ft)
+    }
+}
+
 /// FlamMap's wind adjustment factor (see the module documentation). `canopy_cover` a fraction,
 /// heights in ft.
 pub fn wind_adjustment_factor(fuel_bed_depth_ft: f64, canopy_height_ft: f64, canopy_cover: f64) -> f64 {
@@ -361,19 +379,7 @@ pub fn surface_behavior_grids(
         // LANDFIRE's flat aspect −1 enters an `.lcp` as 0 (north-facing), so FlamMap's upslope
         // there is south; it reports that direction even where the slope rounds to 0.
         let upslope = wrap_degrees(f64::from(aspect.max(0.0)) + 180.0);
-        let cover = land
-            .canopy_cover_pct
-            .as_ref()
-            .map_or(0.0, |c| f64::from(c[i]) / 100.0);
-        let canopy_ft = land
-            .canopy_height_m
-            .as_ref()
-            .map_or(0.0, |c| f64::from(c[i]) / 0.3048);
-        let (cover, canopy_ft) = if cover.is_nan() || canopy_ft.is_nan() {
-            (0.0, 0.0)
-        } else {
-            (cover, canopy_ft)
-        };
+        let (cover, canopy_ft) = sheltering_canopy(land, i);
         // Without wind the midflame wind is 0 whatever the adjustment factor (always finite).
         let midflame = if params.wind_20ft_mph > 0.0 {
             params.wind_20ft_mph * wind_adjustment_factor(*depth, canopy_ft, cover)

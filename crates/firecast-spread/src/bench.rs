@@ -24,8 +24,8 @@ use std::time::Instant;
 
 use firecast_landscape::landfire::{LandfireLandscape, LayerKind};
 use firecast_sim::behavior::{
-    BehaviorParams, FIRE_TYPE_SURFACE, SlopeMode, lcp_slope_percent, surface_behavior_grids,
-    wind_adjustment_factor,
+    BehaviorParams, FIRE_TYPE_SURFACE, SlopeMode, lcp_slope_percent, sheltering_canopy,
+    surface_behavior_grids, wind_adjustment_factor,
 };
 use firecast_sim::{FuelModel, SpreadInputs, SurfaceFuelBed, WindLimit};
 
@@ -694,19 +694,7 @@ impl<'a> LandfireEllipses<'a> {
             slope = lcp_slope_percent(slope);
         }
         let upslope = (f64::from(aspect.max(0.0)) + 180.0).rem_euclid(360.0);
-        let cover = land
-            .canopy_cover_pct
-            .as_ref()
-            .map_or(0.0, |c| f64::from(c[i]) / 100.0);
-        let canopy_ft = land
-            .canopy_height_m
-            .as_ref()
-            .map_or(0.0, |c| f64::from(c[i]) * FT_PER_M);
-        let (cover, canopy_ft) = if cover.is_nan() || canopy_ft.is_nan() {
-            (0.0, 0.0)
-        } else {
-            (cover, canopy_ft)
-        };
+        let (cover, canopy_ft) = sheltering_canopy(land, i);
         let fire = bed.spread_with_limit(
             &SpreadInputs {
                 midflame_wind_mph: self.params.wind_20ft_mph
@@ -973,16 +961,20 @@ mod tests {
         assert!(!comparable_cell(10.0, 0.0, 60.0, 1.0));
     }
 
-    #[test]
-    fn windows_stay_inside_the_grid() {
-        let land = LandfireLandscape::read_dir(
+    fn worcester() -> LandfireLandscape {
+        LandfireLandscape::read_dir(
             &Path::new(env!("CARGO_MANIFEST_DIR"))
                 .join("..")
                 .join("..")
                 .join(WORCESTER),
             firecast_landscape::landfire::FuelLayer::Fbfm40,
         )
-        .expect("the Worcester fixture");
+        .expect("the Worcester fixture")
+    }
+
+    #[test]
+    fn windows_stay_inside_the_grid() {
+        let land = worcester();
         let w = Window::around(&land, 0, 0, 100, 80);
         assert_eq!((w.row0, w.col0, w.rows, w.cols), (0, 0, 100, 80));
         let w = Window::around(&land, land.grid.width - 1, land.grid.height - 1, 100, 80);
@@ -1001,14 +993,7 @@ mod tests {
     #[test]
     fn mtt_grid_rows_run_south_to_north() {
         // A window's MTT grid: the landscape's north row is the grid's last.
-        let land = LandfireLandscape::read_dir(
-            &Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("..")
-                .join("..")
-                .join(WORCESTER),
-            firecast_landscape::landfire::FuelLayer::Fbfm40,
-        )
-        .expect("the Worcester fixture");
+        let land = worcester();
         let w = Window::around(&land, 274, 306, 40, 40);
         let c = crop(&land, w);
         let params: BehaviorParams = serde_json::from_value(serde_json::json!({
