@@ -1,25 +1,27 @@
-//! Gradient boosting with the log-loss, as scikit-learn's `GradientBoostingClassifier`.
+//! Gradient boosting with the log-loss, exactly as scikit-learn's
+//! `GradientBoostingClassifier`.
 //!
-//! `raw₀ = logit(prior)` (the prior clipped to [ε, 1−ε]); each stage fits a squared-error
-//! regression tree to the negative gradient `y − expit(raw)` (scikit-learn 1.9 maps the
-//! `friedman_mse` criterion to `squared_error`; the two pick the same splits), replaces
-//! every leaf value by one Newton step `mean(y − p) / mean(p(1 − p))` over the leaf's
-//! in-bag rows (0 when the denominator is below 1e-150), and adds `learning_rate × leaf`
-//! to the raw score of every row. With `subsample < 1` each stage draws
-//! `max(1, ⌊subsample·n⌋)` rows without replacement. The features are sorted once and
-//! the order reused by every tree.
+//! `raw₀ = logit(prior)` (the prior clipped to [ε, 1−ε], scipy's `logit`). One
+//! `RandomState(random_state)` drives every stage: with `subsample < 1` a stage first draws
+//! `n` uniforms and keeps row `i` in bag when `u_i·(n − i) < n_inbag − kept so far`
+//! (`n_inbag = max(1, ⌊subsample·n⌋)`, out-of-bag rows get weight 0), then its tree's
+//! splitter draws its state from the same generator. Each stage fits a squared-error
+//! regression tree ([`crate::tree`], bit for bit scikit-learn's) to the negative gradient
+//! `−∂loss/∂raw` (scikit-learn's stable branches), replaces every leaf value by one Newton
+//! step `mean(y − p) / mean(p(1 − p))` over the leaf's in-bag rows in row order, with
+//! NumPy's pairwise sums (`np.average`), 0 when the denominator is below 1e-150, and adds
+//! `learning_rate × leaf` to the raw score of every row.
 
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::codec;
 use crate::error::BaselineError;
-use crate::forest::{Shared, derive_seed};
+use crate::forest::random_state;
 use crate::linear::expit;
 use crate::matrix::Matrix;
+use crate::nprandom::{RandomState, pairwise_sum};
 use crate::spec::GradientBoostingParams;
-use crate::tree::{Criterion, Targets, Tree, TreeConfig};
+use crate::tree::{Criterion, LEAF, Targets, Tree, TreeConfig, grow, rand_r_seed};
 
 /// A fitted boosted ensemble.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -70,66 +72,64 @@ pub(crate) fn fit(
         min_samples_leaf: p.min_samples_leaf,
         max_features: p.max_features.resolve(x.cols)?,
     };
+    let mut rng = RandomState::new(random_state(seed)?);
     let yv: Vec<f64> = y.iter().map(|&v| f64::from(u8::from(v))).collect();
     let prior = (yv.iter().sum::<f64>() / n as f64).clamp(f64::EPSILON, 1.0 - f64::EPSILON);
     let init = logit(prior);
     let mut raw = vec![init; n];
-    let shared = Shared::new(x, &cfg);
+    let cols = x.columns();
+    let do_oob = p.subsample < 1.0;
     let n_inbag = ((p.subsample * n as f64) as usize).max(1);
-    let mut rng = ChaCha8Rng::seed_from_u64(derive_seed(seed, 0));
-    let mut index: Vec<usize> = (0..n).collect();
     let mut weight = vec![1.0; n];
+    let mut in_bag = vec![true; n];
     let mut grad = vec![0.0; n];
+    let mut leaf = vec![0usize; n];
     let mut trees = Vec::with_capacity(p.n_estimators);
     for stage in 0..p.n_estimators {
+        if do_oob {
+            let mut bagged = 0usize;
+            for i in 0..n {
+                let u = rng.uniform();
+                in_bag[i] = u * ((n - i) as f64) < ((n_inbag - bagged) as f64);
+                bagged += usize::from(in_bag[i]);
+                weight[i] = f64::from(u8::from(in_bag[i]));
+            }
+        }
         for i in 0..n {
             grad[i] = neg_gradient(yv[i], raw[i]);
         }
-        if n_inbag < n {
-            // Partial Fisher-Yates: the first n_inbag of a random permutation are in bag.
-            for i in 0..n_inbag {
-                let j = rng.random_range(i..n);
-                index.swap(i, j);
-            }
-            weight.fill(0.0);
-            for &i in &index[..n_inbag] {
-                weight[i] = 1.0;
-            }
-        }
         let targets = Targets {
-            weight: &weight,
+            weight: Some(&weight),
             target: &grad,
         };
-        let mut tree_rng = ChaCha8Rng::seed_from_u64(rng.random());
-        let (mut tree, leaf_of) = shared.grow(x, &targets, &cfg, &mut tree_rng);
-        // Newton step per leaf over its in-bag rows.
-        let mut num = vec![0.0f64; tree.len()];
-        let mut den = vec![0.0f64; tree.len()];
-        let mut count = vec![0usize; tree.len()];
+        let state = rand_r_seed(&mut rng);
+        let mut tree = grow(&cols, n, x.cols, &targets, &cfg, state);
+        // Newton step per leaf over its in-bag rows, in row order (np.average).
+        let mut rows: Vec<Vec<usize>> = vec![Vec::new(); tree.len()];
         for i in 0..n {
-            let leaf = leaf_of[i];
-            if leaf == u32::MAX {
+            leaf[i] = tree.apply(x.row(i));
+            if in_bag[i] {
+                rows[leaf[i]].push(i);
+            }
+        }
+        let (mut num, mut den) = (Vec::new(), Vec::new());
+        for (l, members) in rows.iter().enumerate() {
+            if tree.feature[l] != LEAF || members.is_empty() {
                 continue;
             }
-            let l = leaf as usize;
-            let prob = yv[i] - grad[i];
-            num[l] += grad[i];
-            den[l] += prob * (1.0 - prob);
-            count[l] += 1;
-        }
-        for l in 0..tree.len() {
-            if count[l] > 0 && tree.feature[l] == crate::tree::LEAF {
-                let c = count[l] as f64;
-                let (nm, dm) = (num[l] / c, den[l] / c);
-                tree.value[l] = if dm.abs() < 1e-150 { 0.0 } else { nm / dm };
+            num.clear();
+            den.clear();
+            for &i in members {
+                num.push(grad[i]);
+                let prob = yv[i] - grad[i];
+                den.push(prob * (1.0 - prob));
             }
+            let count = members.len() as f64;
+            let (nm, dm) = (pairwise_sum(&num) / count, pairwise_sum(&den) / count);
+            tree.value[l] = if dm.abs() < 1e-150 { 0.0 } else { nm / dm };
         }
         for i in 0..n {
-            let leaf = match leaf_of[i] {
-                u32::MAX => tree.apply(x.row(i)),
-                l => l as usize,
-            };
-            raw[i] += p.learning_rate * tree.value[leaf];
+            raw[i] += p.learning_rate * tree.value[leaf[i]];
         }
         trees.push(tree);
         progress(stage + 1, p.n_estimators);

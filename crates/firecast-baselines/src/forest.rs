@@ -1,55 +1,35 @@
-//! Random forest and single decision tree classifiers.
+//! Random forest and single decision tree classifiers, seeded as scikit-learn seeds them.
+//!
+//! - `DecisionTreeClassifier(random_state=seed)`: the splitter's state is the first
+//!   `RandomState(seed).randint(0, 2³¹ − 1)`.
+//! - `RandomForestClassifier(random_state=seed)`: tree `i`'s `random_state` is the `i`-th
+//!   `RandomState(seed).randint(2³¹ − 1)`; with `bootstrap` its rows are
+//!   `RandomState(tree_seed).randint(0, n, n)`, passed as counts (sample weights); the
+//!   tree's splitter then starts from `RandomState(tree_seed)` like a lone tree.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::error::BaselineError;
 use crate::matrix::Matrix;
+use crate::nprandom::RandomState;
 use crate::spec::{DecisionTreeParams, RandomForestParams};
-use crate::tree::{Criterion, Presorted, Targets, Tree, TreeConfig, grow_presorted, grow_sorting};
+use crate::tree::{Criterion, Targets, Tree, TreeConfig, grow, rand_r_seed};
 
-/// SplitMix64 of `seed` and a stream number: independent per-tree seeds, so a tree's
-/// randomness depends on its index only, never on which thread builds it.
-pub(crate) fn derive_seed(seed: u64, stream: u64) -> u64 {
-    let mut z = seed ^ stream.wrapping_add(1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
+/// scikit-learn's `MAX_INT` (`np.iinfo(np.int32).max`), the bound of per-tree seeds.
+const MAX_INT: u64 = 0x7FFF_FFFF;
 
-/// Data every tree of a fit shares: the column-major copy (few features per split) or
-/// the presorted columns (all features per split).
-pub(crate) enum Shared {
-    Columns(Vec<f32>),
-    Presorted(Presorted),
-}
-
-impl Shared {
-    pub fn new(x: &Matrix, cfg: &TreeConfig) -> Self {
-        if cfg.max_features < x.cols {
-            Shared::Columns(x.columns())
-        } else {
-            Shared::Presorted(Presorted::new(x))
-        }
-    }
-
-    /// One tree; `rng` draws the feature order.
-    pub fn grow(
-        &self,
-        x: &Matrix,
-        targets: &Targets<'_>,
-        cfg: &TreeConfig,
-        rng: &mut ChaCha8Rng,
-    ) -> (Tree, Vec<u32>) {
-        match self {
-            Shared::Columns(cols) => grow_sorting(cols, x.rows, x.cols, targets, cfg, rng),
-            Shared::Presorted(pre) => grow_presorted(x, pre, targets, cfg, rng.random()),
-        }
-    }
+/// A `random_state` as NumPy accepts it: an integer in [0, 2³²).
+pub(crate) fn random_state(seed: u64) -> Result<u32, BaselineError> {
+    u32::try_from(seed).map_err(|_| {
+        BaselineError::param(
+            "seed",
+            "in [0, 2^32 - 1] (scikit-learn's random_state, as NumPy's RandomState takes it)",
+            seed,
+        )
+    })
 }
 
 fn config(
@@ -84,15 +64,13 @@ pub(crate) fn fit_tree(
         p.min_samples_leaf,
         p.max_features.resolve(x.cols)?,
     );
-    let weight = vec![1.0; x.rows];
     let target = labels(y);
     let targets = Targets {
-        weight: &weight,
+        weight: None,
         target: &target,
     };
-    let shared = Shared::new(x, &cfg);
-    let mut rng = ChaCha8Rng::seed_from_u64(derive_seed(seed, 0));
-    Ok(shared.grow(x, &targets, &cfg, &mut rng).0)
+    let state = rand_r_seed(&mut RandomState::new(random_state(seed)?));
+    Ok(grow(&x.columns(), x.rows, x.cols, &targets, &cfg, state))
 }
 
 /// A fitted random forest: P(class 1) is the mean of the trees' leaf fractions.
@@ -102,8 +80,8 @@ pub(crate) struct Forest {
     pub trees: Vec<Tree>,
 }
 
-/// `RandomForestClassifier`: trees in parallel, tree `i` seeded by `derive_seed(seed, i)`
-/// (bootstrap draws, then feature draws), so the forest does not depend on the threads.
+/// `RandomForestClassifier`: scikit-learn's per-tree seeds and bootstrap draws; trees are
+/// grown in parallel, each from its own seed, so the forest does not depend on threads.
 pub(crate) fn fit_forest(
     p: &RandomForestParams,
     x: &Matrix,
@@ -118,28 +96,30 @@ pub(crate) fn fit_forest(
         p.min_samples_leaf,
         p.max_features.resolve(x.cols)?,
     );
+    let mut forest_rng = RandomState::new(random_state(seed)?);
+    let tree_seeds: Vec<u32> = (0..p.n_estimators)
+        .map(|_| forest_rng.randint(0, MAX_INT) as u32)
+        .collect();
     let target = labels(y);
-    let shared = Shared::new(x, &cfg);
+    let cols = x.columns();
     let done = AtomicUsize::new(0);
-    let trees = (0..p.n_estimators)
+    let trees = tree_seeds
         .into_par_iter()
-        .map(|i| {
-            let mut rng = ChaCha8Rng::seed_from_u64(derive_seed(seed, i as u64));
-            let weight = if p.bootstrap {
-                // scikit-learn's bootstrap: n draws with replacement, counts as weights.
+        .map(|tree_seed| {
+            let weight = p.bootstrap.then(|| {
+                let mut draws = RandomState::new(tree_seed);
                 let mut w = vec![0.0; n];
                 for _ in 0..n {
-                    w[rng.random_range(0..n)] += 1.0;
+                    w[draws.randint(0, n as u64) as usize] += 1.0;
                 }
                 w
-            } else {
-                vec![1.0; n]
-            };
+            });
             let targets = Targets {
-                weight: &weight,
+                weight: weight.as_deref(),
                 target: &target,
             };
-            let tree = shared.grow(x, &targets, &cfg, &mut rng).0;
+            let state = rand_r_seed(&mut RandomState::new(tree_seed));
+            let tree = grow(&cols, n, x.cols, &targets, &cfg, state);
             progress(done.fetch_add(1, Ordering::Relaxed) + 1, p.n_estimators);
             tree
         })
@@ -153,7 +133,13 @@ impl Forest {
         let k = self.trees.len() as f64;
         x.data
             .par_chunks(x.cols.max(1))
-            .map(|row| self.trees.iter().map(|t| t.predict(row)).sum::<f64>() / k)
+            .map(|row| {
+                let mut sum = 0.0;
+                for t in &self.trees {
+                    sum += t.predict(row);
+                }
+                sum / k
+            })
             .collect()
     }
 }

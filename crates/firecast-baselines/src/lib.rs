@@ -55,12 +55,13 @@ mod linear;
 mod matrix;
 mod model;
 mod nb;
+mod nprandom;
 mod spec;
 mod tree;
 
 pub use error::BaselineError;
 pub use matrix::{Matrix, Standardizer};
-pub use model::{Fitted, fit, fit_with_progress};
+pub use model::{Fitted, TreeNode, fit, fit_with_progress};
 pub use spec::{
     BaselineSpec, DecisionTreeParams, GaussianNbParams, GradientBoostingParams, KINDS, KnnParams, KnnWeights,
     LogisticRegressionParams, MaxFeatures, RandomForestParams, SplitCriterion,

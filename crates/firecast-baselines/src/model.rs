@@ -12,9 +12,11 @@ use crate::nb::{self, GaussianNb};
 use crate::spec::BaselineSpec;
 use crate::tree::Tree;
 
-/// Fits `spec` on the rows of `x` with labels `y` (true = class 1). `seed` drives every
-/// random choice (tree feature order, bootstrap, subsampling); the result does not
-/// depend on the number of rayon threads.
+/// Fits `spec` on the rows of `x` with labels `y` (true = class 1). `seed` is
+/// scikit-learn's `random_state` and drives every random choice (tree feature order,
+/// bootstrap, subsampling) through the same NumPy streams, so the tree models equal
+/// scikit-learn's fitted with `random_state=seed`; they refuse a seed ≥ 2³² as NumPy does.
+/// The result does not depend on the number of rayon threads.
 pub fn fit(spec: &BaselineSpec, x: &Matrix, y: &[bool], seed: u64) -> Result<Fitted, BaselineError> {
     fit_with_progress(spec, x, y, seed, &|_, _| {})
 }
@@ -86,6 +88,18 @@ pub fn fit_with_progress(
         n_features: x.cols,
         model,
     })
+}
+
+/// One node of a fitted tree, as scikit-learn's `tree_` arrays describe it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TreeNode {
+    /// The split feature; `None` for a leaf (scikit-learn writes −2).
+    pub feature: Option<usize>,
+    /// Rows with `x[feature] ≤ threshold` go left; 0 for a leaf (scikit-learn writes −2).
+    pub threshold: f64,
+    /// Class-1 fraction of the node's (weighted) training rows for classifiers; for
+    /// boosting the leaf's Newton step and, at inner nodes, the mean negative gradient.
+    pub value: f64,
 }
 
 /// A fitted baseline: its spec, its input width and the model. Serialises to JSON
@@ -247,6 +261,34 @@ impl Fitted {
             _ => &[],
         };
         (trees.len(), trees.iter().map(Tree::len).sum())
+    }
+
+    /// Every tree's nodes in scikit-learn's numbering (depth first, left child first, as
+    /// `tree_.feature`, `tree_.threshold` and `tree_.value` list them): one tree for a
+    /// decision tree, one per estimator for forests and boosting, none otherwise.
+    pub fn tree_nodes(&self) -> Vec<Vec<TreeNode>> {
+        let trees: &[Tree] = match &self.model {
+            Model::DecisionTree(t) => std::slice::from_ref(t),
+            Model::RandomForest(f) => &f.trees,
+            Model::GradientBoosting(b) => &b.trees,
+            _ => &[],
+        };
+        trees
+            .iter()
+            .map(|t| {
+                t.preorder()
+                    .into_iter()
+                    .map(|i| {
+                        let leaf = t.feature[i] == crate::tree::LEAF;
+                        TreeNode {
+                            feature: (!leaf).then_some(t.feature[i] as usize),
+                            threshold: t.threshold[i],
+                            value: t.value[i],
+                        }
+                    })
+                    .collect()
+            })
+            .collect()
     }
 
     /// The model as JSON (floats stored losslessly).

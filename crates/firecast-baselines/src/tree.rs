@@ -1,82 +1,58 @@
-//! CART trees as scikit-learn's `BestSplitter` grows them, shared by the decision tree,
-//! the random forest and gradient boosting.
+//! CART trees grown exactly as scikit-learn 1.9.1 grows them (`DepthFirstTreeBuilder` with
+//! the dense `BestSplitter`), shared by the decision tree, the random forest and gradient
+//! boosting. For the same `random_state`, hyper-parameters and `float32` data the trees are
+//! scikit-learn's: same split features, thresholds and node values, bit for bit.
 //!
-//! What matches scikit-learn (`sklearn/tree/_splitter.pyx`, `_criterion.pyx`, `_tree.pyx`):
-//! - candidate thresholds sit between consecutive sorted values of a node, skipping
-//!   gaps `v[p] ≤ v[p−1] + 1e-7` (its `FEATURE_THRESHOLD`, in `f32`), at
-//!   `v[p−1]/2 + v[p]/2` in `f64`; a sample goes left when `x ≤ threshold`;
-//! - a split is scored by the criterion's proxy (Gini: `−w_R·gini_R − w_L·gini_L`,
-//!   squared error: `s_L²/w_L + s_R²/w_R`) and only a strictly better proxy replaces the
-//!   best one, so among exact ties the first feature visited wins;
-//! - features are visited in a random order; with `max_features < n_features` the search
-//!   stops after `max_features` draws, constant features included, unless all drawn
-//!   features so far were constant;
-//! - a node is a leaf when `depth ≥ max_depth`, it has fewer than `min_samples_split`
-//!   or `2·min_samples_leaf` samples, its impurity is ≤ `f64::EPSILON`, no split keeps
-//!   `min_samples_leaf` samples on both sides, or the improvement is below `−EPSILON`;
-//! - sample weights (bootstrap counts) weigh the criterion, sample counts the size rules.
+//! What is reproduced, and from where (`sklearn/tree/_splitter.pyx`, `_partitioner.pyx`,
+//! `_criterion.pyx`, `_tree.pyx`, `sklearn/utils/_sorting.pyx`, `_random.pxd`):
+//! - **the random stream**: the splitter's state is `RandomState(random_state)
+//!   .randint(0, 2³¹ − 1)` (see [`crate::nprandom`]) and every feature draw is
+//!   `low + xorshift32() % (high − low)`;
+//! - **the feature draws**: Fisher-Yates over a `features` array that persists from node to
+//!   node, with the known-constant prefix inherited from the parent, newly found constant
+//!   features (max − min ≤ 1e-7 in `f32`) moved aside, and the search stopping after
+//!   `max_features` visits unless all visited features so far were constant;
+//! - **the sample order**: one `samples` array of the positively weighted rows; each
+//!   visited feature sorts the node's slice by value with scikit-learn's introsort
+//!   (median-of-3 pivot, 3-way partition, heapsort below depth `2·⌊log₂ n⌋`, insertion
+//!   sort up to 16 values), and the chosen split partitions it in place by swapping from
+//!   the end — so ties come out in scikit-learn's order, which fixes every floating-point
+//!   sum below;
+//! - **the criterion** (`Gini`, `MSE`): running sums updated from the nearer end
+//!   (forward from the last position, or backwards from the node's end), the proxy
+//!   `−w_R·gini_R − w_L·gini_L` or `s_L²/w_L + s_R²/w_R`, only a strictly better proxy
+//!   replacing the best (first feature visited and lowest threshold win ties), threshold
+//!   `v[p−1]/2 + v[p]/2` in `f64`, children impurities and the weighted improvement
+//!   computed as scikit-learn does after partitioning;
+//! - **the builder**: a depth-first stack (right child pushed first), a node is a leaf
+//!   when `depth ≥ max_depth`, it has fewer than `min_samples_split` or
+//!   `2·min_samples_leaf` samples, its impurity is ≤ ε, no split keeps `min_samples_leaf`
+//!   samples per side, or `improvement + ε < 0`; sample weights (bootstrap counts) weigh
+//!   the criterion, sample counts the size rules.
 //!
-//! The random order differs from scikit-learn's (its own `rand_r` stream), which changes
-//! a tree only where two splits tie exactly.
-//!
-//! Two builders produce the same kind of tree: [`grow_sorting`] sorts the node's values of
-//! each drawn feature (like scikit-learn; best when few features are drawn per node), and
-//! [`grow_presorted`] sorts every feature once and then scans all features level by level
-//! in parallel (exact too, and far faster when every feature is examined, as in
-//! gradient boosting and the default decision tree).
+//! The fitted [`Tree`] stores children next to each other; [`Tree::preorder`] lists the
+//! nodes in scikit-learn's numbering (depth-first, left first), so `tree_.feature`,
+//! `tree_.threshold` and `tree_.value` can be compared entry by entry.
 
-use rand::Rng;
-use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::codec;
-use crate::matrix::Matrix;
+use crate::nprandom::{RAND_R_MAX, RandomState, rand_int};
 
 /// scikit-learn's `FEATURE_THRESHOLD` (an `f32`).
 const FEATURE_THRESHOLD: f32 = 1e-7;
 /// Marks a leaf in [`Tree::feature`].
 pub(crate) const LEAF: u32 = u32::MAX;
-/// Marks an out-of-bag (weight 0) or finished sample.
-const NONE: u32 = u32::MAX;
+/// No parent (the root).
+const NONE: usize = usize::MAX;
 
 /// Split quality.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Criterion {
-    /// Binary Gini; the target is 0/1, `s` the weighted count of class 1.
+    /// Binary Gini; the target is the class, 0 or 1.
     Gini,
     /// Squared error (scikit-learn's `squared_error`, which `friedman_mse` now maps to).
     Mse,
-}
-
-impl Criterion {
-    /// scikit-learn's `proxy_impurity_improvement` from left/right weight and target sums.
-    #[inline]
-    fn proxy(self, wl: f64, sl: f64, wr: f64, sr: f64) -> f64 {
-        match self {
-            Criterion::Gini => {
-                let (c0l, c0r) = (wl - sl, wr - sr);
-                let gl = 1.0 - (c0l * c0l + sl * sl) / (wl * wl);
-                let gr = 1.0 - (c0r * c0r + sr * sr) / (wr * wr);
-                -wr * gr - wl * gl
-            }
-            Criterion::Mse => sl * sl / wl + sr * sr / wr,
-        }
-    }
-
-    /// Node impurity from weight `w`, target sum `s` and target square sum `q`.
-    fn impurity(self, w: f64, s: f64, q: f64) -> f64 {
-        match self {
-            Criterion::Gini => {
-                let c0 = w - s;
-                1.0 - (c0 * c0 + s * s) / (w * w)
-            }
-            Criterion::Mse => {
-                let m = s / w;
-                q / w - m * m
-            }
-        }
-    }
 }
 
 /// Growth limits, resolved from a spec.
@@ -91,9 +67,10 @@ pub(crate) struct TreeConfig {
     pub max_features: usize,
 }
 
-/// Per-sample weight and target: `w = 0` leaves the sample out (out of bag).
+/// Per-sample weight and target. `weight: None` is scikit-learn's `sample_weight=None`
+/// (every weight 1); a weight of 0 leaves the sample out (out of bag).
 pub(crate) struct Targets<'a> {
-    pub weight: &'a [f64],
+    pub weight: Option<&'a [f64]>,
     pub target: &'a [f64],
 }
 
@@ -123,22 +100,12 @@ impl Tree {
         }
     }
 
-    fn push_leaf(&mut self) -> usize {
+    fn push_leaf(&mut self, value: f64) -> usize {
         self.feature.push(LEAF);
         self.threshold.push(0.0);
         self.left.push(0);
-        self.value.push(0.0);
+        self.value.push(value);
         self.feature.len() - 1
-    }
-
-    /// Turns `node` into a split and appends its two children (as leaves for now).
-    fn split(&mut self, node: usize, feature: usize, threshold: f64) -> usize {
-        let left = self.push_leaf();
-        self.push_leaf();
-        self.feature[node] = feature as u32;
-        self.threshold[node] = threshold;
-        self.left[node] = left as u32;
-        left
     }
 
     /// Number of nodes.
@@ -168,6 +135,21 @@ impl Tree {
     #[inline]
     pub fn predict(&self, row: &[f32]) -> f64 {
         self.value[self.apply(row)]
+    }
+
+    /// Node indices in scikit-learn's order: depth first, left child first.
+    pub fn preorder(&self) -> Vec<usize> {
+        let mut out = Vec::with_capacity(self.len());
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            out.push(i);
+            if self.feature[i] != LEAF {
+                let l = self.left[i] as usize;
+                stack.push(l + 1);
+                stack.push(l);
+            }
+        }
+        out
     }
 
     /// Structural checks after loading: equal lengths, children after their parent and in
@@ -202,577 +184,582 @@ impl Tree {
     }
 }
 
-/// Per-node sums of the samples in it.
-#[derive(Clone, Copy, Debug, Default)]
-struct Stats {
-    n: usize,
-    w: f64,
-    s: f64,
-    q: f64,
+/// The splitter's initial xorshift state for a tree whose `random_state` is `seed`.
+pub(crate) fn rand_r_seed(rng: &mut RandomState) -> u32 {
+    rng.randint(0, u64::from(RAND_R_MAX)) as u32
 }
 
-impl Stats {
-    #[inline]
-    fn add(&mut self, w: f64, t: f64) {
-        self.n += 1;
-        self.w += w;
-        self.s += w * t;
-        self.q += w * t * t;
+// ---------------------------------------------------------------------------------------
+// scikit-learn's simultaneous introsort (3-way partition), on values and sample indices.
+
+fn sort_samples(v: &mut [f32], s: &mut [u32]) {
+    let n = v.len();
+    if n == 0 {
+        return;
     }
+    let maxd = 2 * ((n as f64).log2() as isize);
+    introsort_3way(v, s, maxd);
 }
 
-/// Whether a node of these stats at this depth must stay a leaf before any search.
-fn stops(cfg: &TreeConfig, st: &Stats, depth: usize, impurity: f64) -> bool {
-    depth >= cfg.max_depth
-        || st.n < cfg.min_samples_split
-        || st.n < 2 * cfg.min_samples_leaf
-        || impurity <= f64::EPSILON
+fn introsort_3way(mut v: &mut [f32], mut s: &mut [u32], mut maxd: isize) {
+    while v.len() > 15 {
+        if maxd <= 0 {
+            heapsort(v, s);
+            return;
+        }
+        maxd -= 1;
+        let n = v.len();
+        let pivot = median3(v);
+        let (mut i, mut l, mut r) = (0usize, 0usize, n);
+        while i < r {
+            if v[i] < pivot {
+                v.swap(i, l);
+                s.swap(i, l);
+                i += 1;
+                l += 1;
+            } else if v[i] > pivot {
+                r -= 1;
+                v.swap(i, r);
+                s.swap(i, r);
+            } else {
+                i += 1;
+            }
+        }
+        let (vl, vr) = std::mem::take(&mut v).split_at_mut(r);
+        let (sl, sr) = std::mem::take(&mut s).split_at_mut(r);
+        introsort_3way(&mut vl[..l], &mut sl[..l], maxd);
+        v = vr;
+        s = sr;
+    }
+    insertion_sort(v, s);
 }
 
-/// scikit-learn's `impurity_improvement` sign test with `min_impurity_decrease = 0`.
-fn improves(cfg: &TreeConfig, parent: &Stats, parent_impurity: f64, l: &Stats, r: &Stats) -> bool {
-    let il = cfg.criterion.impurity(l.w, l.s, l.q);
-    let ir = cfg.criterion.impurity(r.w, r.s, r.q);
-    let improvement = parent_impurity - r.w / parent.w * ir - l.w / parent.w * il;
-    improvement + f64::EPSILON >= 0.0
-}
-
-/// Order-preserving `u32` key of an `f32` (for sorting values with their sample index).
 #[inline]
-fn key(v: f32) -> u32 {
-    let b = v.to_bits();
-    if b & 0x8000_0000 != 0 { !b } else { b | 0x8000_0000 }
-}
-
-#[inline]
-fn unkey(k: u32) -> f32 {
-    f32::from_bits(if k & 0x8000_0000 != 0 { k & 0x7FFF_FFFF } else { !k })
-}
-
-/// The best split found so far for a node.
-#[derive(Clone, Copy, Debug)]
-struct Best {
-    proxy: f64,
-    /// Visiting rank of the feature in this node: lower wins exact ties.
-    rank: (u64, u32),
-    feature: u32,
-    threshold: f64,
-}
-
-impl Best {
-    const NONE: Best = Best {
-        proxy: f64::NEG_INFINITY,
-        rank: (u64::MAX, u32::MAX),
-        feature: LEAF,
-        threshold: 0.0,
-    };
-
-    #[inline]
-    fn beats(&self, other: &Best) -> bool {
-        self.proxy > other.proxy || (self.proxy == other.proxy && self.rank < other.rank)
+fn median3(v: &[f32]) -> f32 {
+    let n = v.len();
+    let (a, b, c) = (v[0], v[n / 2], v[n - 1]);
+    if a < b {
+        if b < c {
+            b
+        } else if a < c {
+            c
+        } else {
+            a
+        }
+    } else if b < c {
+        if a < c { a } else { c }
+    } else {
+        b
     }
 }
 
-/// Grows a tree by sorting each drawn feature's node values (scikit-learn's way).
-/// `cols` is the column-major copy of the training matrix (`n` rows). Returns the tree
-/// and, per sample, the leaf it landed in (`u32::MAX` for weight-0 samples).
-pub(crate) fn grow_sorting(
-    cols: &[f32],
-    n: usize,
-    d: usize,
-    targets: &Targets<'_>,
-    cfg: &TreeConfig,
-    rng: &mut ChaCha8Rng,
-) -> (Tree, Vec<u32>) {
-    let (wv, tv) = (targets.weight, targets.target);
-    let mut samples: Vec<u32> = (0..n as u32).filter(|&i| wv[i as usize] > 0.0).collect();
-    let mut leaf_of = vec![NONE; n];
-    let mut features: Vec<usize> = (0..d).collect();
-    let mut buf: Vec<u64> = Vec::with_capacity(samples.len());
-    let mut tree = Tree::new();
-
-    let mut root = Stats::default();
-    for &s in &samples {
-        root.add(wv[s as usize], tv[s as usize]);
+fn heapsort(v: &mut [f32], s: &mut [u32]) {
+    let n = v.len();
+    let mut start = (n - 2) / 2;
+    loop {
+        sift_down(v, s, start, n);
+        if start == 0 {
+            break;
+        }
+        start -= 1;
     }
-    let root_node = tree.push_leaf();
-    let root_imp = cfg.criterion.impurity(root.w, root.s, root.q);
-    // (start, end, depth, node, stats, impurity)
-    let mut stack = vec![(0usize, samples.len(), 0usize, root_node, root, root_imp)];
-
-    while let Some((start, end, depth, node, st, imp)) = stack.pop() {
-        tree.value[node] = st.s / st.w;
-        let mut split = None;
-        if !stops(cfg, &st, depth, imp) {
-            split = best_split_sorted(
-                cols,
-                n,
-                &samples[start..end],
-                targets,
-                &st,
-                cfg,
-                &mut features,
-                &mut buf,
-                rng,
-            );
-        }
-        let Some(best) = split else {
-            for &s in &samples[start..end] {
-                leaf_of[s as usize] = node as u32;
-            }
-            continue;
-        };
-        let (f, thr) = (best.feature as usize, best.threshold);
-        let col = &cols[f * n..(f + 1) * n];
-        let part = &mut samples[start..end];
-        // In-place partition: left block first.
-        let mut mid = 0;
-        for i in 0..part.len() {
-            if f64::from(col[part[i] as usize]) <= thr {
-                part.swap(i, mid);
-                mid += 1;
-            }
-        }
-        let (mut ls, mut rs) = (Stats::default(), Stats::default());
-        for &s in &part[..mid] {
-            ls.add(wv[s as usize], tv[s as usize]);
-        }
-        for &s in &part[mid..] {
-            rs.add(wv[s as usize], tv[s as usize]);
-        }
-        if !improves(cfg, &st, imp, &ls, &rs) {
-            for &s in part.iter() {
-                leaf_of[s as usize] = node as u32;
-            }
-            continue;
-        }
-        let left = tree.split(node, f, thr);
-        let il = cfg.criterion.impurity(ls.w, ls.s, ls.q);
-        let ir = cfg.criterion.impurity(rs.w, rs.s, rs.q);
-        // Right pushed first so the left child is grown first, like scikit-learn's stack.
-        stack.push((start + mid, end, depth + 1, left + 1, rs, ir));
-        stack.push((start, start + mid, depth + 1, left, ls, il));
-    }
-    (tree, leaf_of)
-}
-
-/// scikit-learn's `node_split_best` on one node with our own random feature draws.
-#[allow(clippy::too_many_arguments)]
-fn best_split_sorted(
-    cols: &[f32],
-    n: usize,
-    node: &[u32],
-    targets: &Targets<'_>,
-    st: &Stats,
-    cfg: &TreeConfig,
-    features: &mut [usize],
-    buf: &mut Vec<u64>,
-    rng: &mut ChaCha8Rng,
-) -> Option<Best> {
-    let (wv, tv) = (targets.weight, targets.target);
-    let m = node.len();
-    let mut best = Best::NONE;
-    let mut f_i = features.len();
-    let (mut visited, mut constant) = (0usize, 0usize);
-    while f_i > 0 && (visited < cfg.max_features || visited <= constant) {
-        visited += 1;
-        // Fisher-Yates draw without replacement; drawn features move to the tail.
-        let j = rng.random_range(0..f_i);
-        f_i -= 1;
-        features.swap(j, f_i);
-        let f = features[f_i];
-        let col = &cols[f * n..(f + 1) * n];
-        buf.clear();
-        buf.extend(
-            node.iter()
-                .map(|&s| (u64::from(key(col[s as usize])) << 32) | u64::from(s)),
-        );
-        buf.sort_unstable();
-        let val = |k: u64| unkey((k >> 32) as u32);
-        if val(buf[m - 1]) <= val(buf[0]) + FEATURE_THRESHOLD {
-            constant += 1;
-            continue;
-        }
-        let (mut wl, mut sl) = (0.0f64, 0.0f64);
-        let mut prev = val(buf[0]);
-        for p in 1..m {
-            let s = (buf[p - 1] & 0xFFFF_FFFF) as usize;
-            wl += wv[s];
-            sl += wv[s] * tv[s];
-            let v = val(buf[p]);
-            let last = prev;
-            prev = v;
-            if v <= last + FEATURE_THRESHOLD {
-                continue;
-            }
-            if p < cfg.min_samples_leaf || m - p < cfg.min_samples_leaf {
-                continue;
-            }
-            let proxy = cfg.criterion.proxy(wl, sl, st.w - wl, st.s - sl);
-            if proxy > best.proxy {
-                best = Best {
-                    proxy,
-                    rank: (visited as u64, 0),
-                    feature: f as u32,
-                    threshold: f64::from(last) / 2.0 + f64::from(v) / 2.0,
-                };
-            }
-        }
-    }
-    (best.feature != LEAF).then_some(best)
-}
-
-/// Every feature's samples sorted by value, once, for [`grow_presorted`].
-pub(crate) struct Presorted {
-    n: usize,
-    d: usize,
-    /// `d` blocks of `n` sample indices, each sorted by that feature's value.
-    order: Vec<u32>,
-    /// The values in the same order.
-    vals: Vec<f32>,
-}
-
-impl Presorted {
-    /// Sorts every column of `x` (in parallel over columns).
-    pub fn new(x: &Matrix) -> Self {
-        let (n, d) = (x.rows, x.cols);
-        let cols = x.columns();
-        let mut order = vec![0u32; n * d];
-        let mut vals = vec![0.0f32; n * d];
-        if n > 0 {
-            order
-                .par_chunks_mut(n)
-                .zip(vals.par_chunks_mut(n))
-                .enumerate()
-                .for_each(|(f, (o, v))| {
-                    let col = &cols[f * n..(f + 1) * n];
-                    let mut keys: Vec<u64> = col
-                        .iter()
-                        .enumerate()
-                        .map(|(s, &x)| (u64::from(key(x)) << 32) | s as u64)
-                        .collect();
-                    keys.sort_unstable();
-                    for (i, k) in keys.iter().enumerate() {
-                        o[i] = (k & 0xFFFF_FFFF) as u32;
-                        v[i] = unkey((k >> 32) as u32);
-                    }
-                });
-        }
-        Presorted { n, d, order, vals }
+    let mut end = n - 1;
+    while end > 0 {
+        v.swap(0, end);
+        s.swap(0, end);
+        sift_down(v, s, 0, end);
+        end -= 1;
     }
 }
 
-/// Random rank of feature `f` in node `node` of the tree seeded `seed` (SplitMix64).
-#[inline]
-fn rank(seed: u64, node: usize, f: u32) -> (u64, u32) {
-    let mut z = seed
-        ^ (node as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-        ^ u64::from(f).wrapping_mul(0xD1B5_4A32_D192_ED03);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    (z ^ (z >> 31), f)
+fn sift_down(v: &mut [f32], s: &mut [u32], start: usize, end: usize) {
+    let mut root = start;
+    loop {
+        let child = root * 2 + 1;
+        let mut maxind = root;
+        if child < end && v[maxind] < v[child] {
+            maxind = child;
+        }
+        if child + 1 < end && v[maxind] < v[child + 1] {
+            maxind = child + 1;
+        }
+        if maxind == root {
+            break;
+        }
+        v.swap(root, maxind);
+        s.swap(root, maxind);
+        root = maxind;
+    }
 }
 
-/// Per-node scan state while sweeping one feature.
-#[derive(Clone, Copy)]
-struct Sweep {
-    nl: u32,
+fn insertion_sort(v: &mut [f32], s: &mut [u32]) {
+    for i in 1..v.len() {
+        let (tv, ts) = (v[i], s[i]);
+        let mut j = i;
+        while j > 0 && v[j - 1] > tv {
+            v[j] = v[j - 1];
+            s[j] = s[j - 1];
+            j -= 1;
+        }
+        v[j] = tv;
+        s[j] = ts;
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// The criterion: scikit-learn's running sums over `samples[start..end]`.
+
+struct Crit<'a> {
+    kind: Criterion,
+    y: &'a [f64],
+    w: Option<&'a [f64]>,
+    weighted_n_samples: f64,
+    start: usize,
+    end: usize,
+    pos: usize,
+    /// Gini: weighted count per class; MSE: `[Σ w·y, unused]`.
+    sum_total: [f64; 2],
+    sum_left: [f64; 2],
+    sum_right: [f64; 2],
+    sq_sum_total: f64,
+    wn: f64,
     wl: f64,
-    sl: f64,
-    last: f32,
+    wr: f64,
 }
 
-const SWEEP0: Sweep = Sweep {
-    nl: 0,
-    wl: 0.0,
-    sl: 0.0,
-    last: 0.0,
-};
+impl Crit<'_> {
+    #[inline]
+    fn weight(&self, i: usize) -> f64 {
+        self.w.map_or(1.0, |w| w[i])
+    }
 
-/// A node still being grown (one per "slot" of the current level).
-struct Open {
-    node: usize,
-    depth: usize,
-    st: Stats,
-    impurity: f64,
-}
-
-/// One level of [`grow_presorted`]: the sorted lists and the open nodes' totals.
-struct Level<'a> {
-    order: &'a [u32],
-    vals: &'a [f32],
-    len: usize,
-    slot_of: &'a [u32],
-    wt: &'a [[f64; 2]],
-    node_n: Vec<u32>,
-    node_w: Vec<f64>,
-    node_s: Vec<f64>,
-    node_id: Vec<usize>,
-    crit: Criterion,
-    min_leaf: u32,
-    seed: u64,
-}
-
-impl Level<'_> {
-    /// Scans feature `f` over all open samples, updating each node's best split.
-    /// Kept out of line: inlined into rayon's closures it compiles to slower code.
-    #[inline(never)]
-    fn sweep(&self, f: usize, best: &mut [Best], sweep: &mut [Sweep]) {
-        sweep.fill(SWEEP0);
-        let r = f * self.len..(f + 1) * self.len;
-        for (&s, &val) in self.order[r.clone()].iter().zip(&self.vals[r]) {
-            let k = self.slot_of[s as usize];
-            if k == NONE {
-                continue;
-            }
-            let k = k as usize;
-            let sw = &mut sweep[k];
-            if sw.nl > 0 && val > sw.last + FEATURE_THRESHOLD {
-                let nr = self.node_n[k] - sw.nl;
-                if sw.nl >= self.min_leaf && nr >= self.min_leaf {
-                    let proxy = self
-                        .crit
-                        .proxy(sw.wl, sw.sl, self.node_w[k] - sw.wl, self.node_s[k] - sw.sl);
-                    let b = &mut best[k];
-                    if proxy >= b.proxy {
-                        let cand = Best {
-                            proxy,
-                            rank: rank(self.seed, self.node_id[k], f as u32),
-                            feature: f as u32,
-                            threshold: f64::from(sw.last) / 2.0 + f64::from(val) / 2.0,
-                        };
-                        if cand.beats(b) {
-                            *b = cand;
-                        }
-                    }
+    fn init(&mut self, samples: &[u32], start: usize, end: usize) {
+        self.start = start;
+        self.end = end;
+        self.wn = 0.0;
+        self.sum_total = [0.0; 2];
+        self.sq_sum_total = 0.0;
+        for &s in &samples[start..end] {
+            let i = s as usize;
+            let w = self.weight(i);
+            match self.kind {
+                Criterion::Gini => self.sum_total[self.y[i] as usize] += w,
+                Criterion::Mse => {
+                    let wy = w * self.y[i];
+                    self.sum_total[0] += wy;
+                    self.sq_sum_total += wy * self.y[i];
                 }
             }
-            let [w, ws] = self.wt[s as usize];
-            sw.nl += 1;
-            sw.wl += w;
-            sw.sl += ws;
-            sw.last = val;
+            self.wn += w;
+        }
+        self.reset();
+    }
+
+    fn reset(&mut self) {
+        self.pos = self.start;
+        self.sum_left = [0.0; 2];
+        self.sum_right = self.sum_total;
+        self.wl = 0.0;
+        self.wr = self.wn;
+    }
+
+    fn reverse_reset(&mut self) {
+        self.pos = self.end;
+        self.sum_right = [0.0; 2];
+        self.sum_left = self.sum_total;
+        self.wr = 0.0;
+        self.wl = self.wn;
+    }
+
+    /// Moves `samples[pos..new_pos]` to the left child, from whichever end is nearer.
+    fn update(&mut self, samples: &[u32], new_pos: usize) {
+        let pos = self.pos;
+        if new_pos - pos <= self.end - new_pos {
+            for &s in &samples[pos..new_pos] {
+                let i = s as usize;
+                let w = self.weight(i);
+                match self.kind {
+                    Criterion::Gini => self.sum_left[self.y[i] as usize] += w,
+                    Criterion::Mse => self.sum_left[0] += w * self.y[i],
+                }
+                self.wl += w;
+            }
+        } else {
+            self.reverse_reset();
+            for &s in samples[new_pos..self.end].iter().rev() {
+                let i = s as usize;
+                let w = self.weight(i);
+                match self.kind {
+                    Criterion::Gini => self.sum_left[self.y[i] as usize] -= w,
+                    Criterion::Mse => self.sum_left[0] -= w * self.y[i],
+                }
+                self.wl -= w;
+            }
+        }
+        self.wr = self.wn - self.wl;
+        match self.kind {
+            Criterion::Gini => {
+                for c in 0..2 {
+                    self.sum_right[c] = self.sum_total[c] - self.sum_left[c];
+                }
+            }
+            Criterion::Mse => self.sum_right[0] = self.sum_total[0] - self.sum_left[0],
+        }
+        self.pos = new_pos;
+    }
+
+    #[inline]
+    fn gini(counts: &[f64; 2], w: f64) -> f64 {
+        let mut sq = 0.0;
+        sq += counts[0] * counts[0];
+        sq += counts[1] * counts[1];
+        1.0 - sq / (w * w)
+    }
+
+    fn node_impurity(&self) -> f64 {
+        match self.kind {
+            Criterion::Gini => Self::gini(&self.sum_total, self.wn),
+            Criterion::Mse => {
+                let m = self.sum_total[0] / self.wn;
+                self.sq_sum_total / self.wn - m * m
+            }
+        }
+    }
+
+    #[inline]
+    fn proxy(&self) -> f64 {
+        match self.kind {
+            Criterion::Gini => {
+                let il = Self::gini(&self.sum_left, self.wl);
+                let ir = Self::gini(&self.sum_right, self.wr);
+                -self.wr * ir - self.wl * il
+            }
+            Criterion::Mse => {
+                let (sl, sr) = (self.sum_left[0], self.sum_right[0]);
+                sl * sl / self.wl + sr * sr / self.wr
+            }
+        }
+    }
+
+    fn children_impurity(&self, samples: &[u32]) -> (f64, f64) {
+        match self.kind {
+            Criterion::Gini => (
+                Self::gini(&self.sum_left, self.wl),
+                Self::gini(&self.sum_right, self.wr),
+            ),
+            Criterion::Mse => {
+                let mut sq_left = 0.0;
+                for &s in &samples[self.start..self.pos] {
+                    let i = s as usize;
+                    sq_left += self.weight(i) * self.y[i] * self.y[i];
+                }
+                let sq_right = self.sq_sum_total - sq_left;
+                let ml = self.sum_left[0] / self.wl;
+                let mr = self.sum_right[0] / self.wr;
+                (sq_left / self.wl - ml * ml, sq_right / self.wr - mr * mr)
+            }
+        }
+    }
+
+    fn impurity_improvement(&self, parent: f64, il: f64, ir: f64) -> f64 {
+        (self.wn / self.weighted_n_samples) * (parent - self.wr / self.wn * ir - self.wl / self.wn * il)
+    }
+
+    /// The node's value: class-1 fraction (Gini) or mean target (MSE).
+    fn node_value(&self) -> f64 {
+        match self.kind {
+            Criterion::Gini => self.sum_total[1] / self.wn,
+            Criterion::Mse => self.sum_total[0] / self.wn,
         }
     }
 }
 
-/// Grows a tree level by level over presorted features, examining every feature at every
-/// node (requires `cfg.max_features == n_features`). Within a level each feature is one
-/// parallel sweep over all still-open samples; a node's feature order is a seeded random
-/// rank, so exact ties resolve as if features were visited in that order, independently of
-/// the thread count. Returns the tree and each sample's leaf (`u32::MAX` if weight 0).
-pub(crate) fn grow_presorted(
-    x: &Matrix,
-    pre: &Presorted,
+/// A split found by [`Builder::node_split`].
+struct Split {
+    pos: usize,
+    feature: usize,
+    threshold: f64,
+    improvement: f64,
+    impurity_left: f64,
+    impurity_right: f64,
+}
+
+/// One entry of the depth-first stack.
+struct Record {
+    start: usize,
+    end: usize,
+    depth: usize,
+    parent: usize,
+    is_left: bool,
+    impurity: f64,
+    n_constant_features: usize,
+}
+
+/// scikit-learn's splitter and tree builder state for one tree.
+struct Builder<'a> {
+    /// Column-major training values: feature `f` of sample `i` at `cols[f·n + i]`.
+    cols: &'a [f32],
+    n: usize,
+    cfg: TreeConfig,
+    crit: Crit<'a>,
+    samples: Vec<u32>,
+    feature_values: Vec<f32>,
+    features: Vec<usize>,
+    constant_features: Vec<usize>,
+    rand_r_state: u32,
+}
+
+impl Builder<'_> {
+    /// `node_split_best` on `samples[start..end]` (dense data, no missing values).
+    /// Returns the split (`pos == end` when none) and the node's count of known constant
+    /// features for its children.
+    fn node_split(
+        &mut self,
+        start: usize,
+        end: usize,
+        impurity: f64,
+        n_known_constants: usize,
+    ) -> (Split, usize) {
+        let n_features = self.features.len();
+        let mut best = Split {
+            pos: end,
+            feature: 0,
+            threshold: 0.0,
+            improvement: f64::NEG_INFINITY,
+            impurity_left: f64::INFINITY,
+            impurity_right: f64::INFINITY,
+        };
+        let mut best_proxy = f64::NEG_INFINITY;
+        let mut f_i = n_features;
+        let mut n_visited = 0usize;
+        let mut n_found_constants = 0usize;
+        let mut n_drawn_constants = 0usize;
+        let mut n_total_constants = n_known_constants;
+        let min_leaf = self.cfg.min_samples_leaf;
+
+        while f_i > n_total_constants
+            && (n_visited < self.cfg.max_features || n_visited <= n_found_constants + n_drawn_constants)
+        {
+            n_visited += 1;
+            let mut f_j = rand_int(n_drawn_constants, f_i - n_found_constants, &mut self.rand_r_state);
+            if f_j < n_known_constants {
+                self.features.swap(n_drawn_constants, f_j);
+                n_drawn_constants += 1;
+                continue;
+            }
+            f_j += n_found_constants;
+            let feature = self.features[f_j];
+            let col = &self.cols[feature * self.n..(feature + 1) * self.n];
+            let fv = &mut self.feature_values[start..end];
+            let sm = &mut self.samples[start..end];
+            for (v, &s) in fv.iter_mut().zip(sm.iter()) {
+                *v = col[s as usize];
+            }
+            sort_samples(fv, sm);
+            if self.feature_values[end - 1] <= self.feature_values[start] + FEATURE_THRESHOLD {
+                self.features.swap(f_j, n_total_constants);
+                n_found_constants += 1;
+                n_total_constants += 1;
+                continue;
+            }
+            f_i -= 1;
+            self.features.swap(f_i, f_j);
+
+            self.crit.reset();
+            let fv = &self.feature_values;
+            let mut p = start;
+            while p < end {
+                p += 1;
+                while p < end && fv[p] <= fv[p - 1] + FEATURE_THRESHOLD {
+                    p += 1;
+                }
+                let p_prev = p - 1;
+                if p == end {
+                    continue;
+                }
+                if p - start < min_leaf || end - p < min_leaf {
+                    continue;
+                }
+                self.crit.update(&self.samples, p);
+                let proxy = self.crit.proxy();
+                if proxy > best_proxy {
+                    best_proxy = proxy;
+                    best.pos = p;
+                    best.feature = feature;
+                    best.threshold = f64::from(fv[p_prev]) / 2.0 + f64::from(fv[p]) / 2.0;
+                }
+            }
+        }
+
+        if best.pos < end {
+            // partition_samples_final: keep left values in front, swap right ones to the end.
+            let col = &self.cols[best.feature * self.n..(best.feature + 1) * self.n];
+            let (mut ps, mut pe) = (start, end);
+            while ps < pe {
+                if f64::from(col[self.samples[ps] as usize]) <= best.threshold {
+                    ps += 1;
+                } else {
+                    pe -= 1;
+                    self.samples.swap(ps, pe);
+                }
+            }
+            self.crit.reset();
+            self.crit.update(&self.samples, best.pos);
+            let (il, ir) = self.crit.children_impurity(&self.samples);
+            best.impurity_left = il;
+            best.impurity_right = ir;
+            best.improvement = self.crit.impurity_improvement(impurity, il, ir);
+        }
+
+        self.features[..n_known_constants].copy_from_slice(&self.constant_features[..n_known_constants]);
+        let found = n_known_constants..n_known_constants + n_found_constants;
+        self.constant_features[found.clone()].copy_from_slice(&self.features[found]);
+        (best, n_total_constants)
+    }
+}
+
+/// Grows one tree as scikit-learn's `DepthFirstTreeBuilder` does. `cols` is the
+/// column-major copy of the `float32` training matrix (`n` rows, `d` features) and
+/// `rand_r_state` the splitter's initial state ([`rand_r_seed`]).
+pub(crate) fn grow(
+    cols: &[f32],
+    n: usize,
+    d: usize,
     targets: &Targets<'_>,
     cfg: &TreeConfig,
-    seed: u64,
-) -> (Tree, Vec<u32>) {
-    let (n, d) = (pre.n, pre.d);
-    let (wv, tv) = (targets.weight, targets.target);
-    let wt: Vec<[f64; 2]> = (0..n).map(|i| [wv[i], wv[i] * tv[i]]).collect();
-    let mut tree = Tree::new();
-    let mut leaf_of = vec![NONE; n];
-    let mut slot_of = vec![NONE; n];
+    rand_r_state: u32,
+) -> Tree {
+    let weighted_n_samples = match targets.weight {
+        Some(w) => w.iter().sum::<f64>(),
+        None => n as f64,
+    };
+    let samples: Vec<u32> = (0..n as u32)
+        .filter(|&i| targets.weight.is_none_or(|w| w[i as usize] != 0.0))
+        .collect();
+    let n_node_samples = samples.len();
+    let mut b = Builder {
+        cols,
+        n,
+        cfg: *cfg,
+        crit: Crit {
+            kind: cfg.criterion,
+            y: targets.target,
+            w: targets.weight,
+            weighted_n_samples,
+            start: 0,
+            end: 0,
+            pos: 0,
+            sum_total: [0.0; 2],
+            sum_left: [0.0; 2],
+            sum_right: [0.0; 2],
+            sq_sum_total: 0.0,
+            wn: 0.0,
+            wl: 0.0,
+            wr: 0.0,
+        },
+        samples,
+        feature_values: vec![0.0; n],
+        features: (0..d).collect(),
+        constant_features: vec![0; d],
+        rand_r_state,
+    };
+    // scikit-learn's node arrays, numbered in creation order.
+    let mut sk_feature: Vec<u32> = Vec::new();
+    let mut sk_threshold: Vec<f64> = Vec::new();
+    let mut sk_children: Vec<[usize; 2]> = Vec::new();
+    let mut sk_value: Vec<f64> = Vec::new();
+    // A split needs at least 2 samples, whatever min_samples_split says.
+    let min_samples_split = cfg.min_samples_split.max(2 * cfg.min_samples_leaf);
 
-    let mut root = Stats::default();
-    for i in 0..n {
-        if wv[i] > 0.0 {
-            root.add(wv[i], tv[i]);
-        }
-    }
-    let root_node = tree.push_leaf();
-    let mut open: Vec<Open> = Vec::new();
-    let root_imp = cfg.criterion.impurity(root.w, root.s, root.q);
-    tree.value[root_node] = root.s / root.w;
-    if stops(cfg, &root, 0, root_imp) {
-        for i in 0..n {
-            if wv[i] > 0.0 {
-                leaf_of[i] = root_node as u32;
-            }
-        }
-        return (tree, leaf_of);
-    }
-    for i in 0..n {
-        if wv[i] > 0.0 {
-            slot_of[i] = 0;
-        }
-    }
-    open.push(Open {
-        node: root_node,
+    let mut stack = vec![Record {
+        start: 0,
+        end: n_node_samples,
         depth: 0,
-        st: root,
-        impurity: root_imp,
-    });
-
-    // Sorted lists, compacted to the open samples when they shrink to half.
-    let mut own: Option<(Vec<u32>, Vec<f32>)> = None;
-    let mut len = n;
-    let mut active = root.n;
-    if active * 2 <= len {
-        own = Some(compact(&pre.order, &pre.vals, len, d, &slot_of, active));
-        len = active;
-    }
-
-    while !open.is_empty() {
-        let (order, vals): (&[u32], &[f32]) = match &own {
-            Some((o, v)) => (o, v),
-            None => (&pre.order, &pre.vals),
-        };
-        let n_open = open.len();
-        let level = Level {
-            order,
-            vals,
-            len,
-            slot_of: &slot_of,
-            wt: &wt,
-            node_n: open.iter().map(|o| o.st.n as u32).collect(),
-            node_w: open.iter().map(|o| o.st.w).collect(),
-            node_s: open.iter().map(|o| o.st.s).collect(),
-            node_id: open.iter().map(|o| o.node).collect(),
-            crit: cfg.criterion,
-            min_leaf: cfg.min_samples_leaf as u32,
-            seed,
-        };
-        let best: Vec<Best> = (0..d)
-            .into_par_iter()
-            .fold(
-                || (vec![Best::NONE; n_open], vec![SWEEP0; n_open]),
-                |(mut best, mut sweep), f| {
-                    level.sweep(f, &mut best, &mut sweep);
-                    (best, sweep)
-                },
-            )
-            .map(|(best, _)| best)
-            .reduce(
-                || vec![Best::NONE; n_open],
-                |mut a, b| {
-                    for (x, y) in a.iter_mut().zip(b) {
-                        if y.beats(x) {
-                            *x = y;
-                        }
-                    }
-                    a
-                },
-            );
-        drop(level);
-
-        // Route every open sample to a child; accumulate child stats in sample order.
-        let mut child_stats = vec![[Stats::default(); 2]; n_open];
-        let mut side = vec![0u8; n];
-        for i in 0..n {
-            let k = slot_of[i];
-            if k == NONE {
-                continue;
-            }
-            let b = &best[k as usize];
-            if b.feature == LEAF {
-                continue;
-            }
-            let go_right = f64::from(x.data[i * d + b.feature as usize]) > b.threshold;
-            side[i] = u8::from(go_right);
-            child_stats[k as usize][usize::from(go_right)].add(wv[i], tv[i]);
+        parent: NONE,
+        is_left: false,
+        impurity: f64::INFINITY,
+        n_constant_features: 0,
+    }];
+    let mut first = true;
+    while let Some(rec) = stack.pop() {
+        let (start, end) = (rec.start, rec.end);
+        b.crit.init(&b.samples, start, end);
+        let n_node = end - start;
+        let mut is_leaf =
+            rec.depth >= cfg.max_depth || n_node < min_samples_split || n_node < 2 * cfg.min_samples_leaf;
+        let mut impurity = rec.impurity;
+        if first {
+            impurity = b.crit.node_impurity();
+            first = false;
         }
-
-        // Decide each node's fate and number the next level's open nodes.
-        let mut next: Vec<Open> = Vec::new();
-        // Per slot: NONE = leaf here; else child slots (left, right) with NONE for leaves,
-        // and the child node ids.
-        let mut fate: Vec<Option<([u32; 2], [usize; 2])>> = Vec::with_capacity(n_open);
-        for (k, o) in open.iter().enumerate() {
-            let b = &best[k];
-            let [ls, rs] = child_stats[k];
-            if b.feature == LEAF || !improves(cfg, &o.st, o.impurity, &ls, &rs) {
-                fate.push(None);
-                continue;
-            }
-            let left = tree.split(o.node, b.feature as usize, b.threshold);
-            let mut slots = [NONE; 2];
-            for (c, cs) in [ls, rs].iter().enumerate() {
-                let node = left + c;
-                tree.value[node] = cs.s / cs.w;
-                let imp = cfg.criterion.impurity(cs.w, cs.s, cs.q);
-                if !stops(cfg, cs, o.depth + 1, imp) {
-                    slots[c] = next.len() as u32;
-                    next.push(Open {
-                        node,
-                        depth: o.depth + 1,
-                        st: *cs,
-                        impurity: imp,
-                    });
-                }
-            }
-            fate.push(Some((slots, [left, left + 1])));
+        is_leaf = is_leaf || impurity <= f64::EPSILON;
+        let mut split = None;
+        if !is_leaf {
+            let (s, n_constant) = b.node_split(start, end, impurity, rec.n_constant_features);
+            is_leaf = s.pos >= end || s.improvement + f64::EPSILON < 0.0;
+            split = Some((s, n_constant));
         }
-        active = 0;
-        for i in 0..n {
-            let k = slot_of[i];
-            if k == NONE {
-                continue;
-            }
-            match &fate[k as usize] {
-                None => {
-                    leaf_of[i] = open[k as usize].node as u32;
-                    slot_of[i] = NONE;
-                }
-                Some((slots, nodes)) => {
-                    let c = usize::from(side[i]);
-                    slot_of[i] = slots[c];
-                    if slots[c] == NONE {
-                        leaf_of[i] = nodes[c] as u32;
-                    } else {
-                        active += 1;
-                    }
-                }
-            }
+        let id = sk_feature.len();
+        if rec.parent != NONE {
+            sk_children[rec.parent][usize::from(!rec.is_left)] = id;
         }
-        open = next;
-        if !open.is_empty() && active * 2 <= len {
-            own = Some(compact(order, vals, len, d, &slot_of, active));
-            len = active;
+        sk_value.push(b.crit.node_value());
+        sk_children.push([NONE, NONE]);
+        match split {
+            Some((s, n_constant)) if !is_leaf => {
+                sk_feature.push(s.feature as u32);
+                sk_threshold.push(s.threshold);
+                stack.push(Record {
+                    start: s.pos,
+                    end,
+                    depth: rec.depth + 1,
+                    parent: id,
+                    is_left: false,
+                    impurity: s.impurity_right,
+                    n_constant_features: n_constant,
+                });
+                stack.push(Record {
+                    start,
+                    end: s.pos,
+                    depth: rec.depth + 1,
+                    parent: id,
+                    is_left: true,
+                    impurity: s.impurity_left,
+                    n_constant_features: n_constant,
+                });
+            }
+            _ => {
+                sk_feature.push(LEAF);
+                sk_threshold.push(0.0);
+            }
         }
     }
-    (tree, leaf_of)
-}
 
-/// Keeps, for every feature, only the sorted entries of still-open samples.
-fn compact(
-    order: &[u32],
-    vals: &[f32],
-    len: usize,
-    d: usize,
-    slot_of: &[u32],
-    active: usize,
-) -> (Vec<u32>, Vec<f32>) {
-    let mut o2 = vec![0u32; active * d];
-    let mut v2 = vec![0.0f32; active * d];
-    if active == 0 {
-        return (o2, v2);
+    // Relabel so that children sit next to each other.
+    let mut tree = Tree::new();
+    tree.push_leaf(sk_value[0]);
+    let mut queue = std::collections::VecDeque::from([(0usize, 0usize)]);
+    while let Some((sk, node)) = queue.pop_front() {
+        if sk_feature[sk] == LEAF {
+            continue;
+        }
+        let [l, r] = sk_children[sk];
+        let left = tree.push_leaf(sk_value[l]);
+        tree.push_leaf(sk_value[r]);
+        tree.feature[node] = sk_feature[sk];
+        tree.threshold[node] = sk_threshold[sk];
+        tree.left[node] = left as u32;
+        queue.push_back((l, left));
+        queue.push_back((r, left + 1));
     }
-    o2.par_chunks_mut(active)
-        .zip(v2.par_chunks_mut(active))
-        .enumerate()
-        .for_each(|(f, (o, v))| {
-            let mut j = 0;
-            for (&s, &val) in order[f * len..(f + 1) * len]
-                .iter()
-                .zip(&vals[f * len..(f + 1) * len])
-            {
-                if slot_of[s as usize] != NONE {
-                    o[j] = s;
-                    v[j] = val;
-                    j += 1;
-                }
-            }
-        });
-    (o2, v2)
+    tree
 }
 
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
-    use rand::SeedableRng;
+    use crate::matrix::Matrix;
 
     fn cfg(criterion: Criterion, max_features: usize) -> TreeConfig {
         TreeConfig {
@@ -784,43 +771,50 @@ mod tests {
         }
     }
 
-    #[test]
-    fn keys_sort_like_floats() {
-        let mut v = [3.5f32, -0.0, 0.0, -7.25, 1e-30, -1e-30, f32::MAX, f32::MIN];
-        let mut k: Vec<u32> = v.iter().map(|&x| key(x)).collect();
-        k.sort_unstable();
-        v.sort_by(|a, b| a.total_cmp(b));
-        let back: Vec<f32> = k.iter().map(|&x| unkey(x)).collect();
-        assert_eq!(
-            back.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
-            v.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
-        );
+    fn fit(x: &Matrix, w: Option<&[f64]>, t: &[f64], c: &TreeConfig) -> Tree {
+        let targets = Targets { weight: w, target: t };
+        grow(&x.columns(), x.rows, x.cols, &targets, c, 12345)
     }
 
     #[test]
-    fn both_builders_split_at_the_midpoint_into_pure_leaves() {
+    fn introsort_sorts_and_keeps_pairs() {
+        let mut state = 7u32;
+        for n in [0usize, 1, 2, 15, 16, 17, 100, 1000, 5000] {
+            // Few distinct values (3-way partitions) and many (deep recursion).
+            for distinct in [3u32, 1_000_000] {
+                let mut v: Vec<f32> = (0..n)
+                    .map(|_| (crate::nprandom::rand_r(&mut state) % distinct) as f32)
+                    .collect();
+                let orig = v.clone();
+                let mut s: Vec<u32> = (0..n as u32).collect();
+                sort_samples(&mut v, &mut s);
+                assert!(v.windows(2).all(|w| w[0] <= w[1]), "n = {n}");
+                assert!(s.iter().zip(&v).all(|(&i, &x)| orig[i as usize] == x));
+                let mut seen = s.clone();
+                seen.sort_unstable();
+                assert_eq!(seen, (0..n as u32).collect::<Vec<_>>());
+            }
+        }
+        // Heapsort as well: a depth limit of 0 from the start.
+        let mut v: Vec<f32> = (0..100).map(|i| ((i * 37) % 101) as f32).collect();
+        let mut s: Vec<u32> = (0..100).collect();
+        introsort_3way(&mut v, &mut s, 0);
+        assert!(v.windows(2).all(|w| w[0] <= w[1]));
+    }
+
+    #[test]
+    fn splits_at_the_midpoint_into_pure_leaves() {
         // One feature: 1, 2 are class 0; 4, 8 class 1 → threshold (2 + 4) / 2 = 3.
         let x = Matrix::from_rows(&[[1.0f32], [2.0], [4.0], [8.0]]).unwrap();
-        let w = vec![1.0; 4];
-        let t = vec![0.0, 0.0, 1.0, 1.0];
-        let targets = Targets {
-            weight: &w,
-            target: &t,
-        };
-        let (a, leaves) = grow_presorted(&x, &Presorted::new(&x), &targets, &cfg(Criterion::Gini, 1), 7);
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
-        let (b, leaves_b) = grow_sorting(&x.columns(), 4, 1, &targets, &cfg(Criterion::Gini, 1), &mut rng);
-        for tree in [&a, &b] {
-            assert_eq!(tree.len(), 3);
-            assert_eq!(tree.feature[0], 0);
-            assert_eq!(tree.threshold[0], 3.0);
-            assert_eq!((tree.value[1], tree.value[2]), (0.0, 1.0));
-            assert_eq!(tree.predict(&[2.999]), 0.0);
-            assert_eq!(tree.predict(&[3.0]), 0.0);
-            assert_eq!(tree.predict(&[3.001]), 1.0);
-        }
-        assert_eq!(leaves, vec![1, 1, 2, 2]);
-        assert_eq!(leaves_b, leaves);
+        let tree = fit(&x, None, &[0.0, 0.0, 1.0, 1.0], &cfg(Criterion::Gini, 1));
+        assert_eq!(tree.len(), 3);
+        assert_eq!(tree.feature[0], 0);
+        assert_eq!(tree.threshold[0], 3.0);
+        assert_eq!((tree.value[1], tree.value[2]), (0.0, 1.0));
+        assert_eq!(tree.predict(&[2.999]), 0.0);
+        assert_eq!(tree.predict(&[3.0]), 0.0);
+        assert_eq!(tree.predict(&[3.001]), 1.0);
+        assert_eq!(tree.preorder(), vec![0, 1, 2]);
     }
 
     #[test]
@@ -829,111 +823,48 @@ mod tests {
         let a = 1.0f32;
         let b = f32::from_bits(a.to_bits() + 1);
         let x = Matrix::from_rows(&[[a], [b]]).unwrap();
-        let w = vec![1.0; 2];
-        let t = vec![0.0, 1.0];
-        let targets = Targets {
-            weight: &w,
-            target: &t,
-        };
-        let (tree, _) = grow_presorted(&x, &Presorted::new(&x), &targets, &cfg(Criterion::Gini, 1), 1);
+        let tree = fit(&x, None, &[0.0, 1.0], &cfg(Criterion::Gini, 1));
         assert_eq!(tree.len(), 1);
         assert_eq!(tree.value[0], 0.5);
     }
 
     #[test]
     fn weights_and_min_samples_leaf() {
-        // Weighted fraction in the leaf; min_samples_leaf = 2 forbids the 1|3 split.
+        // Weighted fraction in the leaf; min_samples_leaf = 2 forbids the 1|2 split of the
+        // three weighted rows (the weight-0 row is left out).
         let x = Matrix::from_rows(&[[0.0f32], [1.0], [2.0], [3.0]]).unwrap();
-        let w = vec![3.0, 1.0, 1.0, 0.0];
-        let t = vec![1.0, 0.0, 0.0, 1.0];
-        let targets = Targets {
-            weight: &w,
-            target: &t,
-        };
+        let w = [3.0, 1.0, 1.0, 0.0];
         let mut c = cfg(Criterion::Gini, 1);
         c.min_samples_leaf = 2;
-        let (tree, leaves) = grow_presorted(&x, &Presorted::new(&x), &targets, &c, 1);
+        let tree = fit(&x, Some(&w), &[1.0, 0.0, 0.0, 1.0], &c);
         assert_eq!(tree.len(), 1);
         assert_eq!(tree.value[0], 3.0 / 5.0);
-        assert_eq!(leaves, vec![0, 0, 0, NONE]);
     }
 
     #[test]
     fn mse_tree_means() {
         let x = Matrix::from_rows(&[[0.0f32], [1.0], [5.0], [6.0]]).unwrap();
-        let w = vec![1.0; 4];
-        let t = vec![1.0, 2.0, 10.0, 12.0];
-        let targets = Targets {
-            weight: &w,
-            target: &t,
-        };
         let mut c = cfg(Criterion::Mse, 1);
         c.max_depth = 1;
-        let (tree, _) = grow_presorted(&x, &Presorted::new(&x), &targets, &c, 1);
+        let tree = fit(&x, None, &[1.0, 2.0, 10.0, 12.0], &c);
         assert_eq!(tree.threshold[0], 3.0);
         assert_eq!((tree.value[1], tree.value[2]), (1.5, 11.0));
     }
 
     #[test]
-    fn builders_agree_on_random_data() {
-        use rand::Rng;
-        let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let (n, d) = (300, 6);
-        let data: Vec<f32> = (0..n * d).map(|_| rng.random::<f32>()).collect();
-        let x = Matrix::new(n, d, data).unwrap();
-        let w: Vec<f64> = (0..n).map(|i| f64::from((i % 3) as u8)).collect();
-        // Continuous targets (no exact ties but 2-sample nodes): same partitions, so the
-        // in-bag leaf values agree; out-of-bag rows may differ where any feature separates two.
-        let t: Vec<f64> = (0..n)
-            .map(|i| f64::from(x.row(i)[0] * 3.0 + x.row(i)[1] * x.row(i)[2]) + rng.random::<f64>())
-            .collect();
-        let targets = Targets {
-            weight: &w,
-            target: &t,
-        };
-        let c = cfg(Criterion::Mse, d);
-        let (a, la) = grow_presorted(&x, &Presorted::new(&x), &targets, &c, 11);
-        let (b, lb) = grow_sorting(
-            &x.columns(),
-            n,
-            d,
-            &targets,
-            &c,
-            &mut ChaCha8Rng::seed_from_u64(5),
-        );
-        let leaf_values = |t: &Tree, l: &[u32]| -> Vec<f64> {
-            l.iter()
-                .map(|&l| if l == NONE { -1.0 } else { t.value[l as usize] })
-                .collect()
-        };
-        assert_eq!(leaf_values(&a, &la), leaf_values(&b, &lb));
-        assert!(a.validate(d).is_ok() && b.validate(d).is_ok());
-        // Gini near the root (ties between features are unlikely there): same predictions.
-        let t: Vec<f64> = (0..n)
-            .map(|i| {
-                f64::from(u8::from(
-                    x.row(i)[0] + x.row(i)[1] * x.row(i)[2] > 0.6 || rng.random::<f32>() < 0.1,
-                ))
-            })
-            .collect();
-        let targets = Targets {
-            weight: &w,
-            target: &t,
-        };
-        let mut c = cfg(Criterion::Gini, d);
-        c.max_depth = 3;
-        let (a, _) = grow_presorted(&x, &Presorted::new(&x), &targets, &c, 11);
-        let (b, _) = grow_sorting(
-            &x.columns(),
-            n,
-            d,
-            &targets,
-            &c,
-            &mut ChaCha8Rng::seed_from_u64(5),
-        );
-        assert_eq!(a.len(), b.len());
-        for i in 0..n {
-            assert_eq!(a.predict(x.row(i)), b.predict(x.row(i)));
+    fn preorder_is_depth_first_left_first() {
+        // x = 0..8 with labels making a three-level tree.
+        let rows: Vec<[f32; 1]> = (0..8).map(|i| [i as f32]).collect();
+        let x = Matrix::from_rows(&rows).unwrap();
+        let t = [0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let tree = fit(&x, None, &t, &cfg(Criterion::Gini, 1));
+        let order = tree.preorder();
+        assert_eq!(order.len(), tree.len());
+        assert_eq!(order[0], 0);
+        assert_eq!(order[1], tree.left[0] as usize);
+        assert!(tree.validate(1).is_ok());
+        for (i, row) in rows.iter().enumerate() {
+            assert_eq!(tree.predict(row), t[i]);
         }
     }
 }

@@ -152,6 +152,20 @@ fn errors_name_what_is_wrong() {
     let e = fit(&lr, &bad, &y, 0).unwrap_err();
     assert!(e.to_string().contains("row 3, column 7"), "{e}");
 
+    // A seed is scikit-learn's random_state: NumPy refuses one of 2^32 or more.
+    let e = fit(
+        &spec("random_forest", json!({"n_estimators": 2})),
+        &x,
+        &y,
+        1 << 32,
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string().contains("seed") && e.to_string().contains("4294967296"),
+        "{e}"
+    );
+    assert!(fit(&spec("decision_tree", json!({})), &x, &y, u64::from(u32::MAX)).is_ok());
+
     let m = fit(&spec("gaussian_nb", json!({})), &x, &y, 0).unwrap();
     let narrow = Matrix::new(2, 29, vec![0.0; 58]).unwrap();
     let e = m.predict_proba(&narrow).unwrap_err();

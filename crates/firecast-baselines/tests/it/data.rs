@@ -113,6 +113,33 @@ pub fn split(train: usize, test: usize, days: usize, seed: u64) -> Split {
     }
 }
 
+/// Heavily tied data: `d` features taking `levels` integer values (a few duplicated
+/// columns and one constant column, so whole features tie and constant features are
+/// met), labels from a noisy rule on the first features.
+pub fn coarse(train: usize, test: usize, d: usize, levels: u32, seed: u64) -> Split {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let rows = train + test;
+    let mut data = Vec::with_capacity(rows * d);
+    let mut labels = Vec::with_capacity(rows);
+    for _ in 0..rows {
+        let mut row: Vec<f32> = (0..d).map(|_| rng.random_range(0..levels) as f32).collect();
+        row[d - 1] = 1.0;
+        row[d - 2] = row[0];
+        row[d - 3] = row[1] * 0.5;
+        let score = f64::from(row[0]) - f64::from(row[1]) + 0.5 * f64::from(row[2] * row[3])
+            - f64::from(levels) / 2.0
+            + 1.5 * normal(&mut rng);
+        labels.push(score > 0.0);
+        data.extend(row);
+    }
+    Split {
+        x_train: Matrix::new(train, d, data[..train * d].to_vec()).unwrap(),
+        y_train: labels[..train].to_vec(),
+        x_test: Matrix::new(test, d, data[train * d..].to_vec()).unwrap(),
+        y_test: labels[train..].to_vec(),
+    }
+}
+
 fn npy_header(descr: &str, shape: &str) -> Vec<u8> {
     let dict = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
     // Magic (6) + version (2) + length (2) + dict + padding + '\n' ≡ 0 (mod 64).

@@ -1,5 +1,6 @@
 //! Every baseline against scikit-learn 1.9.1 on the same seeded data
-//! (`tests/tools/sklearn_baselines.py` run with the project's venv).
+//! (`tests/tools/sklearn_baselines.py` run with the project's venv), and the tree models
+//! node by node against scikit-learn's own trees (`tests/tools/sklearn_trees.py`).
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -37,13 +38,24 @@ fn cases() -> Vec<(&'static str, Value, bool, Option<f64>)> {
         ("logistic_regression", lr.clone(), true, Some(1e-3)),
         ("logistic_regression_f64", lr, true, Some(1e-5)),
         ("gaussian_nb", json!({"model": "gaussian_nb"}), false, Some(1e-4)),
-        ("decision_tree", json!({"model": "decision_tree"}), false, None),
-        ("random_forest", json!({"model": "random_forest"}), false, None),
+        // The trees are scikit-learn's (same random_state): equal to rounding.
+        (
+            "decision_tree",
+            json!({"model": "decision_tree"}),
+            false,
+            Some(1e-12),
+        ),
+        (
+            "random_forest",
+            json!({"model": "random_forest"}),
+            false,
+            Some(1e-12),
+        ),
         (
             "gradient_boosting",
             json!({"model": "gradient_boosting"}),
             false,
-            None,
+            Some(1e-12),
         ),
         ("knn", json!({"model": "knn"}), true, Some(1e-4)),
     ]
@@ -77,7 +89,7 @@ fn agrees_with_scikit_learn() {
         Err(_) => Vec::new(),
     };
     let config = json!({
-        "seed": 0,
+        "seed": seed,
         "standardize": specs.iter().filter(|s| s.2).map(|s| s.0).collect::<Vec<_>>(),
         "float64": specs.iter().filter(|s| s.0.ends_with("_f64")).map(|s| s.0).collect::<Vec<_>>(),
         "spread_seeds": spread,
@@ -206,10 +218,6 @@ fn agrees_with_scikit_learn() {
         if (auc_rs - auc_sk).abs() > 0.015 {
             failures.push(format!("{name}: AUROC {auc_rs:.4} vs scikit-learn {auc_sk:.4}"));
         }
-        // Boosting has no randomness but ties, so most rows must match to rounding.
-        if *name == "gradient_boosting" && median_dp > 1e-9 {
-            failures.push(format!("{name}: median |p − p_sklearn| = {median_dp:.2e} > 1e-9"));
-        }
         if let Some(tol) = tol
             && max_dp > *tol
         {
@@ -287,4 +295,151 @@ fn full_scale_timing() {
             model.tree_size()
         );
     }
+}
+
+/// The tree models with the hyper-parameters the exact-tree test fits on both sides.
+fn tree_cases() -> Vec<(&'static str, Value)> {
+    vec![
+        ("decision_tree", json!({"model": "decision_tree"})),
+        (
+            "decision_tree_sqrt",
+            json!({"model": "decision_tree", "max_depth": 6, "min_samples_leaf": 3, "max_features": "sqrt"}),
+        ),
+        (
+            "random_forest",
+            json!({"model": "random_forest", "n_estimators": 20}),
+        ),
+        (
+            "random_forest_no_bootstrap",
+            json!({"model": "random_forest", "n_estimators": 5, "bootstrap": false, "max_features": 0.5, "min_samples_split": 4}),
+        ),
+        (
+            "gradient_boosting",
+            json!({"model": "gradient_boosting", "n_estimators": 40}),
+        ),
+        (
+            "gradient_boosting_subsample",
+            json!({"model": "gradient_boosting", "n_estimators": 25, "subsample": 0.7, "max_features": "sqrt", "max_depth": 4}),
+        ),
+    ]
+}
+
+/// The decision tree, random forest and gradient boosting equal scikit-learn's, tree by
+/// tree and node by node, for two random_states on two datasets with tied values (the
+/// weather windows' rounded humidity, whole-degree wind direction and zero-inflated rain;
+/// a five-level grid with duplicated and constant columns).
+#[test]
+fn trees_equal_scikit_learns() {
+    let py = python();
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/tools/sklearn_trees.py");
+    let random_states = [0u64, 12345];
+    let datasets = [
+        ("weather", split(900, 300, 8, 7)),
+        ("coarse", crate::data::coarse(700, 300, 12, 5, 11)),
+    ];
+    let cases: Vec<(&str, BaselineSpec)> = tree_cases()
+        .into_iter()
+        .map(|(n, v)| (n, serde_json::from_value(v).unwrap()))
+        .collect();
+    let models: serde_json::Map<String, Value> = cases
+        .iter()
+        .map(|(n, s)| (n.to_string(), serde_json::to_value(s).unwrap()))
+        .collect();
+    let exact = |v: &Value| -> f64 { v.as_str().unwrap().parse::<f64>().unwrap() };
+    let mut failures = Vec::new();
+    eprintln!(
+        "{:<8} {:<28} {:>6} {:>6} {:>7} {:>10} {:>10} {:>9}",
+        "data", "model", "state", "trees", "nodes", "max|Δp|", "max|Δv|", "differ"
+    );
+    for (data_name, data) in &datasets {
+        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("baselines-trees-{data_name}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        write_npy_f32(&dir.join("x_train.npy"), &data.x_train).unwrap();
+        write_npy_f32(&dir.join("x_test.npy"), &data.x_test).unwrap();
+        write_npy_labels(&dir.join("y_train.npy"), &data.y_train).unwrap();
+        let config = json!({"random_states": random_states, "models": models});
+        std::fs::write(dir.join("config.json"), config.to_string()).unwrap();
+        let out = Command::new(&py)
+            .arg(&script)
+            .arg(&dir)
+            .output()
+            .unwrap_or_else(|e| panic!("could not run {}: {e}; run `cargo xtask setup`", py.display()));
+        assert!(
+            out.status.success(),
+            "{} failed ({}): {}",
+            script.display(),
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let reference: Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(reference["sklearn_version"], "1.9.1");
+        for (name, spec) in &cases {
+            for &state in &random_states {
+                let r = &reference["fits"][format!("{name}/{state}")];
+                let model = fit(spec, &data.x_train, &data.y_train, state).unwrap();
+                let p = model.predict_proba(&data.x_test).unwrap();
+                let max_dp = p
+                    .iter()
+                    .zip(r["proba"].as_array().unwrap())
+                    .map(|(a, b)| (a - exact(b)).abs())
+                    .fold(0.0f64, f64::max);
+                let ours = model.tree_nodes();
+                let theirs = r["trees"].as_array().unwrap();
+                let mut differ = 0usize;
+                let mut max_dv = 0.0f64;
+                let mut first_diff = None;
+                if ours.len() != theirs.len() {
+                    failures.push(format!(
+                        "{data_name} {name} random_state={state}: {} trees, scikit-learn {}",
+                        ours.len(),
+                        theirs.len()
+                    ));
+                }
+                for (k, (t, s)) in ours.iter().zip(theirs).enumerate() {
+                    let feature = s["feature"].as_array().unwrap();
+                    let threshold = s["threshold"].as_array().unwrap();
+                    let value = s["value"].as_array().unwrap();
+                    let mut same = t.len() == feature.len();
+                    for (i, node) in t.iter().enumerate().take(feature.len()) {
+                        let f = feature[i].as_i64().unwrap();
+                        let split_same = match node.feature {
+                            Some(ff) => ff as i64 == f && node.threshold == exact(&threshold[i]),
+                            None => f == -2,
+                        };
+                        let dv = (node.value - exact(&value[i])).abs();
+                        max_dv = max_dv.max(dv);
+                        if !split_same || dv > 1e-12 {
+                            same = false;
+                        }
+                    }
+                    if !same {
+                        differ += 1;
+                        first_diff.get_or_insert(k);
+                    }
+                }
+                let nodes: usize = ours.iter().map(Vec::len).sum();
+                eprintln!(
+                    "{data_name:<8} {name:<28} {state:>6} {:>6} {nodes:>7} {max_dp:>10.2e} {max_dv:>10.2e} {differ:>9}",
+                    ours.len()
+                );
+                if differ > 0 {
+                    failures.push(format!(
+                        "{data_name} {name} random_state={state}: {differ} of {} trees differ from scikit-learn's (first: tree {})",
+                        ours.len(),
+                        first_diff.unwrap_or(0)
+                    ));
+                }
+                if max_dp > 1e-12 {
+                    failures.push(format!(
+                        "{data_name} {name} random_state={state}: max |p − p_sklearn| = {max_dp:.2e} > 1e-12"
+                    ));
+                }
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "trees that are not scikit-learn's:\n{}",
+        failures.join("\n")
+    );
 }
