@@ -626,7 +626,7 @@ fn bench_env(
     let n = args.envs.unwrap_or(threads * 4).max(1);
     let mut vec_env = VecEnv::new(landscape, cfg, n, 0)?;
     let rounds = (args.steps / n as u64).max(1);
-    let mut actions = vec![Action::Up; n];
+    let mut actions = vec![Action::South; n];
     let started = Instant::now();
     for r in 0..rounds {
         for (k, a) in actions.iter_mut().enumerate() {

@@ -320,3 +320,32 @@ fn bench_ppo_helitack_runs_both_sides_with_equal_networks() {
     let skipped = r["skipped"].as_array().unwrap();
     assert!(skipped[0].as_str().unwrap().contains("--reference-env"), "{r}");
 }
+
+/// An ignition off the map in a fire file names the file, the line and the column of its key
+/// (issue 31's rough edges), through the real binary.
+#[test]
+fn an_ignition_off_the_map_names_the_fire_files_key_and_line() {
+    let p = project();
+    p.write(
+        "far-fires.yaml",
+        &FIRES.replace(
+            "  env: {max_steps: 40}\nevaluate",
+            "  env:\n    max_steps: 40\n    ignition: [120, 5]\nevaluate",
+        ),
+    );
+    p.write(
+        "far.yaml",
+        &spec("heli-far").replace("fires.yaml", "far-fires.yaml"),
+    );
+    let out = p
+        .firecast()
+        .args(["rl", "train", "--config", "far.yaml"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "{}", describe(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("far-fires.yaml:14:5: train.env.ignition: cell (120, 5) is outside the 48 × 32 map"),
+        "{err}"
+    );
+}

@@ -17,7 +17,7 @@ use firecast_sim::env::{EnvCore, FRAME_STACK};
 use firecast_sim::{Action, EnvConfig, StepInfo};
 use numpy::ndarray::{ArrayView1, ArrayView2, ArrayView3, ArrayView4};
 use numpy::{PyArray1, PyReadonlyArray1, ToPyArray};
-use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
+use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -45,7 +45,7 @@ fn action(a: i64, env: Option<usize>) -> Result<Action, BindError> {
             let key = env.map_or_else(|| "action".to_string(), |i| format!("actions[{i}]"));
             BindError::invalid(
                 key,
-                format!("{a} is not an action (0 down, 1 up, 2 left, 3 right, 4 drop)"),
+                format!("{a} is not an action (0 north/up, 1 south/down, 2 west/left, 3 east/right, 4 drop)"),
             )
         })
 }
@@ -96,6 +96,9 @@ fn load_landscape(py: Python<'_>, landscape: &str) -> Result<firecast_landscape:
 struct Env {
     env: firecast_sim::WildfireEnv,
     size: (usize, usize),
+    /// Whether `reset` ran: a step before it is an error (Gymnasium's order), not an episode
+    /// from a seed nobody chose.
+    started: bool,
 }
 
 #[pymethods]
@@ -108,10 +111,12 @@ impl Env {
     fn new(py: Python<'_>, landscape: &str, config: Option<&str>, profile: Option<&str>) -> PyResult<Self> {
         let cfg = spec::env_config(config, profile)?;
         let land = load_landscape(py, landscape)?;
+        spec::check_grid(&land, &cfg, "landscape")?;
         let env = firecast_sim::WildfireEnv::new(&land, &cfg).map_err(BindError::from)?;
         Ok(Self {
             size: (land.width, land.height),
             env,
+            started: false,
         })
     }
 
@@ -123,6 +128,7 @@ impl Env {
     ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
         let env = &mut self.env;
         let info = py.detach(|| env.reset(seed).1);
+        self.started = true;
         Ok((self.observation(py)?, info_dict(py, &info)?))
     }
 
@@ -133,6 +139,11 @@ impl Env {
         py: Python<'py>,
         action: i64,
     ) -> PyResult<(Bound<'py, PyDict>, f64, bool, bool, Bound<'py, PyDict>)> {
+        if !self.started {
+            return Err(PyRuntimeError::new_err(
+                "step() before reset(): call reset() first to start an episode",
+            ));
+        }
         let a = self::action(action, None)?;
         let env = &mut self.env;
         let (reward, terminated, truncated, info) = py.detach(|| {
@@ -271,6 +282,7 @@ impl VecEnv {
                 .into());
             }
             size = Some(grid);
+            spec::check_grid(&land, &cfg, &format!("landscapes[{k}]"))?;
             let core = EnvCore::new(&land, &cfg).map_err(BindError::from)?;
             match &ignitions {
                 None => fires.push(core),
@@ -407,6 +419,7 @@ fn _firecast(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<VecEnv>()?;
     m.add("FRAME_STACK", FRAME_STACK)?;
     m.add("CODE_MAX", firecast_sim::env::CODE_MAX)?;
+    m.add("ACTIONS", Action::NAMES.to_vec())?;
     m.add("PROFILES", spec::PROFILES.to_vec())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -8,6 +8,44 @@ use firecast_landscape::{Landscape, LandscapeError, firecastrl, procedural};
 use firecast_sim::{EnvConfig, RewardWeights, SimError};
 use serde::Deserialize;
 
+/// The smallest landscape side the environments take, in cells. The compact feature extractor
+/// (firecast-rl's `compact` policy and `firecast.CompactExtractor`) pools by 8 (a 2× average
+/// pool, then two 2× max pools) before its first feature cell, and on a smaller grid the
+/// default helicopter start and spark cells fall on or next to each other (a 2 × 2 map puts
+/// both on cell (0, 0)) while one 3-cell move crosses half the map.
+pub const MIN_GRID_SIDE: usize = 8;
+
+/// Refuses a landscape too small for the helicopter and the fire ([`MIN_GRID_SIDE`]), and an
+/// ignition or helicopter start off the map, naming the key (`landscape_key` for the grid,
+/// `config.ignition` / `config.helicopter_start` for the cells).
+pub fn check_grid(land: &Landscape, cfg: &EnvConfig, landscape_key: &str) -> Result<(), BindError> {
+    let (w, h) = (land.width, land.height);
+    if w < MIN_GRID_SIDE || h < MIN_GRID_SIDE {
+        return Err(BindError::invalid(
+            landscape_key,
+            format!(
+                "the {w} × {h} grid is too small: the helitack environment needs at least \
+                 {MIN_GRID_SIDE} × {MIN_GRID_SIDE} cells (the compact CNN pools by 8, and the \
+                 helicopter moves 3 cells a step)"
+            ),
+        ));
+    }
+    for (key, cell) in [
+        ("config.ignition", cfg.ignition),
+        ("config.helicopter_start", cfg.helicopter_start),
+    ] {
+        if let Some([x, y]) = cell
+            && (x >= w || y >= h)
+        {
+            return Err(BindError::invalid(
+                key,
+                format!("cell ({x}, {y}) is outside the {w} × {h} landscape (x in 0..{w}, y in 0..{h})"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The reward profiles (`RewardWeights::preset`).
 pub const PROFILES: &[&str] = &["p2", "websocket_t", "p1_improved", "suppression"];
 

@@ -116,7 +116,7 @@ impl<S: PolicySource> firecast_sim::Policy for PpoAgent<S> {
         if (obs.width, obs.height) != (self.width, self.height) {
             // `new` checked the grid; an environment of another size has no valid
             // observation for this policy, so the helicopter only moves.
-            return Action::Down.into();
+            return Action::North.into();
         }
         helitack::encode(
             obs.frames,
@@ -140,6 +140,6 @@ impl<S: PolicySource> firecast_sim::Policy for PpoAgent<S> {
         .first()
         .copied()
         .unwrap_or(0);
-        Action::try_from(action).unwrap_or(Action::Down).into()
+        Action::try_from(action).unwrap_or(Action::North).into()
     }
 }

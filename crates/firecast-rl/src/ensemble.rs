@@ -181,7 +181,7 @@ pub fn run_policies(
             // Runs are disjoint: step them in parallel, each in its own slot.
             live.par_iter_mut().zip(&actions).for_each(|(r, a)| {
                 let Some(a) = *a else { return };
-                let action = Action::try_from(a).unwrap_or(Action::Down);
+                let action = Action::try_from(a).unwrap_or(Action::North);
                 let (_, te, tr, info) = r.core.step_into(action, None, &mut r.frames);
                 r.tracker.observe(&r.core, &info);
                 r.last = info;

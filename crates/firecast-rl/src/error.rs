@@ -6,6 +6,15 @@ pub enum RlError {
     /// A setting is wrong; `key` is its path in the config (e.g. `ppo.batch_size`).
     #[error("{key}: {message}")]
     Config { key: String, message: String },
+    /// A [`RlError::Config`] of a file, with the line and column of its key.
+    #[error("{}:{line}:{column}: {key}: {message}", path.display())]
+    ConfigAt {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+        key: String,
+        message: String,
+    },
     #[error(transparent)]
     Torch(#[from] tch::TchError),
     #[error(transparent)]
@@ -59,6 +68,23 @@ impl RlError {
         Self::Config {
             key: key.into(),
             message: message.into(),
+        }
+    }
+    /// A [`RlError::Config`] located in the YAML file it came from (FILE:LINE:COL of its key,
+    /// as far as `firecast_pipeline::locate_path` finds it); other errors unchanged.
+    pub fn located(self, path: &std::path::Path, source: &str) -> Self {
+        match self {
+            Self::Config { key, message } => match firecast_pipeline::locate_path(source, &key) {
+                Some((line, column)) => Self::ConfigAt {
+                    path: path.to_path_buf(),
+                    line,
+                    column,
+                    key,
+                    message,
+                },
+                None => Self::Config { key, message },
+            },
+            other => other,
         }
     }
     pub(crate) fn io(context: &'static str, path: impl Into<PathBuf>, source: std::io::Error) -> Self {

@@ -286,7 +286,7 @@ fn run_ppo(cores: &[EnvCore], agent: &EnsemblePolicy, cfg: &EvalConfig) -> Resul
             .enumerate()
             .filter_map(|(f, (env, fr))| {
                 let row = active.binary_search(&f).ok()?;
-                let action = Action::try_from(actions[row]).unwrap_or(Action::Down);
+                let action = Action::try_from(actions[row]).unwrap_or(Action::North);
                 let (_, te, tr, info) = env.step_into(action, None, fr);
                 Some((
                     f,

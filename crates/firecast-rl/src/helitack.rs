@@ -118,6 +118,25 @@ impl FireSet {
                 format!("{} leaves no room on the grid", self.ignition_margin_cells),
             );
         }
+        let (w, h) = (self.width, self.height);
+        let outside = |[x, y]: [usize; 2]| {
+            (x >= w || y >= h)
+                .then(|| format!("cell ({x}, {y}) is outside the {w} × {h} map (x in 0..{w}, y in 0..{h})"))
+        };
+        if let Some(cell) = self.env.ignition {
+            // Each fire draws its own spark cell; a fixed one here would be silently replaced.
+            let why = outside(cell).map_or_else(String::new, |m| format!("{m}; "));
+            return bad(
+                "env.ignition",
+                format!(
+                    "{why}ignitions are drawn per fire (burnable cells `ignition_margin_cells` from \
+                     the edges): leave `env.ignition` out"
+                ),
+            );
+        }
+        if let Some(message) = self.env.helicopter_start.and_then(outside) {
+            return bad("env.helicopter_start", message);
+        }
         Ok(())
     }
 
@@ -409,5 +428,180 @@ impl VecEnvironment for HelitackVec {
         }
         self.actions = snap.actions;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firecast_render::{Basemap, FireFrame, RenderOptions, render_frame};
+    use firecast_sim::WildfireEnv;
+
+    /// Centre (column, row) in pixels of the helicopter's magenta marker on the map part of
+    /// a render (the legend strip below the map shows the colour too).
+    fn marker(image: &firecast_render::RgbImage, map_rows: usize) -> (f64, f64) {
+        let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
+        for y in 0..map_rows {
+            for x in 0..image.width {
+                if image.pixel(x, y) == Some(firecast_render::palette::HELI_BODY) {
+                    sx += x as f64;
+                    sy += y as f64;
+                    n += 1.0;
+                }
+            }
+        }
+        assert!(n > 0.0, "no helicopter marker drawn");
+        (sx / n, sy / n)
+    }
+
+    /// Each action from the same cell, read three ways: the helicopter's grid cell, the
+    /// observation's helicopter channel (grid rows, row 0 south) and the north-up render. The
+    /// names (`Action::NAMES`) are the directions on the map, and north is up on the render.
+    #[test]
+    fn each_action_moves_the_helicopter_the_way_its_name_says() {
+        let land = procedural::generate(&procedural::ProceduralOptions {
+            width: 48,
+            height: 32,
+            ..procedural::ProceduralOptions::with_seed(3)
+        })
+        .expect("landscape");
+        let cfg = EnvConfig {
+            helicopter_start: Some([24, 16]),
+            max_steps: 10,
+            ..EnvConfig::default()
+        };
+        let opts = RenderOptions::default();
+        let basemap = Basemap::new(&land, &opts);
+        let (w, h) = (land.width, land.height);
+        assert_eq!(Action::NAMES, ["north", "south", "west", "east", "drop"]);
+        for action in Action::ALL {
+            let mut env = WildfireEnv::new(&land, &cfg).expect("env");
+            env.reset(0);
+            let draw = |env: &WildfireEnv| {
+                let frame = FireFrame::new(env.automaton().fire_states(), env.core().helicopter());
+                marker(&render_frame(&basemap, &frame, &opts), basemap.map_height_px)
+            };
+            let (col0, row0) = draw(&env);
+            let (obs, ..) = env.step(action);
+            let [x, y] = obs.agent;
+            let (mut image, mut vector) = (vec![0; CHANNELS * w * h], [0.0; 3]);
+            encode(obs.frames, obs.agent, obs.on_fire, w, h, &mut image, &mut vector);
+            let channel = &image[FRAME_STACK * w * h..];
+            let cell = channel
+                .iter()
+                .position(|&v| v == CODE_MAX)
+                .expect("helicopter channel");
+            assert_eq!((cell % w, cell / w), (x as usize, y as usize), "{action:?}");
+            let (col, row) = draw(&env);
+            let s = opts.scale as f64;
+            let (grid, screen) = match action.name() {
+                "north" => ([24, 19], (0.0, -3.0 * s)),
+                "south" => ([24, 13], (0.0, 3.0 * s)),
+                "west" => ([21, 16], (-3.0 * s, 0.0)),
+                "east" => ([27, 16], (3.0 * s, 0.0)),
+                "drop" => ([24, 16], (0.0, 0.0)),
+                other => panic!("unknown action name {other}"),
+            };
+            assert_eq!(
+                [x, y],
+                grid,
+                "{} moved the helicopter to ({x}, {y})",
+                action.name()
+            );
+            assert_eq!(
+                (col - col0, row - row0),
+                screen,
+                "{} on the north-up render",
+                action.name()
+            );
+        }
+    }
+
+    const FIRES: &str = "\
+profile: p2
+train:
+  landscape_seeds: [1]
+  width: 48
+  height: 32
+  fires: 2
+  seed: 1
+  wind_speed_mph: [3, 6]
+  dead_1h_frac: [0.06, 0.1]
+  ignition_margin_cells: 8
+  env:
+    max_steps: 40
+    ignition: [100, 5]
+evaluate:
+  landscape_seeds: [11]
+  width: 48
+  height: 32
+  fires: 2
+  seed: 2
+  wind_speed_mph: [3, 6]
+  dead_1h_frac: [0.06, 0.1]
+  ignition_margin_cells: 8
+";
+
+    /// An ignition off the map names its key with the file, line and column; so does a
+    /// helicopter start off the map, and a fixed ignition inside it (each fire draws its own).
+    #[test]
+    fn an_ignition_off_the_map_names_its_key_file_and_line() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("fires.yaml");
+        std::fs::write(&path, FIRES).expect("write");
+        let e = crate::spec::FiresSpec::load(&path)
+            .expect_err("refused")
+            .to_string();
+        assert_eq!(
+            e,
+            format!(
+                "{}:13:5: train.env.ignition: cell (100, 5) is outside the 48 × 32 map (x in 0..48, y in \
+                 0..32); ignitions are drawn per fire (burnable cells `ignition_margin_cells` from the \
+                 edges): leave `env.ignition` out",
+                path.display()
+            )
+        );
+        std::fs::write(&path, FIRES.replace("ignition: [100, 5]", "ignition: [10, 5]")).expect("write");
+        let e = crate::spec::FiresSpec::load(&path)
+            .expect_err("refused")
+            .to_string();
+        assert!(
+            e.contains(":13:5: train.env.ignition: ignitions are drawn per fire"),
+            "{e}"
+        );
+        std::fs::write(
+            &path,
+            FIRES.replace("ignition: [100, 5]", "helicopter_start: [3, 32]"),
+        )
+        .expect("write");
+        let e = crate::spec::FiresSpec::load(&path)
+            .expect_err("refused")
+            .to_string();
+        assert!(
+            e.ends_with(":13:5: train.env.helicopter_start: cell (3, 32) is outside the 48 × 32 map (x in 0..48, y in 0..32)"),
+            "{e}"
+        );
+        std::fs::write(&path, FIRES.replace("    ignition: [100, 5]\n", "")).expect("write");
+        crate::spec::FiresSpec::load(&path).expect("a fire file without a fixed ignition");
+    }
+
+    /// A grid too small for the compact network's pooling and the helicopter's moves is
+    /// refused by name (the Python package refuses below 8 × 8; fire sets below 16 × 16).
+    #[test]
+    fn a_tiny_fire_grid_is_refused_by_name() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("fires.yaml");
+        let text = FIRES
+            .replace("    ignition: [100, 5]\n", "")
+            .replace("width: 48", "width: 2")
+            .replace("height: 32", "height: 2");
+        std::fs::write(&path, text).expect("write");
+        let e = crate::spec::FiresSpec::load(&path)
+            .expect_err("refused")
+            .to_string();
+        assert!(
+            e.contains(":4:3: train.width: 2×2: width and height must be multiples of 8, at least 16"),
+            "{e}"
+        );
     }
 }

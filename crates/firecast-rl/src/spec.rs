@@ -204,10 +204,18 @@ fn default_profile() -> String {
 }
 
 impl FiresSpec {
+    /// Reads a fire file strictly; a setting refused after parsing names the file, the line
+    /// and the column of its key (`fires.yaml:14:7: train.env.ignition: …`).
     pub fn load(path: &Path) -> Result<Self, RlError> {
         let text =
             std::fs::read_to_string(path).map_err(|e| RlError::io("reading the fire file", path, e))?;
-        let mut spec: Self = firecast_pipeline::spec::deserialize_mapping_enums(path, &text)?;
+        let spec: Self = firecast_pipeline::spec::deserialize_mapping_enums(path, &text)?;
+        spec.checked().map_err(|e| e.located(path, &text))
+    }
+
+    /// The profile's reward applied and every check of [`load`](Self::load) passed.
+    fn checked(mut self) -> Result<Self, RlError> {
+        let spec = &mut self;
         let mut reward = crate::helitack::reward_profile(&spec.profile)?;
         if !spec.reward.is_empty() {
             let mut weights =
@@ -254,7 +262,7 @@ impl FiresSpec {
                 format!("{shared:?} are also training landscapes: evaluation fires must be held out"),
             ));
         }
-        Ok(spec)
+        Ok(self)
     }
 }
 

@@ -39,13 +39,13 @@ pub trait Policy {
     fn act(&mut self, obs: &Observation<'_>) -> Decision;
 }
 
-/// No suppression: never drops (moves "Down", action 0, which only moves the helicopter).
+/// No suppression: never drops (moves north, action 0, which only moves the helicopter).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct NoSuppression;
 
 impl Policy for NoSuppression {
     fn act(&mut self, _obs: &Observation<'_>) -> Decision {
-        Action::Down.into()
+        Action::North.into()
     }
 }
 
@@ -122,7 +122,7 @@ impl Policy for RuleBasedAgent {
             RuleNavigation::Teleport => {
                 if self.idle_left > 0 {
                     self.idle_left -= 1;
-                    return Action::Down.into();
+                    return Action::North.into();
                 }
                 match self.waypoints.get(self.next) {
                     Some(&wp) => {
@@ -134,14 +134,14 @@ impl Policy for RuleBasedAgent {
                         }
                     }
                     None => Decision {
-                        action: Action::Down,
+                        action: Action::North,
                         teleport: Some([0, 0]),
                     },
                 }
             }
             RuleNavigation::Fly => {
                 let Some(&[tx, ty]) = self.waypoints.get(self.next) else {
-                    return Action::Down.into();
+                    return Action::North.into();
                 };
                 let [x, y] = obs.agent;
                 let (dx, dy) = (tx - x, ty - y);
@@ -203,7 +203,7 @@ impl Policy for FireChaser {
             }
         }
         let Some((d2, tx, ty)) = best else {
-            return Action::Down.into();
+            return Action::North.into();
         };
         if d2 <= i64::from(self.reach).pow(2) {
             return Action::Drop.into();
@@ -215,11 +215,11 @@ impl Policy for FireChaser {
 /// The move that closes the larger of the two offsets to a target cell (x first on a tie).
 fn move_towards(dx: i32, dy: i32) -> Action {
     if dx.abs() >= dy.abs() {
-        if dx > 0 { Action::Right } else { Action::Left }
+        if dx > 0 { Action::East } else { Action::West }
     } else if dy > 0 {
-        Action::Down
+        Action::North
     } else {
-        Action::Up
+        Action::South
     }
 }
 

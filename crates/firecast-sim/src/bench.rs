@@ -7,14 +7,14 @@ use crate::rothermel::FuelMoisture;
 
 /// The fixed action cycle the benchmark feeds every environment.
 pub const ACTIONS: [Action; 8] = [
-    Action::Up,
-    Action::Right,
+    Action::South,
+    Action::East,
     Action::Drop,
-    Action::Down,
-    Action::Left,
+    Action::North,
+    Action::West,
     Action::Drop,
-    Action::Up,
-    Action::Right,
+    Action::South,
+    Action::East,
 ];
 
 /// FireCastRL's defaults (Concord kernel) under a 10 mi/h south-westerly. Episodes end as soon

@@ -1,8 +1,10 @@
 //! The helitack suppression environment (docs/spec/learning.md §2) with Gymnasium semantics, and a
 //! vectorised version stepping N environments in parallel.
 //!
-//! - Actions (Discrete(5), original numbering): 0 "Down" y + speed, 1 "Up" y − speed,
-//!   2 "Left" x − speed, 3 "Right" x + speed, 4 helitack drop. Grid y points north.
+//! - Actions (Discrete(5), FireCastRL's numbering): 0 north (y + speed), 1 south (y − speed),
+//!   2 west (x − speed), 3 east (x + speed), 4 helitack drop. Grid y points north and x east,
+//!   and every render is drawn north up, so 0 moves the helicopter *up* on screen (FireCastRL
+//!   called it "Down": its screen's y grows downwards).
 //! - Observation: the last [`FRAME_STACK`] frames (oldest first, newest last) of H×W cell codes,
 //!   the helicopter cell and whether it is over a *Burning* cell. Cell code (P1 intent,
 //!   docs/spec/learning.md §2.3): 0 for non-burnable cells, else fireState·3 + BI + 1 (1..=9);
@@ -21,24 +23,38 @@ pub const FRAME_STACK: usize = 4;
 /// Largest cell code (Burnt, High BI); codes / 9 lie in [0, 1].
 pub const CODE_MAX: u8 = 9;
 
-/// The five discrete actions (FireCastRL numbering).
+/// The five discrete actions (FireCastRL numbering). Grid y points north, so on the north-up
+/// renders (firecast-render, the Python package's `render()`) `North` moves the helicopter up.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[repr(u8)]
 pub enum Action {
-    /// y + speed.
-    Down = 0,
-    /// y − speed.
-    Up = 1,
-    /// x − speed.
-    Left = 2,
-    /// x + speed.
-    Right = 3,
+    /// y + speed: north, up on the render (FireCastRL's "Down").
+    North = 0,
+    /// y − speed: south, down on the render (FireCastRL's "Up").
+    South = 1,
+    /// x − speed: west, left on the render.
+    West = 2,
+    /// x + speed: east, right on the render.
+    East = 3,
     /// Helitack drop on the helicopter cell.
     Drop = 4,
 }
 
 impl Action {
-    pub const ALL: [Action; 5] = [Self::Down, Self::Up, Self::Left, Self::Right, Self::Drop];
+    pub const ALL: [Action; 5] = [Self::North, Self::South, Self::West, Self::East, Self::Drop];
+    /// Lower-case names by action number, as the Python package's `ACTIONS` lists them.
+    pub const NAMES: [&'static str; 5] = ["north", "south", "west", "east", "drop"];
+
+    /// FireCastRL's name for [`Action::North`] (action 0), kept so callers not yet renamed
+    /// compile; it moves the helicopter north, *up* on FireCast's renders.
+    #[doc(hidden)]
+    #[allow(non_upper_case_globals)]
+    pub const Down: Action = Action::North;
+
+    /// The lower-case name (`north`, `south`, `west`, `east`, `drop`).
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self as usize]
+    }
 }
 
 impl TryFrom<u8> for Action {
@@ -490,10 +506,10 @@ impl EnvCore {
         let mut drop_reward = 0.0;
         let mut quenched = 0;
         match action {
-            Action::Down => self.clamp_heli(hx, hy + speed),
-            Action::Up => self.clamp_heli(hx, hy - speed),
-            Action::Left => self.clamp_heli(hx - speed, hy),
-            Action::Right => self.clamp_heli(hx + speed, hy),
+            Action::North => self.clamp_heli(hx, hy + speed),
+            Action::South => self.clamp_heli(hx, hy - speed),
+            Action::West => self.clamp_heli(hx - speed, hy),
+            Action::East => self.clamp_heli(hx + speed, hy),
             Action::Drop => {
                 let now = self.sim.time_min();
                 if self.cfg.drop_cooldown_min <= 0.0 || now - self.last_drop_min >= self.cfg.drop_cooldown_min

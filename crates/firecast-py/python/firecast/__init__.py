@@ -5,7 +5,8 @@ The simulator is FireCast's Rust crate ``firecast-sim`` (extension module
 
 - :class:`HelitackEnv`, a ``gymnasium.Env`` (registered as ``firecast/Helitack-v0``);
 - :class:`HelitackVecEnv`, a Stable-Baselines3 ``VecEnv`` over the Rust ``VecEnv``
-  (imported on first use, so ``import firecast`` does not import SB3 or torch).
+  (imported on first use, so ``import firecast`` does not import SB3 or torch);
+- ``ACTIONS``: the action names by number (0 north, up on the north-up render).
 
 Example::
 
@@ -19,13 +20,14 @@ from __future__ import annotations
 import gymnasium
 
 from . import _firecast
+from ._common import ACTIONS
 from .env import HelitackEnv
 
 __version__ = _firecast.__version__
 PROFILES: tuple[str, ...] = tuple(_firecast.PROFILES)
 ENV_ID = "firecast/Helitack-v0"
 
-__all__ = ["ENV_ID", "PROFILES", "HelitackEnv", "HelitackVecEnv", "__version__"]
+__all__ = ["ACTIONS", "ENV_ID", "PROFILES", "HelitackEnv", "HelitackVecEnv", "__version__"]
 
 if ENV_ID not in gymnasium.registry:
     # Episodes truncate inside the environment (config `max_steps`), so no TimeLimit wrapper.

@@ -22,6 +22,9 @@ Config = Union[str, Mapping[str, Any]]
 DEFAULT_LANDSCAPE = "procedural:0"
 FRAME_STACK: int = _firecast.FRAME_STACK
 CODE_MAX: int = _firecast.CODE_MAX
+#: Action names by number: grid y points north and x east, and ``render()`` draws north up,
+#: so 0 ("north", y + 3) moves the helicopter up in the image (FireCastRL called it "Down").
+ACTIONS: tuple[str, ...] = tuple(_firecast.ACTIONS)
 
 # Cell code c: 0 non-burnable, else fire state · 3 + burn index + 1 (state 0 unburnt,
 # 1 burning, 2 burnt; BI 0 low, 1 medium, 2 high).

@@ -11,6 +11,7 @@ from gymnasium import spaces
 
 from . import _firecast
 from ._common import (
+    ACTIONS,
     Config,
     Landscape,
     action_arg,
@@ -42,9 +43,12 @@ class HelitackEnv(gym.Env):
     Observation (``Dict``): ``cells`` uint8 (4, H, W), the last four frames of cell codes (0
     non-burnable, else fire state · 3 + burn index + 1, oldest frame first);
     ``helicopter_coord`` int32 [x, y]; ``on_fire`` 1 when the helicopter's cell burns.
-    Actions (``Discrete(5)``): 0 y + 3, 1 y − 3, 2 x − 3, 3 x + 3, 4 drop.
+    Actions (``Discrete(5)``, names in ``firecast.ACTIONS``): 0 north (y + 3), 1 south (y − 3),
+    2 west (x − 3), 3 east (x + 3), 4 drop. Grid y points north and ``render()`` draws north
+    up, so action 0 moves the helicopter up in the image.
 
-    ``reset(seed=...)`` seeds ``np_random``; every reset draws the simulator's episode seed from
+    ``step()`` before the first ``reset()`` raises ``gymnasium.error.ResetNeeded`` (as
+    ``gymnasium.make``'s order check does). ``reset(seed=...)`` seeds ``np_random``; every reset draws the simulator's episode seed from
     it, so unseeded resets after a seeded one repeat. ``reset(options={"episode_seed": s})``
     plays the episode of Rust seed ``s`` (what ``HelitackVecEnv`` plays, see its docs).
     """
@@ -70,6 +74,9 @@ class HelitackEnv(gym.Env):
         self.profile = profile or "p2"
         self.observation_space = observation_space(self._env.width, self._env.height)
         self.action_space = spaces.Discrete(5)
+        # Gymnasium's order (what ``gymnasium.make``'s OrderEnforcing checks), kept by the
+        # class itself so an environment built directly cannot step an episode nobody reset.
+        self._needs_reset = True
 
     def _rust(self) -> _firecast.Env:
         if self._env is None:
@@ -109,11 +116,19 @@ class HelitackEnv(gym.Env):
             # Reopened after close(), as SB3's checker expects: same landscape and config.
             self._env = _firecast.Env(*self._args)
         obs, info = self._env.reset(episode_seed)
+        self._needs_reset = False
         info["episode_seed"] = episode_seed
         return obs, info
 
     def step(self, action: Any) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
-        return self._rust().step(action_arg(action))
+        env = self._rust()
+        if self._needs_reset:
+            raise gym.error.ResetNeeded("HelitackEnv.step() before reset(): call reset() first to start an episode")
+        return env.step(action_arg(action))
+
+    def get_action_meanings(self) -> list[str]:
+        """Action names by number (as Atari environments offer): north, south, west, east, drop."""
+        return list(ACTIONS)
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -128,3 +143,4 @@ class HelitackEnv(gym.Env):
     def close(self) -> None:
         """Frees the simulator; safe to call twice. A later ``reset()`` builds it again."""
         self._env = None
+        self._needs_reset = True

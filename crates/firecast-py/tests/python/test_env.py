@@ -182,7 +182,7 @@ def test_firecastrl_maps_load(tmp_path):
         ({"config": {"max_steps": 0}}, ValueError, r"config\.max_steps: must be at least 1"),
         ({"config": "[1, 2]"}, ValueError, "config: expected a mapping"),
         ({"config": "{oops"}, ValueError, "config: not valid JSON"),
-        ({"config": {"ignition": [480, 2]}}, ValueError, r"cell \(480, 2\) is outside the 48 x 32 grid"),
+        ({"config": {"ignition": [480, 2]}}, ValueError, r"config\.ignition: cell \(480, 2\) is outside the 48 × 32 landscape"),
         ({"profile": "p3"}, ValueError, "profile: unknown profile `p3` \\(use one of p2, websocket_t, p1_improved, suppression\\)"),
         ({"profile": "p2", "config": {"reward": {"step": 0}}}, ValueError, "profile: `p2` and config.reward both set"),
         ({"landscape": "procedural:x"}, ValueError, "landscape: the procedural seed must be a whole number"),

@@ -138,11 +138,11 @@ fn throughput_single_thread() {
     let cfg = EnvConfig::default();
     let mut env = WildfireEnv::new(&land, &cfg).unwrap();
     let actions = [
-        firecast_sim::Action::Left,
+        firecast_sim::Action::West,
         firecast_sim::Action::Drop,
-        firecast_sim::Action::Right,
-        firecast_sim::Action::Up,
-        firecast_sim::Action::Down,
+        firecast_sim::Action::East,
+        firecast_sim::Action::South,
+        firecast_sim::Action::North,
     ];
     let (mut steps, mut burning_steps, mut burning_sum, mut k) = (0u64, 0u64, 0u64, 0usize);
     env.reset(2);

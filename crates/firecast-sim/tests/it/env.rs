@@ -24,11 +24,11 @@ fn codes(env: &WildfireEnv) -> Vec<u8> {
 /// A deterministic action stream that drops often near the fire.
 fn action(k: usize) -> Action {
     [
-        Action::Right,
-        Action::Down,
+        Action::East,
+        Action::North,
         Action::Drop,
-        Action::Up,
-        Action::Left,
+        Action::South,
+        Action::West,
         Action::Drop,
     ][(k * 7 + k / 5) % 6]
 }
@@ -102,7 +102,7 @@ fn terminates_when_nothing_burns_and_truncates_at_max_steps() {
     env.reset(1);
     let mut steps = 0;
     loop {
-        let (_, _, terminated, truncated, info) = env.step(Action::Left);
+        let (_, _, terminated, truncated, info) = env.step(Action::West);
         steps += 1;
         assert!(!truncated);
         if terminated {
@@ -123,7 +123,7 @@ fn terminates_when_nothing_burns_and_truncates_at_max_steps() {
     let mut env = WildfireEnv::new(&land, &cfg).unwrap();
     env.reset(1);
     for k in 1..=7 {
-        let (_, _, terminated, truncated, info) = env.step(Action::Up);
+        let (_, _, terminated, truncated, info) = env.step(Action::South);
         assert!(!terminated);
         assert_eq!(truncated, k == 7, "step {k}");
         assert_eq!(info.cells_burning, 1, "the spark burns for the first steps");
@@ -138,7 +138,7 @@ fn terminates_when_nothing_burns_and_truncates_at_max_steps() {
     };
     let mut env = WildfireEnv::new(&land, &cfg).unwrap();
     env.reset(3);
-    let (obs, _, terminated, _, _) = env.step(Action::Up);
+    let (obs, _, terminated, _, _) = env.step(Action::South);
     assert!(!terminated);
     assert!(!obs.on_fire, "the helicopter moved off the spark");
     let (_, reward, terminated, _, info) = env.step_with_teleport(Action::Drop, Some([100, 100]));
@@ -226,9 +226,9 @@ fn approach_shaping_is_the_change_in_distance_to_the_flames() {
             let before = nearest(&env);
             // Fly towards the ignition, then drop on it.
             let a = if k < 16 {
-                Action::Right
+                Action::East
             } else if k < 32 {
-                Action::Down
+                Action::North
             } else {
                 Action::Drop
             };
@@ -286,7 +286,7 @@ fn vec_env_matches_single_envs_and_auto_resets() {
     assert_eq!(v.frames().len(), 3 * len);
     assert!(v.step(&[Action::Drop]).is_err(), "wrong action count");
     for k in 0..50 {
-        let actions = [Action::Drop, Action::Left, [Action::Up, Action::Right][k % 2]];
+        let actions = [Action::Drop, Action::West, [Action::South, Action::East][k % 2]];
         v.step(&actions).unwrap();
         for i in 0..3 {
             let a = v.envs()[i].automaton();
