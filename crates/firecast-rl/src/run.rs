@@ -66,15 +66,16 @@ struct SeedSink<'a> {
 }
 
 impl SeedSink<'_> {
-    /// One `metrics.jsonl` row. Wall-clock speed goes to the registry only, so the run's
-    /// files are the same bytes for the same config and seed.
+    /// One `metrics.jsonl` row: every metric of the update under SB3's names, `time/fps`
+    /// included (as SB3's `progress.csv` has it). `time/fps` is the one wall-clock value in
+    /// the run's files: every other key is the same for the same config and seed.
     fn write_row(&self, timesteps: u64, imitation_timesteps: Option<u64>, metrics: &[(String, f64)]) {
         let mut row = serde_json::Map::new();
         row.insert("timesteps".into(), timesteps.into());
         if let Some(n) = imitation_timesteps {
             row.insert("imitation/timesteps".into(), n.into());
         }
-        for (k, v) in metrics.iter().filter(|(k, _)| k != "time/fps") {
+        for (k, v) in metrics {
             row.insert(
                 k.clone(),
                 serde_json::Number::from_f64(*v).map_or(serde_json::Value::Null, Into::into),

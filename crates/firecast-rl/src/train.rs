@@ -206,7 +206,11 @@ impl Trainer {
             self.kickstart = kickstart;
             collected?;
             self.iterations += 1;
-            let progress_remaining = 1.0 - self.num_timesteps as f64 / total as f64;
+            // SB3's `1 − steps / total`, stopped at the budget's end: a last rollout that
+            // overshoots the budget would make it negative, and a linear schedule (RL-Zoo's
+            // `lin_`) then a negative learning rate and clip range (gradient ascent). The
+            // update runs at the schedules' end values instead (docs/guides/rl.md).
+            let progress_remaining = (1.0 - self.num_timesteps as f64 / total as f64).max(0.0);
             let mut metrics = self.train(progress_remaining)?;
             let elapsed = started.elapsed().as_secs_f64().max(1e-9);
             let fps = (self.num_timesteps - start_steps) as f64 / elapsed;
@@ -549,7 +553,6 @@ impl Trainer {
         let (mut pg, mut vl, mut ent, mut cf) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut approx_kls = Vec::new();
         // Kickstarting's weight now (0 without a teacher) and its cross-entropies.
-        // (SB3's progress goes slightly below 0 on a last rollout that overshoots the budget.)
         let kick = (self.kickstart.as_ref()).map_or(0.0, |(_, w)| w * progress_remaining.max(0.0));
         let mut kick_ce = Vec::new();
         let mut last_loss = f64::NAN;

@@ -117,3 +117,53 @@ fn a_resumed_run_equals_a_straight_run() {
         .expect("refused");
     assert!(err.to_string().contains("not a FireCast PPO checkpoint"), "{err}");
 }
+
+/// The last rollout overshoots the budget (64 steps for 40): SB3's progress would be −0.6 and
+/// RL-Zoo's linear schedules a negative learning rate and clip range. FireCast stops the
+/// progress at 0, so the last update runs at the schedules' end (0 here) and leaves the
+/// weights as they were.
+#[test]
+fn linear_schedules_stop_at_the_budgets_end() {
+    use std::cell::RefCell;
+    struct Record(RefCell<Vec<(u64, f64, f64)>>);
+    impl firecast_rl::train::TrainSink for Record {
+        fn update(&self, timesteps: u64, metrics: &[(String, f64)]) {
+            let get = |k: &str| metrics.iter().find(|(n, _)| n == k).map_or(f64::NAN, |(_, v)| *v);
+            self.0
+                .borrow_mut()
+                .push((timesteps, get("train/learning_rate"), get("train/clip_range")));
+        }
+    }
+    firecast_learn::set_threads(1);
+    let ppo = PpoConfig {
+        n_envs: 2,
+        n_steps: 16,
+        batch_size: 32,
+        n_epochs: 2,
+        total_timesteps: 40,
+        ..PpoConfig::cartpole_zoo()
+    };
+    let env = Box::new(CartPoleVec::new(ppo.n_envs, 0));
+    let mut t = Trainer::new(ppo, &mlp(), env, 0, Device::Cpu).expect("trainer");
+    let record = Record(RefCell::new(Vec::new()));
+    t.learn_until(&record, None, Some(32)).expect("first rollout");
+    let weights = |t: &Trainer| -> Vec<f32> {
+        let mut vars: Vec<(String, tch::Tensor)> = t.policy.vs.variables().into_iter().collect();
+        vars.sort_by(|a, b| a.0.cmp(&b.0));
+        vars.iter()
+            .flat_map(|(_, v)| Vec::<f32>::try_from(v.flatten(0, -1)).expect("f32"))
+            .collect()
+    };
+    let after_first = weights(&t);
+    t.learn(&record, None).expect("the overshooting rollout");
+    let rows = record.0.into_inner();
+    assert_eq!(rows.len(), 2, "{rows:?}");
+    let (steps, lr, clip) = rows[0];
+    assert_eq!(steps, 32);
+    assert!(
+        (lr - 1e-3 * 0.2).abs() < 1e-12 && (clip - 0.2 * 0.2).abs() < 1e-12,
+        "{rows:?}"
+    );
+    assert_eq!(rows[1], (64, 0.0, 0.0), "never below the schedules' end");
+    assert_eq!(weights(&t), after_first, "a zero learning rate moves nothing");
+}
