@@ -1,7 +1,8 @@
 //! The landscape of the place through the real binary: `sim.ensemble` stages with the
 //! synthetic landscape at two places 87 miles apart, on synthetic GRIDMET that the same world
 //! wrote, get two different maps, both labelled synthetic; real GRIDMET (no `firecast_seed`)
-//! is refused with a pointer to real landscapes.
+//! is refused with a pointer to real landscapes; a LANDFIRE landscape (GeoTIFF layers or
+//! `.lcp`) runs both engines on the place's own fuels.
 
 use crate::{Project, describe};
 
@@ -157,4 +158,118 @@ stages:
         "names no file: {text}"
     );
     assert!(!p.path("build/fire.json").exists());
+}
+
+/// One `sim.ensemble` stage on the Worcester LANDFIRE clip.
+fn landfire_stage(name: &str, landscape: &str, source: &str, engine: &str) -> String {
+    let fixtures = crate::repo_root().join("crates/firecast-landscape/tests/fixtures/landfire-worcester");
+    format!(
+        r#"
+  {name}:
+    uses: sim.ensemble
+    params:
+      landscape: {landscape}
+      agent: none
+      engine: {engine}
+      runs: 2
+      env:
+        max_steps: 30
+        sim:
+          kernel: {{rothermel: {{}}}}
+          wind: {{speed_mph: 15, from_direction_deg: 250, measured_at: twenty_foot}}
+    inputs:
+      land_cover: {}
+    outputs:
+      ensemble: build/{name}.json
+"#,
+        fixtures.join(source).display()
+    )
+}
+
+/// The ensemble stage on a LANDFIRE landscape: a window of the GeoTIFF layers around a place
+/// and the `.lcp` of the same cells burn the same fires (automaton and MTT) on burnable fuel
+/// only, labelled as LANDFIRE data with its files; a place off the grid names the key.
+#[test]
+fn landfire_landscapes_run_ensembles_on_the_places_fuels() {
+    let p = Project::new();
+    // The centre of the clip's cell (94, 420): the middle of the 48 x 40 cells the .lcp holds.
+    let window = "{landfire: {center: [44.393706933151634, -72.64962229925173], width: 48, height: 40}}";
+    let pipeline = format!(
+        "stages:{}{}{}{}",
+        landfire_stage("tif", window, "landfire", "automaton"),
+        landfire_stage("lcp", "{landfire: {}}", "lcp/worcester_crop.lcp", "automaton"),
+        landfire_stage("tif_mtt", window, "landfire", "mtt"),
+        landfire_stage("lcp_mtt", "{landfire: {}}", "lcp", "mtt"),
+    );
+    p.write("pipelines/landfire.yaml", &pipeline);
+    let outcomes = p.run_pipeline("pipelines/landfire.yaml", &[]);
+    assert!(outcomes.values().all(|o| o == "ran"), "{outcomes:?}");
+    let read = |name: &str| -> serde_json::Value {
+        serde_json::from_str(&p.read(&format!("build/{name}.json"))).unwrap()
+    };
+    for (a, b) in [("tif", "lcp"), ("tif_mtt", "lcp_mtt")] {
+        let (a, b) = (read(a), read(b));
+        for key in [
+            "grid",
+            "land_cover",
+            "elevation_ft",
+            "ignition",
+            "episodes",
+            "burn_count",
+            "arrival_first_h",
+        ] {
+            assert_eq!(a[key], b[key], "{key}");
+        }
+        let burnt = a["burn_count"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(a["land_cover"].as_array().unwrap())
+            .filter(|(n, _)| n.as_u64().unwrap() > 0)
+            .map(|(_, code)| code.as_u64().unwrap())
+            .collect::<Vec<_>>();
+        assert!(burnt.len() > 5, "{} cells burnt", burnt.len());
+        assert!(burnt.iter().all(|&c| c > 100), "burnt fuel codes {burnt:?}");
+        for (e, format, file) in [
+            (&a, "LANDFIRE GeoTIFF layers", "LC22_F40_230.tif"),
+            (&b, "FARSITE .lcp", "worcester_crop.lcp"),
+        ] {
+            let label = &e["landscape"];
+            assert_eq!(label["kind"], "landfire", "{label}");
+            assert_eq!(label["synthetic"], false);
+            let note = label["note"].as_str().unwrap();
+            assert!(note.contains(format) && note.contains(file), "{note}");
+            assert!(!note.contains('\n') && !note.contains("  "), "{note}");
+            let sources = label["sources"].as_array().unwrap();
+            assert!(
+                sources.iter().any(|s| s.as_str().unwrap().ends_with(file)),
+                "{label}"
+            );
+            assert!(
+                label["fuel_cells"]["fuel_nodata"].as_u64().unwrap() > 300,
+                "{label}"
+            );
+        }
+        assert_eq!(a["landscape"]["fuel_cells"], b["landscape"]["fuel_cells"]);
+        assert_eq!(a["grid"]["crs"], "EPSG:5070");
+    }
+
+    // A place off the grid names the key; nothing is written.
+    let off = "{landfire: {center: [40.0, -100.0], width: 48, height: 40}}";
+    p.write(
+        "pipelines/off.yaml",
+        &format!("stages:{}", landfire_stage("off", off, "landfire", "automaton")),
+    );
+    let out = p
+        .firecast()
+        .args(["pipeline", "run", "pipelines/off.yaml"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "{}", describe(&out));
+    let text = describe(&out);
+    assert!(
+        text.contains("center (40, -100) is outside the LANDFIRE grid"),
+        "{text}"
+    );
+    assert!(!p.path("build/off.json").exists());
 }

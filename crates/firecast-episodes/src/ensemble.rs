@@ -377,9 +377,14 @@ impl Setup {
         let code = landscape.land_cover[landscape.index(ignition[0], ignition[1])];
         if !is_burnable(landscape.scheme, code) {
             let what = fuel_model_of(landscape.scheme, code).map_or("no fuel", |m| m.name);
+            let cell = scenario
+                .landscape
+                .landfire_site()
+                .and_then(|site| site.unburnable_cell(ignition[0], ignition[1]))
+                .map_or_else(String::new, |why| format!(": {why}"));
             return Err(EpisodeError::Ignition {
                 message: format!(
-                    "the ignition point (cell {ignition:?}) is on land cover {code} ({what}): nothing there can burn"
+                    "the ignition point (cell {ignition:?}) is on land cover {code} ({what}): nothing there can burn{cell}"
                 ),
             });
         }

@@ -11,6 +11,7 @@
 mod behavior_stage;
 pub mod ensemble;
 pub mod free_spread;
+pub mod landfire;
 mod stage;
 mod weather;
 
@@ -135,12 +136,31 @@ pub enum LandscapeSpec {
         #[serde(default = "default_cell_ft")]
         cell_size_ft: f64,
     },
+    /// A LANDFIRE landscape at its own resolution: a folder of LANDFIRE GeoTIFF layers or a
+    /// FARSITE/FlamMap `.lcp` (`path`), cut to `width` × `height` cells (default 240 × 160)
+    /// around `center` ([lat, lon]), or the whole grid without a center ([`landfire`]).
+    Landfire {
+        path: PathBuf,
+        /// `fbfm40` (the default) or `fbfm13`.
+        #[serde(default, skip_serializing_if = "landfire::is_fbfm40")]
+        fuel: landfire::FuelLayerName,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        center: Option<[f64; 2]>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        width: Option<usize>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        height: Option<usize>,
+        /// What reading it found, once [`Scenario::prepare`] has read it (for the label and
+        /// the ignition's checks).
+        #[serde(skip)]
+        site: Option<std::sync::Arc<landfire::LandfireSite>>,
+    },
 }
 
-fn default_width() -> usize {
+pub(crate) fn default_width() -> usize {
     240
 }
-fn default_height() -> usize {
+pub(crate) fn default_height() -> usize {
     160
 }
 fn default_cell_ft() -> f64 {
@@ -281,7 +301,53 @@ impl LandscapeSpec {
                     &firecast_landscape::geotiff::ElevationOptions::default(),
                 )?
             }
+            Self::Landfire { site: Some(site), .. } => site.landscape.clone(),
+            Self::Landfire { .. } => self.read_landfire(root)?.landscape,
         })
+    }
+
+    /// Builds the landscape and, for a LANDFIRE one, keeps what reading it found (its label
+    /// then counts the cells and names the files).
+    pub fn load_keeping(&mut self, root: &Path) -> Result<Landscape, EpisodeError> {
+        if let Self::Landfire { site: None, .. } = self {
+            let read = std::sync::Arc::new(self.read_landfire(root)?);
+            let land = read.landscape.clone();
+            if let Self::Landfire { site, .. } = self {
+                *site = Some(read);
+            }
+            return Ok(land);
+        }
+        self.load(root)
+    }
+
+    fn read_landfire(&self, root: &Path) -> Result<landfire::LandfireSite, EpisodeError> {
+        let Self::Landfire {
+            path,
+            fuel,
+            center,
+            width,
+            height,
+            ..
+        } = self
+        else {
+            return Err(EpisodeError::LandscapeSpec {
+                spec: "landfire".into(),
+                reason: "not a LANDFIRE landscape".into(),
+            });
+        };
+        let size = match (width, height) {
+            (None, None) => None,
+            (w, h) => Some([w.unwrap_or_else(default_width), h.unwrap_or_else(default_height)]),
+        };
+        landfire::load(&root.join(path), *fuel, *center, size)
+    }
+
+    /// What reading a LANDFIRE landscape found (None for other kinds, or before it was read).
+    pub fn landfire_site(&self) -> Option<&landfire::LandfireSite> {
+        match self {
+            Self::Landfire { site, .. } => site.as_deref(),
+            _ => None,
+        }
     }
 }
 
@@ -289,7 +355,7 @@ impl LandscapeSpec {
 #[derive(Debug, Clone, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct LandscapeLabel {
-    /// `synthetic`, `procedural`, `geotiff` or `firecastrl`.
+    /// `synthetic`, `procedural`, `geotiff`, `firecastrl` or `landfire`.
     pub kind: String,
     /// Whether the map is made up (synthetic or procedural) rather than read from data.
     pub synthetic: bool,
@@ -298,6 +364,14 @@ pub struct LandscapeLabel {
     pub seed: Option<u64>,
     /// One line a report can print.
     pub note: String,
+    /// The files the landscape was read from (LANDFIRE: one per layer, or the `.lcp` and its
+    /// `.prj`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sources: Vec<String>,
+    /// LANDFIRE: the cells by what the fuel layer held (burnable, non-burnable by code,
+    /// nodata), and the cells without elevation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fuel_cells: Option<landfire::FuelCellCounts>,
 }
 
 impl LandscapeSpec {
@@ -347,12 +421,34 @@ impl LandscapeSpec {
                 None,
                 format!("FireCastRL map {}", land_cover.display()),
             ),
+            Self::Landfire { path, site, .. } => {
+                let Some(site) = site else {
+                    return LandscapeLabel {
+                        kind: "landfire".into(),
+                        synthetic: false,
+                        seed: None,
+                        note: format!("LANDFIRE landscape from {} (not read yet)", path.display()),
+                        sources: vec![path.display().to_string()],
+                        fuel_cells: None,
+                    };
+                };
+                return LandscapeLabel {
+                    kind: "landfire".into(),
+                    synthetic: false,
+                    seed: None,
+                    note: site.note(),
+                    sources: site.sources.iter().map(|p| p.display().to_string()).collect(),
+                    fuel_cells: Some(site.cells.clone()),
+                };
+            }
         };
         LandscapeLabel {
             kind: kind.into(),
             synthetic,
             seed,
             note,
+            sources: Vec::new(),
+            fuel_cells: None,
         }
     }
 }
@@ -382,7 +478,7 @@ impl Scenario {
     /// Builds the landscape and, when the scenario has `weather`, reads it and sets the wind.
     /// Relative paths resolve against `root`.
     pub fn prepare(&mut self, root: &Path) -> Result<(Landscape, Option<ResolvedWeather>), EpisodeError> {
-        let landscape = self.landscape.load(root)?;
+        let landscape = self.landscape.load_keeping(root)?;
         let weather = match &self.weather {
             Some(spec) => {
                 let w = spec.resolve(&landscape, root)?;

@@ -71,6 +71,19 @@ pub enum LandscapeParams {
         cell_size_ft: f64,
     },
     Firecastrl,
+    /// A LANDFIRE landscape: the folder of LANDFIRE GeoTIFF layers or the `.lcp` given as the
+    /// input `land_cover`, cut to `width` × `height` cells around `center` ([lat, lon]) or
+    /// whole without a center (`crate::landfire`).
+    Landfire {
+        #[serde(default, skip_serializing_if = "crate::landfire::is_fbfm40")]
+        fuel: crate::landfire::FuelLayerName,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        center: Option<[f64; 2]>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        width: Option<usize>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        height: Option<usize>,
+    },
     Geotiff {
         scheme: super::SchemeName,
         center_lat: f64,
@@ -477,6 +490,32 @@ fn scenario_of(
             land_cover: input("land_cover")?,
             heightmap: input("elevation")?,
         },
+        LandscapeParams::Landfire {
+            fuel,
+            center,
+            width,
+            height,
+        } => {
+            if ctx.input("elevation").is_ok() {
+                return Err(StageError::msg(
+                    "landscape.landfire takes the elevation from the LANDFIRE layers: remove the input `elevation`",
+                ));
+            }
+            let path = ctx.input("land_cover").map_err(|_| {
+                StageError::msg(
+                    "landscape.landfire reads the LANDFIRE folder (GeoTIFF layers) or the .lcp given as the \
+                     input `land_cover`",
+                )
+            })?;
+            LandscapeSpec::Landfire {
+                path: path.to_path_buf(),
+                fuel: *fuel,
+                center: *center,
+                width: *width,
+                height: *height,
+                site: None,
+            }
+        }
         LandscapeParams::Geotiff {
             scheme,
             center_lat,

@@ -1,9 +1,10 @@
 //! Coordinate reference systems, WGS84 transverse Mercator, and the simulation grid.
 //!
 //! Supported CRSs for coordinate transforms: `EPSG:4326` (x = longitude, y = latitude, in
-//! degrees) and WGS84 UTM `EPSG:326zz` (north) / `EPSG:327zz` (south), zones 1–60. Any other
-//! CRS string is carried through unchanged ([`Crs::Other`]); readers then require the grid
-//! and the raster to use the *same* string, and lat/lon helpers return `NaN` / `None`.
+//! degrees), WGS84 UTM `EPSG:326zz` (north) / `EPSG:327zz` (south), zones 1–60, and NAD83 /
+//! CONUS Albers `EPSG:5070` (LANDFIRE's grid; [`albers_forward`]). Any other CRS string is
+//! carried through unchanged ([`Crs::Other`]); readers then require the grid and the raster to
+//! use the *same* string, and lat/lon helpers return `NaN` / `None`.
 //!
 //! The transverse Mercator maths is the Krüger series to order n⁴ as given by Karney (2011),
 //! "Transverse Mercator with an accuracy of a few nanometers", eqs. (7)–(11), (35)–(36):
@@ -27,7 +28,9 @@ pub enum Crs {
     Wgs84Geographic,
     /// WGS84 / UTM zone `zone` (1–60), northern (EPSG:326zz) or southern (EPSG:327zz) hemisphere.
     Utm { zone: u8, north: bool },
-    /// Anything else, kept verbatim (e.g. a LANDFIRE Albers CRS); no transforms available.
+    /// Anything else, kept verbatim; no transforms available except for `EPSG:5070` (CONUS
+    /// Albers, LANDFIRE's grid), which [`Crs::to_lat_lon`] and [`Crs::from_lat_lon`] convert
+    /// by [`albers_forward`] / [`albers_inverse`].
     Other(String),
 }
 
@@ -74,7 +77,10 @@ impl Crs {
 
     /// Whether lat/lon transforms are available.
     pub fn is_supported(&self) -> bool {
-        !matches!(self, Crs::Other(_))
+        match self {
+            Crs::Other(s) => is_conus_albers(s),
+            _ => true,
+        }
     }
 
     /// CRS coordinates → (lat, lon) in degrees; `None` for `Other` or non-finite input.
@@ -89,6 +95,7 @@ impl Crs {
                 let (lat, lon) = tm_inverse(utm_central_meridian(*zone), x - 500_000.0, northing);
                 Some((lat, wrap_lon(lon)))
             }
+            Crs::Other(s) if is_conus_albers(s) => Some(albers_inverse(x, y)),
             Crs::Other(_) => None,
         }
     }
@@ -104,6 +111,7 @@ impl Crs {
                 let (e, n) = tm_forward(utm_central_meridian(*zone), lat, lon);
                 Some((e + 500_000.0, if *north { n } else { n + 10_000_000.0 }))
             }
+            Crs::Other(s) if is_conus_albers(s) => Some(albers_forward(lat, lon)),
             Crs::Other(_) => None,
         }
     }
@@ -195,6 +203,86 @@ pub fn tm_inverse(lon0: f64, easting: f64, northing: f64) -> (f64, f64) {
     }
     let lam = eta_p.sinh().atan2(xi_p.cos());
     (phi.to_degrees(), lon0 + lam.to_degrees())
+}
+
+/// Whether a CRS string is NAD83 / CONUS Albers (`EPSG:5070`, case-insensitive).
+fn is_conus_albers(s: &str) -> bool {
+    s.trim().eq_ignore_ascii_case("EPSG:5070")
+}
+
+/// The constants of NAD83 / CONUS Albers (EPSG:5070): Albers equal-area conic on the GRS 1980
+/// ellipsoid, standard parallels 29.5° and 45.5° N, origin 23° N, 96° W, no false origin.
+struct AlbersConsts {
+    e: f64,
+    e2: f64,
+    n: f64,
+    c: f64,
+    rho0: f64,
+}
+
+const GRS80_A: f64 = 6_378_137.0;
+const GRS80_F: f64 = 1.0 / 298.257_222_101;
+const ALBERS_LON0: f64 = -96.0;
+
+/// Snyder (1987), *Map Projections: A Working Manual*, eq. (3-12): q of latitude `phi` (radians).
+fn albers_q(e: f64, e2: f64, phi: f64) -> f64 {
+    let s = phi.sin();
+    (1.0 - e2) * (s / (1.0 - e2 * s * s) - (1.0 / (2.0 * e)) * ((1.0 - e * s) / (1.0 + e * s)).ln())
+}
+
+fn albers_consts() -> AlbersConsts {
+    let e2 = GRS80_F * (2.0 - GRS80_F);
+    let e = e2.sqrt();
+    // Snyder eq. (14-15): m = cos φ / √(1 − e² sin² φ).
+    let m = |phi: f64| phi.cos() / (1.0 - e2 * phi.sin().powi(2)).sqrt();
+    let (p1, p2, p0) = (
+        29.5_f64.to_radians(),
+        45.5_f64.to_radians(),
+        23.0_f64.to_radians(),
+    );
+    let (m1, m2) = (m(p1), m(p2));
+    let (q1, q2, q0) = (albers_q(e, e2, p1), albers_q(e, e2, p2), albers_q(e, e2, p0));
+    // Snyder eqs. (14-14), (14-13), (14-12a).
+    let n = (m1 * m1 - m2 * m2) / (q2 - q1);
+    let c = m1 * m1 + n * q1;
+    let rho0 = GRS80_A * (c - n * q0).sqrt() / n;
+    AlbersConsts { e, e2, n, c, rho0 }
+}
+
+/// NAD83 / CONUS Albers (EPSG:5070): (lat, lon) degrees → (x, y) metres, Snyder (1987)
+/// eqs. (14-1)–(14-4) on GRS 1980. Latitude and longitude are taken as NAD83, which differs
+/// from WGS84 by about a metre in CONUS (ignored: a thirtieth of a LANDFIRE cell).
+pub fn albers_forward(lat: f64, lon: f64) -> (f64, f64) {
+    let k = albers_consts();
+    let q = albers_q(k.e, k.e2, lat.to_radians());
+    let rho = GRS80_A * (k.c - k.n * q).max(0.0).sqrt() / k.n;
+    let theta = k.n * wrap_lon(lon - ALBERS_LON0).to_radians();
+    (rho * theta.sin(), k.rho0 - rho * theta.cos())
+}
+
+/// Inverse of [`albers_forward`]: (x, y) metres → (lat, lon) degrees, Snyder eqs. (14-8)–(14-11)
+/// and the iteration (3-16) for latitude.
+pub fn albers_inverse(x: f64, y: f64) -> (f64, f64) {
+    let k = albers_consts();
+    let dy = k.rho0 - y;
+    let rho = x.hypot(dy);
+    let theta = x.atan2(dy);
+    let q = (k.c - rho * rho * k.n * k.n / (GRS80_A * GRS80_A)) / k.n;
+    let mut phi = (q / 2.0).clamp(-1.0, 1.0).asin();
+    for _ in 0..15 {
+        let s = phi.sin();
+        let w = 1.0 - k.e2 * s * s;
+        let step = w * w / (2.0 * phi.cos())
+            * (q / (1.0 - k.e2) - s / w + (1.0 / (2.0 * k.e)) * ((1.0 - k.e * s) / (1.0 + k.e * s)).ln());
+        phi += step;
+        if step.abs() < 1e-14 {
+            break;
+        }
+    }
+    (
+        phi.to_degrees(),
+        wrap_lon(ALBERS_LON0 + (theta / k.n).to_degrees()),
+    )
 }
 
 /// Metres per degree of latitude and of longitude at `lat` on the WGS84 ellipsoid

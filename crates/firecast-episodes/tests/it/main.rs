@@ -2,6 +2,7 @@
 #![allow(clippy::unwrap_used)]
 
 mod behavior_png;
+mod landfire;
 
 use std::path::Path;
 

@@ -55,6 +55,43 @@ fn utm_known_points() {
     assert_eq!(tm_forward(3.0, 0.0, 3.0), (0.0, 0.0));
 }
 
+/// NAD83 / CONUS Albers (EPSG:5070, LANDFIRE's grid) against PROJ (rasterio 1.4.4's
+/// `rasterio.warp.transform` from EPSG:4326), to a millimetre and 1e-8 degrees.
+#[test]
+fn conus_albers_known_points() {
+    let albers = Crs::parse("EPSG:5070");
+    assert!(albers.is_supported());
+    let cases = [
+        (
+            (44.35, -72.55),
+            (1_845_526.246_837_990_8, 2_602_196.498_799_409_3),
+        ),
+        ((23.0, -96.0), (0.0, 0.0)),
+        ((40.0, -120.0), (-2_009_423.593_183_725_4, 2_142_068.028_382_626)),
+        // The centre of the Worcester LANDFIRE clip's cell (274, 306).
+        (
+            (44.411_668_017_141_42, -72.573_208_977_519_64),
+            (1_842_060.0, 2_608_410.0),
+        ),
+        (
+            (44.885_680_667_496_25, -83.284_132_929_445_22),
+            (1_000_000.0, 2_500_000.0),
+        ),
+    ];
+    for ((lat, lon), (x, y)) in cases {
+        let (px, py) = albers.from_lat_lon(lat, lon).unwrap();
+        assert!(
+            (px - x).abs() < 1e-3 && (py - y).abs() < 1e-3,
+            "({lat}, {lon}) -> ({px}, {py})"
+        );
+        let (plat, plon) = albers.to_lat_lon(x, y).unwrap();
+        assert!(
+            (plat - lat).abs() < 1e-8 && (plon - lon).abs() < 1e-8,
+            "({x}, {y}) -> ({plat}, {plon})"
+        );
+    }
+}
+
 #[test]
 fn unsupported_crs_gives_nan_and_none() {
     let grid = GridSpec::new(
