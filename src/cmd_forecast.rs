@@ -590,10 +590,13 @@ fn print_bench(r: &firecast_forecast::bench::ForecastBench) -> anyhow::Result<()
         "FireCast acc %",
         "ref acc %",
         "Δ pts",
+        "FireCast acc % @thr",
+        "ref acc % @thr",
+        "Δ pts @thr",
         "FireCast AUROC",
         "ref AUROC",
         "Δ AUROC",
-        "within ±1.5 pts / ±0.015",
+        "within ±1.5 pts (both) / ±0.015",
         "FireCast fit",
         "ref fit",
         "ref / FireCast",
@@ -609,6 +612,17 @@ fn print_bench(r: &firecast_forecast::bench::ForecastBench) -> anyhow::Result<()
             format!("{:.2}", b.firecast_accuracy * 100.0),
             format!("{:.2}", b.reference_accuracy * 100.0),
             format!("{:+.2}", b.accuracy_delta_points),
+            format!(
+                "{:.2} (t {:.3})",
+                b.firecast_accuracy_at_threshold * 100.0,
+                b.firecast_threshold
+            ),
+            format!(
+                "{:.2} (t {:.3})",
+                b.reference_accuracy_at_threshold * 100.0,
+                b.reference_threshold
+            ),
+            format!("{:+.2}", b.threshold_accuracy_delta_points),
             format!("{:.4}", b.firecast_auroc),
             format!("{:.4}", b.reference_auroc),
             format!("{:+.4}", b.auroc_delta),
@@ -619,6 +633,10 @@ fn print_bench(r: &firecast_forecast::bench::ForecastBench) -> anyhow::Result<()
         ]);
     }
     output::print_table(&table)?;
+    println!(
+        "  acc @thr: test accuracy at each side's own threshold, chosen by the model's Table III rule \
+         (default max F1) on that side's validation scores; acc: at 0.5 (scikit-learn's predict)"
+    );
     for b in &r.baselines {
         if let Some(note) = &b.note {
             println!("  {}: {note}", b.model);

@@ -553,6 +553,8 @@ fn bench_forecast_compares_every_baseline_and_network_with_its_python_reference(
         for k in [
             "firecast_accuracy",
             "reference_accuracy",
+            "firecast_accuracy_at_threshold",
+            "reference_accuracy_at_threshold",
             "firecast_auroc",
             "reference_auroc",
         ] {
@@ -562,7 +564,10 @@ fn bench_forecast_compares_every_baseline_and_network_with_its_python_reference(
         for k in ["firecast_fit_seconds", "reference_fit_seconds", "speed_ratio"] {
             assert!(b[k].as_f64().unwrap() > 0.0, "{k}: {b}");
         }
+        // Baselines default to Table III's max-F1 threshold on validation.
+        assert_eq!(b["threshold_rule"], "max F1 on validation", "{b}");
         let within = b["accuracy_delta_points"].as_f64().unwrap().abs() <= 1.5
+            && b["threshold_accuracy_delta_points"].as_f64().unwrap().abs() <= 1.5
             && b["auroc_delta"].as_f64().unwrap().abs() <= 0.015;
         assert_eq!(b["within_bounds"].as_bool().unwrap(), within, "{b}");
     }
@@ -577,6 +582,15 @@ fn bench_forecast_compares_every_baseline_and_network_with_its_python_reference(
     {
         assert!(b["max_abs_proba_diff"].as_f64().unwrap() < 1e-3, "{b}");
         assert_eq!(b["within_bounds"], true, "{b}");
+    }
+    // The trees are scikit-learn's (same random_state): same scores, same thresholds.
+    for b in baselines.iter().filter(|b| {
+        ["decision_tree", "random_forest", "gradient_boosting"].contains(&b["kind"].as_str().unwrap())
+    }) {
+        assert!(b["max_abs_proba_diff"].as_f64().unwrap() < 1e-12, "{b}");
+        assert_eq!(b["firecast_threshold"], b["reference_threshold"], "{b}");
+        assert_eq!(b["accuracy_delta_points"], 0.0, "{b}");
+        assert_eq!(b["threshold_accuracy_delta_points"], 0.0, "{b}");
     }
     // FireCast's MLP and scikit-learn's have the same size.
     let mlp = &baselines[7];

@@ -6,10 +6,10 @@ Usage: baselines_reference.py DIR
 
 DIR holds what FireCast exported for one protocol of an experiment:
 
-    x_train.npy, x_test.npy      '<f4', rows x (days * variables): the flattened windows,
-                                 day-major, every variable of the dataset
+    x_train.npy, x_val.npy, x_test.npy   '<f4', rows x (days * variables): the flattened
+                                 windows, day-major, every variable of the dataset
     y_train.npy, y_test.npy      '|u1', 0/1
-    x_train_<inputs>.npy, x_test_<inputs>.npy   (optional, one pair per network) the exact
+    x_{train,val,test}_<inputs>.npy   (optional, one set per network) the exact
                                  inputs FireCast's MLP trained on (its per-variable scaling,
                                  month features if any)
     config.json                  {"seed": 0, "threads": N,
@@ -25,13 +25,16 @@ selects the model's variables; `standardize` puts a StandardScaler fitted on the
 rows in front (as FireCast does for logistic regression and KNN). Logistic regression is fitted
 on float64 copies of the same values: scikit-learn's lbfgs on float32 data stops ~1e-3 short
 of the optimum (see firecast-baselines). Accuracy is `predict` (threshold 0.5), AUROC
-`roc_auc_score` on `predict_proba`. Fit times cover `fit` only.
+`roc_auc_score` on `predict_proba`; `proba_val` (the validation rows' scores) lets FireCast
+pick Table III's threshold on each side. Fit times cover `fit` only.
 
 Prints one JSON object:
 
     {"versions": {"python", "numpy", "sklearn", "xgboost"},
      "models": {name: {"class", "accuracy", "roc_auc", "fit_seconds", "n_iter",
-                       "n_parameters", "proba": [...]}}}
+                       "n_parameters", "proba": [...], "proba_val": [...]}}}
+
+with the scores as repr() strings, so they parse back bit for bit.
 """
 
 import json
@@ -119,6 +122,7 @@ def main():
     cfg = json.loads((d / "config.json").read_text())
     x_train = np.load(d / "x_train.npy")
     x_test = np.load(d / "x_test.npy")
+    x_val = np.load(d / "x_val.npy")
     y_train = np.load(d / "y_train.npy").astype(np.int64)
     y_test = np.load(d / "y_test.npy").astype(np.int64)
     assert x_train.dtype == np.float32 and x_test.dtype == np.float32
@@ -137,20 +141,23 @@ def main():
         kind, p = m["kind"], m["params"]
         inputs = m.get("inputs", "flat")
         if inputs != "flat":
-            xtr, xte = np.load(d / f"x_train_{inputs}.npy"), np.load(d / f"x_test_{inputs}.npy")
+            xtr, xte, xva = (np.load(d / f"x_{part}_{inputs}.npy") for part in ("train", "test", "val"))
         else:
             cols = m.get("columns")
-            xtr, xte = (x_train, x_test) if cols is None else (x_train[:, cols], x_test[:, cols])
+            xtr, xte, xva = (x_train, x_test, x_val) if cols is None else (
+                x_train[:, cols], x_test[:, cols], x_val[:, cols])
         if m.get("standardize"):
             scaler = StandardScaler().fit(xtr)
-            xtr, xte = scaler.transform(xtr), scaler.transform(xte)
+            xtr, xte, xva = scaler.transform(xtr), scaler.transform(xte), scaler.transform(xva)
         if kind == "logistic_regression":
-            xtr, xte = xtr.astype(np.float64), xte.astype(np.float64)
+            xtr, xte, xva = xtr.astype(np.float64), xte.astype(np.float64), xva.astype(np.float64)
         model = build(kind, p, seed, threads)
         t0 = time.perf_counter()
         model.fit(xtr, y_train)
         elapsed = time.perf_counter() - t0
         proba = model.predict_proba(xte)[:, 1].astype(np.float64)
+        proba_val = (model.predict_proba(xva)[:, 1].astype(np.float64) if len(xva)
+                     else np.zeros(0))
         n_iter = getattr(model, "n_iter_", None)
         # The public path (sklearn.ensemble.RandomForestClassifier, xgboost.XGBClassifier).
         public = [p for p in type(model).__module__.split(".") if not p.startswith("_")]
@@ -163,7 +170,9 @@ def main():
             "fit_seconds": elapsed,
             "n_iter": None if n_iter is None else int(np.max(n_iter)),
             "n_parameters": parameters(model),
-            "proba": proba.tolist(),
+            # repr() strings parse back exactly (JSON numbers may lose the last bit).
+            "proba": [repr(float(v)) for v in proba],
+            "proba_val": [repr(float(v)) for v in proba_val],
         }
         print(f"{m['name']}: {elapsed:.2f} s", file=sys.stderr, flush=True)
     json.dump(out, sys.stdout)
