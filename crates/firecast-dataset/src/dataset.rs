@@ -516,6 +516,44 @@ mod erased {
     }
 }
 
+/// Checks every file `dataset.json` lists against its BLAKE3 hash (the files are hashed
+/// in parallel, each once): a file that is missing, or whose bytes changed since the
+/// dataset was written, is refused with its own path named — not whichever file a reader
+/// would have tripped over later.
+pub fn verify_files(dir: &std::path::Path, manifest: &DatasetManifest) -> Result<(), DatasetError> {
+    use rayon::prelude::*;
+    manifest
+        .files
+        .par_iter()
+        .map(|(name, expected)| {
+            let path = dir.join(name);
+            if !path.is_file() {
+                return Err(DatasetError::Damaged {
+                    path,
+                    message: format!("{MANIFEST_FILE} lists it but it is missing; rebuild the dataset"),
+                });
+            }
+            let found = crate::hash_file(&path)?;
+            if found != *expected {
+                let short = |h: &str| h.chars().take(16).collect::<String>();
+                return Err(DatasetError::Damaged {
+                    path,
+                    message: format!(
+                        "its contents do not match {MANIFEST_FILE} (BLAKE3 {}…, expected {}…): the file \
+                         was damaged or changed after the dataset was written; rebuild the dataset or \
+                         restore the file",
+                        short(&found),
+                        short(expected)
+                    ),
+                });
+            }
+            Ok(())
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .collect()
+}
+
 /// Reads `dataset.json` of a dataset directory.
 pub fn read_manifest(dir: &std::path::Path) -> Result<DatasetManifest, DatasetError> {
     let path = dir.join(MANIFEST_FILE);

@@ -109,6 +109,9 @@ pub enum DatasetError {
     Config { key: String, message: String },
     #[error("Parquet {}: {message}", path.display())]
     Parquet { path: PathBuf, message: String },
+    /// A file of a dataset whose contents no longer match the hash its manifest holds.
+    #[error("damaged dataset file {}: {message}", path.display())]
+    Damaged { path: PathBuf, message: String },
     #[error("polars: {0}")]
     Polars(String),
     /// Shards of a sharded stage that do not fit together, or an error a shard carried over.

@@ -369,8 +369,14 @@ fn source_rows(batch: &RecordBatch, path: &Path) -> Result<Vec<Option<u64>>, Dat
     Err(bad(format!("type {} (expected uint64)", column.data_type())))
 }
 
-/// Reads a window table written by [`write_window_table`].
+/// Reads a window table written by [`write_window_table`]. In a dataset directory (one
+/// with `dataset.json`) every file is first checked against the manifest's hashes
+/// ([`crate::dataset::verify_files`]), so a damaged file is named before it is parsed.
 pub fn read_window_table(dir: &Path) -> Result<StoredTable, DatasetError> {
+    if dir.join(crate::dataset::MANIFEST_FILE).is_file() {
+        let manifest = crate::dataset::read_manifest(dir)?;
+        crate::dataset::verify_files(dir, &manifest)?;
+    }
     let path = dir.join(SAMPLES_FILE);
     let (batches, metadata, names) = read_batches(&path)?;
     match metadata.get(META_SCHEMA_VERSION) {

@@ -193,3 +193,86 @@ proptest! {
         }
     }
 }
+
+/// Writes a small dataset into `dir` (its Parquet tables, card, map and `dataset.json`).
+fn write_small_dataset(dir: &std::path::Path) {
+    let events: Vec<_> = (0..30)
+        .map(|k| {
+            (
+                k % 5,
+                k % 3,
+                D2020 + 11 * k as i32,
+                if k % 3 == 0 { Tier::Positive } else { Tier::Yearly },
+            )
+        })
+        .collect();
+    let c = cfg(FramingKind::Paper);
+    let ds = build(&table(&events), &c).unwrap();
+    let grid = firecast_dataset::card::MapGrid {
+        lat_north: 41.0,
+        lon_west: -106.0,
+        step_deg: 0.5,
+        n_lat: 4,
+        n_lon: 4,
+        land_runs: Vec::new(),
+    };
+    firecast_dataset::dataset::write(dir, &ds, &c, &grid, &Default::default(), None).unwrap();
+}
+
+/// Flips a few bytes in the middle of `path` (inside the data, not the footer).
+fn damage(path: &std::path::Path) {
+    let mut bytes = std::fs::read(path).unwrap();
+    let mid = bytes.len() / 2;
+    for b in &mut bytes[mid..mid + 4] {
+        *b ^= 0x5A;
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn a_damaged_file_is_refused_by_its_own_name() {
+    use firecast_dataset::table::{DAYS_FILE, SAMPLES_FILE, read_window_table};
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    write_small_dataset(&dir);
+    let intact = read_window_table(&dir).unwrap();
+    assert_eq!(intact.table.samples.len(), 30);
+
+    // Bytes flipped inside samples.parquet: the error names samples.parquet, not days.parquet.
+    let pristine = std::fs::read(dir.join(SAMPLES_FILE)).unwrap();
+    damage(&dir.join(SAMPLES_FILE));
+    let e = read_window_table(&dir)
+        .err()
+        .expect("a damaged samples.parquet must be refused");
+    let msg = e.to_string();
+    assert!(
+        msg.contains(SAMPLES_FILE) && !msg.contains(DAYS_FILE) && msg.contains("damaged"),
+        "{msg}"
+    );
+    assert!(
+        matches!(e, firecast_dataset::DatasetError::Damaged { .. }),
+        "{e:?}"
+    );
+    std::fs::write(dir.join(SAMPLES_FILE), pristine).unwrap();
+    assert!(read_window_table(&dir).is_ok());
+
+    // The same for days.parquet and for a file the reader never parses (the card).
+    for name in [DAYS_FILE, firecast_dataset::dataset::CARD_FILE] {
+        let pristine = std::fs::read(dir.join(name)).unwrap();
+        damage(&dir.join(name));
+        let msg = read_window_table(&dir).err().expect("refused").to_string();
+        assert!(
+            msg.contains(name) && msg.contains("dataset.json"),
+            "{name}: {msg}"
+        );
+        std::fs::write(dir.join(name), pristine).unwrap();
+    }
+
+    // A listed file that is gone.
+    std::fs::remove_file(dir.join(firecast_dataset::dataset::STATS_FILE)).unwrap();
+    let msg = read_window_table(&dir).err().expect("refused").to_string();
+    assert!(
+        msg.contains(firecast_dataset::dataset::STATS_FILE) && msg.contains("missing"),
+        "{msg}"
+    );
+}
