@@ -40,7 +40,7 @@ use rayon::prelude::*;
 
 use crate::crown::{Canopy, CrownMethod, SurfaceHead};
 use crate::fuel::FuelModel;
-use crate::rothermel::{FuelMoisture, SpreadInputs, SurfaceFuelBed, WindLimit};
+use crate::rothermel::{FuelMoisture, SpreadInputs, SurfaceFireHead, SurfaceFuelBed, WindLimit};
 
 /// How slope enters the kernel.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -330,10 +330,25 @@ pub fn wind_adjustment_factor(fuel_bed_depth_ft: f64, canopy_height_ft: f64, can
 
 /// Compute the surface fire behaviour of every cell. The landscape must have been read with
 /// the fuel layer `params.fuel` names; params must be valid ([`BehaviorParams::validate`]).
+/// The kernel is evaluated for the head of the fire only ([`SurfaceFuelBed::head_with_limit`]:
+/// the grids are the bits the full ellipse gives, a test compares them).
 pub fn surface_behavior_grids(
     land: &LandfireLandscape,
     params: &BehaviorParams,
 ) -> Result<BehaviorGrids, crate::RothermelError> {
+    behavior_grids_with(land, params, SurfaceFuelBed::head_with_limit)
+}
+
+/// [`surface_behavior_grids`] with the head of the fire at a cell given by `head` (the full
+/// kernel, or its head-only path).
+fn behavior_grids_with<H>(
+    land: &LandfireLandscape,
+    params: &BehaviorParams,
+    head: H,
+) -> Result<BehaviorGrids, crate::RothermelError>
+where
+    H: Fn(&SurfaceFuelBed, &SpreadInputs, WindLimit) -> SurfaceFireHead + Sync,
+{
     let moisture = params.moisture.fractions();
     // One prepared bed per code present, indexed by code.
     let mut beds: Vec<Option<(SurfaceFuelBed, f64)>> = Vec::new();
@@ -391,7 +406,7 @@ pub fn surface_behavior_grids(
             slope_percent: slope,
             wind_dir_from_upslope_deg: wrap_degrees(wind_toward - upslope),
         };
-        let fire = bed.spread_with_limit(&inputs, limit);
+        let fire = head(bed, &inputs, limit);
         if fire.head_ros_ftmin > 0.0 {
             let dir = wrap_degrees(upslope + fire.dir_max_spread_from_upslope_deg);
             let canopy = Canopy {
@@ -428,7 +443,7 @@ pub fn surface_behavior_grids(
                     midflame_wind_mph: crown_wind,
                     ..inputs
                 };
-                let fm10_fire = fm10.spread_with_limit(&crown_inputs, limit);
+                let fm10_fire = head(&fm10, &crown_inputs, limit);
                 let r_active = crate::crown::ROTHERMEL_CROWN_FACTOR * fm10_fire.head_ros_ftmin * FT_TO_M;
                 let surface = SurfaceHead {
                     ros_m_min: fire.head_ros_ftmin * FT_TO_M,
@@ -439,7 +454,8 @@ pub fn surface_behavior_grids(
                 } else {
                     wind_adjustment_factor(*depth, canopy_ft, cover)
                 };
-                let r_sa = |r_crit: f64| surface_rate_at_critical_wind(bed, &fm10, slope, waf, r_crit, limit);
+                let r_sa =
+                    |r_crit: f64| surface_rate_at_critical_wind(&head, bed, &fm10, slope, waf, r_crit, limit);
                 if let Some(crown) = crate::crown::crown_fire(
                     params.crown,
                     surface,
@@ -528,6 +544,7 @@ const FT_TO_M: f64 = 0.3048;
 /// wind for which Rothermel's crown rate 3.34 · R₁₀ (wind × 0.4, upslope) reaches `r_crit`
 /// (m/min), found by bisection; `waf` reduces the 20-ft wind to the surface fuel's midflame.
 fn surface_rate_at_critical_wind(
+    head: impl Fn(&SurfaceFuelBed, &SpreadInputs, WindLimit) -> SurfaceFireHead,
     bed: &SurfaceFuelBed,
     fm10: &SurfaceFuelBed,
     slope_percent: f64,
@@ -542,9 +559,7 @@ fn surface_rate_at_critical_wind(
     };
     let crown_rate = |u20: f64| {
         crate::crown::ROTHERMEL_CROWN_FACTOR
-            * fm10
-                .spread_with_limit(&upslope(u20 * crate::crown::CROWN_WIND_REDUCTION), limit)
-                .head_ros_ftmin
+            * head(fm10, &upslope(u20 * crate::crown::CROWN_WIND_REDUCTION), limit).head_ros_ftmin
             * FT_TO_M
     };
     let (mut lo, mut hi) = (0.0f64, 1.0f64);
@@ -564,7 +579,7 @@ fn surface_rate_at_critical_wind(
             }
         }
     }
-    bed.spread_with_limit(&upslope(hi * waf), limit).head_ros_ftmin * FT_TO_M
+    head(bed, &upslope(hi * waf), limit).head_ros_ftmin * FT_TO_M
 }
 
 /// Minimum, maximum and mean of a grid over the cells that burn.
@@ -869,16 +884,100 @@ mod tests {
         let moisture = MoisturePercent::parse("6,8,10,75,60").expect("five").fractions();
         let fm10 = SurfaceFuelBed::new(FuelModel::by_number(10).expect("FM10"), &moisture).expect("bed");
         for (slope, r_crit) in [(0.0, 20.0), (30.0, 12.0), (80.0, 40.0)] {
-            let r_sa = surface_rate_at_critical_wind(&fm10, &fm10, slope, 0.4, r_crit, WindLimit::Off);
+            let r_sa = surface_rate_at_critical_wind(
+                SurfaceFuelBed::head_with_limit,
+                &fm10,
+                &fm10,
+                slope,
+                0.4,
+                r_crit,
+                WindLimit::Off,
+            );
             assert!(
                 (r_sa / (r_crit / 3.34) - 1.0).abs() < 1e-9,
                 "{slope} {r_crit} {r_sa}"
             );
         }
         // Slope alone past the threshold: the critical wind is 0.
-        let steep = surface_rate_at_critical_wind(&fm10, &fm10, 100.0, 0.4, 0.5, WindLimit::Off);
+        let steep = surface_rate_at_critical_wind(
+            SurfaceFuelBed::head_with_limit,
+            &fm10,
+            &fm10,
+            100.0,
+            0.4,
+            0.5,
+            WindLimit::Off,
+        );
         let calm = fm10.spread(&SpreadInputs::upslope(0.0, 100.0)).head_ros_ftmin * FT_TO_M;
         assert_eq!(steep, calm);
+    }
+
+    /// The head-only kernel gives the grids the full ellipse gives, bit for bit, on the
+    /// Worcester clip in every configuration that takes another path through the kernel: no
+    /// wind, wind from several sides, the wind limit, `.lcp` slope, both crown methods and none,
+    /// dry fuel (crown fire), FBFM13.
+    #[test]
+    fn the_head_only_kernel_gives_the_full_kernels_grids() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../firecast-landscape/tests/fixtures/landfire-worcester/landfire");
+        let f40 = LandfireLandscape::read_dir(&dir, FuelLayer::Fbfm40).expect("Worcester FBFM40");
+        let f13 = LandfireLandscape::read_dir(&dir, FuelLayer::Fbfm13).expect("Worcester FBFM13");
+        let base: BehaviorParams = serde_json::from_value(serde_json::json!({
+            "moisture": {"dead_1h": 6, "dead_10h": 8, "dead_100h": 10, "live_herbaceous": 75, "live_woody": 60},
+            "foliar_moisture_pct": 120
+        }))
+        .expect("valid");
+        let dry = MoisturePercent::parse("3,4,5,30,60").expect("five");
+        let with = |f: &dyn Fn(&mut BehaviorParams)| {
+            let mut p = base.clone();
+            f(&mut p);
+            p
+        };
+        let configs = [
+            base.clone(),
+            with(&|p| (p.wind_20ft_mph, p.wind_from_deg) = (15.0, 225.0)),
+            with(&|p| (p.wind_20ft_mph, p.wind_from_deg) = (8.0, 0.0)),
+            with(&|p| (p.wind_20ft_mph, p.crown) = (12.0, CrownMethod::ScottReinhardt)),
+            with(&|p| (p.wind_20ft_mph, p.slope, p.wind_limit) = (25.0, SlopeMode::LcpWholeDegrees, true)),
+            with(&|p| (p.moisture, p.wind_20ft_mph, p.wind_from_deg) = (dry, 25.0, 200.0)),
+            with(&|p| {
+                (p.moisture, p.wind_20ft_mph, p.crown, p.wind_limit) =
+                    (dry, 40.0, CrownMethod::ScottReinhardt, true)
+            }),
+            with(&|p| (p.moisture, p.wind_20ft_mph, p.crown) = (dry, 20.0, CrownMethod::None)),
+        ];
+        let bits = |g: &BehaviorGrids| -> Vec<u32> {
+            [
+                &g.ros_chph,
+                &g.flame_length_ft,
+                &g.fireline_intensity_btu_ft_s,
+                &g.max_spread_dir_deg,
+                &g.fire_type,
+                &g.midflame_wind_mph,
+            ]
+            .iter()
+            .flat_map(|v| v.iter().map(|x| x.to_bits()))
+            .collect()
+        };
+        let full = |bed: &SurfaceFuelBed, inputs: &SpreadInputs, limit: WindLimit| {
+            SurfaceFireHead::from(&bed.spread_with_limit(inputs, limit))
+        };
+        let mut crown_cells = 0;
+        for (k, params) in configs.iter().enumerate() {
+            for (land, name) in [(&f40, "fbfm40"), (&f13, "fbfm13")] {
+                if name == "fbfm13" && k % 3 != 0 {
+                    continue;
+                }
+                let head = surface_behavior_grids(land, params).expect("grids");
+                let ellipse = behavior_grids_with(land, params, full).expect("grids");
+                assert!(bits(&head) == bits(&ellipse), "config {k} on {name}: {params:?}");
+                crown_cells += head.fire_type.iter().filter(|&&t| t >= 2.0).count();
+            }
+        }
+        assert!(
+            crown_cells > 1000,
+            "{crown_cells} crown cells: the crown paths ran"
+        );
     }
 
     #[test]

@@ -45,7 +45,7 @@ pub use env::{Action, EnvConfig, Observation, RewardWeights, StepInfo, Terminati
 pub use fuel::{FuelModel, UnknownFuelModel};
 pub use random::{PythonRandom, RandomSource};
 pub use rothermel::{
-    FuelBedIntermediates, FuelMoisture, RothermelError, SpreadInputs, SurfaceFireBehavior, SurfaceFuelBed,
-    WindLimit,
+    FuelBedIntermediates, FuelMoisture, RothermelError, SpreadInputs, SurfaceFireBehavior, SurfaceFireHead,
+    SurfaceFuelBed, WindLimit,
 };
 pub use spread_csv::{SpreadCsvError, spread_rate_csv};

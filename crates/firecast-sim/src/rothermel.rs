@@ -609,6 +609,67 @@ impl SurfaceFuelBed {
         if r0 <= 0.0 {
             return SurfaceFireBehavior::no_fire(self);
         }
+        let v = self.head_vector(r0, inputs);
+        let (head_ros, effective_wind, wind_limit_applied) = self.limit_head(r0, v.head_ros_ftmin, limit);
+
+        let lw = length_to_width_ratio(effective_wind / FT_PER_MIN_PER_MPH);
+        let eccentricity = (lw * lw - 1.0).sqrt() / lw;
+        let backing = head_ros * (1.0 - eccentricity) / (1.0 + eccentricity);
+        let flanking = 0.5 * (head_ros + backing) / lw;
+        let (fireline_intensity, flame_length) = self.head_intensity(head_ros);
+
+        SurfaceFireBehavior {
+            no_wind_no_slope_ros_ftmin: r0,
+            head_ros_ftmin: head_ros,
+            backing_ros_ftmin: backing,
+            flanking_ros_ftmin: flanking,
+            dir_max_spread_from_upslope_deg: v.dir_deg,
+            wind_factor: v.phi_w,
+            slope_factor: v.phi_s,
+            effective_wind_ftmin: effective_wind,
+            wind_limit_applied,
+            length_to_width_ratio: lw,
+            eccentricity,
+            reaction_intensity_btu_ft2_min: self.reaction_intensity_btu_ft2_min(),
+            heat_per_unit_area_btu_ft2: self.heat_per_unit_area_btu_ft2(),
+            fireline_intensity_btu_ft_s: fireline_intensity,
+            flame_length_ft: flame_length,
+        }
+    }
+
+    /// The head of the fire alone: [`spread_with_limit`](Self::spread_with_limit)'s head rate,
+    /// direction of maximum spread, fireline intensity and flame length, the same bits, without
+    /// the rest of the ellipse (the effective wind's power, unless the wind limit needs it; the
+    /// length-to-width ratio's two exponentials; backing and flanking rates). What a fire
+    /// behaviour grid writes.
+    pub fn head_with_limit(&self, inputs: &SpreadInputs, limit: WindLimit) -> SurfaceFireHead {
+        let r0 = self.no_wind_no_slope_ros_ftmin();
+        if r0 <= 0.0 {
+            return SurfaceFireHead {
+                head_ros_ftmin: 0.0,
+                dir_max_spread_from_upslope_deg: 0.0,
+                fireline_intensity_btu_ft_s: 0.0,
+                flame_length_ft: 0.0,
+            };
+        }
+        let v = self.head_vector(r0, inputs);
+        let head_ros = match limit {
+            WindLimit::Off => v.head_ros_ftmin,
+            WindLimit::Rothermel => self.limit_head(r0, v.head_ros_ftmin, limit).0,
+        };
+        let (fireline_intensity, flame_length) = self.head_intensity(head_ros);
+        SurfaceFireHead {
+            head_ros_ftmin: head_ros,
+            dir_max_spread_from_upslope_deg: v.dir_deg,
+            fireline_intensity_btu_ft_s: fireline_intensity,
+            flame_length_ft: flame_length,
+        }
+    }
+
+    /// Wind and slope factors, and the head rate and direction before any wind limit, for a
+    /// bed with R₀ = `r0` > 0.
+    #[inline]
+    fn head_vector(&self, r0: f64, inputs: &SpreadInputs) -> HeadVector {
         let phi_w = self.wind_factor(inputs.midflame_wind_mph * FT_PER_MIN_PER_MPH);
         let phi_s = self.slope_factor(inputs.slope_percent);
 
@@ -620,59 +681,98 @@ impl SurfaceFuelBed {
 
         // Vector sum in a frame whose x axis points upslope, y axis 90° clockwise from it.
         let wind_rate = r0 * phi_w;
+        if wind_rate == 0.0 && inputs.wind_dir_from_upslope_deg.is_finite() {
+            // No wind: the sum below is x = r0·φ_s + (±0) = r0·φ_s ≥ 0 and y = ±0, so its length
+            // is x (hypot(x, ±0) = |x|) and its azimuth atan2(±0, x) = ±0, which behave reports
+            // as 0: the same bits without the sine, cosine, hypot and atan2.
+            return HeadVector {
+                phi_w,
+                phi_s,
+                head_ros_ftmin: r0 + r0 * phi_s,
+                dir_deg: 0.0,
+            };
+        }
         let (sin_w, cos_w) = inputs.wind_dir_from_upslope_deg.to_radians().sin_cos();
         let x = r0 * phi_s + wind_rate * cos_w;
         let y = wind_rate * sin_w;
         let vector_rate = x.hypot(y);
-        let mut head_ros = r0 + vector_rate;
-        let dir_deg = behave_azimuth_deg(y.atan2(x).to_degrees());
+        HeadVector {
+            phi_w,
+            phi_s,
+            head_ros_ftmin: r0 + vector_rate,
+            dir_deg: behave_azimuth_deg(y.atan2(x).to_degrees()),
+        }
+    }
 
-        // Effective wind: the wind speed that alone would give the combined rate.
+    /// The effective wind (the wind speed that alone would give the head rate, ft/min) and, with
+    /// Rothermel's limit, the head rate capped where it exceeds 0.9·I_R: (head rate, effective
+    /// wind, whether the limit capped it).
+    #[inline]
+    fn limit_head(&self, r0: f64, head_ros: f64, limit: WindLimit) -> (f64, f64, bool) {
         let phi_e = head_ros / r0 - 1.0;
-        let mut effective_wind = if phi_e > 0.0 {
+        let effective_wind = if phi_e > 0.0 {
             (phi_e / self.wind_coefficient).powf(1.0 / self.wind_exponent_b)
         } else {
             0.0
         };
-        let mut wind_limit_applied = false;
         if limit == WindLimit::Rothermel {
             let max_wind = 0.9 * self.reaction_intensity_btu_ft2_min();
             if effective_wind > max_wind {
-                effective_wind = max_wind;
-                head_ros = r0 * (1.0 + self.wind_factor(max_wind));
-                wind_limit_applied = true;
+                return (r0 * (1.0 + self.wind_factor(max_wind)), max_wind, true);
             }
         }
+        (head_ros, effective_wind, false)
+    }
 
-        let lw = length_to_width_ratio(effective_wind / FT_PER_MIN_PER_MPH);
-        let eccentricity = (lw * lw - 1.0).sqrt() / lw;
-        let backing = head_ros * (1.0 - eccentricity) / (1.0 + eccentricity);
-        let flanking = 0.5 * (head_ros + backing) / lw;
-
-        let hpua = self.heat_per_unit_area_btu_ft2();
-        let fireline_intensity = hpua * head_ros / 60.0;
+    /// Byram's fireline intensity (Btu/ft/s) and flame length (ft) at a head rate (ft/min).
+    #[inline]
+    fn head_intensity(&self, head_ros: f64) -> (f64, f64) {
+        let fireline_intensity = self.heat_per_unit_area_btu_ft2() * head_ros / 60.0;
         let flame_length = if fireline_intensity > 0.0 {
             0.45 * fireline_intensity.powf(0.46)
         } else {
             0.0
         };
+        (fireline_intensity, flame_length)
+    }
+}
 
-        SurfaceFireBehavior {
-            no_wind_no_slope_ros_ftmin: r0,
-            head_ros_ftmin: head_ros,
-            backing_ros_ftmin: backing,
-            flanking_ros_ftmin: flanking,
-            dir_max_spread_from_upslope_deg: dir_deg,
-            wind_factor: phi_w,
-            slope_factor: phi_s,
-            effective_wind_ftmin: effective_wind,
-            wind_limit_applied,
-            length_to_width_ratio: lw,
-            eccentricity,
-            reaction_intensity_btu_ft2_min: self.reaction_intensity_btu_ft2_min(),
-            heat_per_unit_area_btu_ft2: hpua,
-            fireline_intensity_btu_ft_s: fireline_intensity,
-            flame_length_ft: flame_length,
+/// [`SurfaceFuelBed::head_vector`]'s result.
+struct HeadVector {
+    phi_w: f64,
+    phi_s: f64,
+    head_ros_ftmin: f64,
+    dir_deg: f64,
+}
+
+/// The head of a surface fire ([`SurfaceFuelBed::head_with_limit`]): the fields of
+/// [`SurfaceFireBehavior`] a fire behaviour grid writes, equal to them bit for bit.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct SurfaceFireHead {
+    /// Head-fire (maximum) rate of spread, ft/min.
+    pub head_ros_ftmin: f64,
+    /// Direction of maximum spread, degrees clockwise from upslope, in [0, 360).
+    pub dir_max_spread_from_upslope_deg: f64,
+    /// Byram fireline intensity at the head, Btu/ft/s.
+    pub fireline_intensity_btu_ft_s: f64,
+    /// Byram flame length at the head, ft.
+    pub flame_length_ft: f64,
+}
+
+impl SurfaceFireHead {
+    /// Head rate in chains per hour.
+    pub fn head_ros_chph(&self) -> f64 {
+        self.head_ros_ftmin / FT_PER_MIN_PER_CH_PER_H
+    }
+}
+
+impl From<&SurfaceFireBehavior> for SurfaceFireHead {
+    fn from(fire: &SurfaceFireBehavior) -> Self {
+        Self {
+            head_ros_ftmin: fire.head_ros_ftmin,
+            dir_max_spread_from_upslope_deg: fire.dir_max_spread_from_upslope_deg,
+            fireline_intensity_btu_ft_s: fire.fireline_intensity_btu_ft_s,
+            flame_length_ft: fire.flame_length_ft,
         }
     }
 }
@@ -853,5 +953,54 @@ mod tests {
         assert!((behave_azimuth_deg(-90.0) - 270.0).abs() < 1e-12);
         // Just below 0 maps just below 360: the snap is one-sided, as in behave.
         assert!(behave_azimuth_deg(-0.3) > 359.0);
+    }
+
+    /// The head-only path gives the full path's head, direction, intensity and flame length
+    /// bit for bit: every standard model, wet and dry, calm and windy from every side, flat
+    /// and steep, with and without the wind limit.
+    #[test]
+    fn the_head_alone_is_the_full_ellipses_head_bit_for_bit() {
+        let moistures = [
+            FuelMoisture::from_percent(6.0, 8.0, 10.0, 75.0, 60.0),
+            FuelMoisture::from_percent(3.0, 4.0, 5.0, 30.0, 60.0),
+            FuelMoisture::from_percent(25.0, 25.0, 25.0, 200.0, 200.0),
+        ];
+        let mut compared = 0;
+        for model in FuelModel::standard() {
+            for moisture in &moistures {
+                let bed = SurfaceFuelBed::new(model, moisture).expect("bed");
+                for wind in [0.0, 0.5, 3.0, 12.0, 40.0] {
+                    for slope in [0.0, 7.0, 35.0, 120.0] {
+                        for dir in [0.0, 45.0, 90.0, 179.9, 180.0, 271.0, -30.0, 359.99] {
+                            for limit in [WindLimit::Off, WindLimit::Rothermel] {
+                                let inputs = SpreadInputs {
+                                    midflame_wind_mph: wind,
+                                    slope_percent: slope,
+                                    wind_dir_from_upslope_deg: dir,
+                                };
+                                let full = bed.spread_with_limit(&inputs, limit);
+                                let head = bed.head_with_limit(&inputs, limit);
+                                let bits = |h: &SurfaceFireHead| {
+                                    [
+                                        h.head_ros_ftmin.to_bits(),
+                                        h.dir_max_spread_from_upslope_deg.to_bits(),
+                                        h.fireline_intensity_btu_ft_s.to_bits(),
+                                        h.flame_length_ft.to_bits(),
+                                    ]
+                                };
+                                assert_eq!(
+                                    bits(&head),
+                                    bits(&SurfaceFireHead::from(&full)),
+                                    "{} {inputs:?} {limit:?}",
+                                    model.code
+                                );
+                                compared += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(compared > 40_000, "{compared}");
     }
 }
