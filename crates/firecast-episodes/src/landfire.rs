@@ -9,7 +9,9 @@
 //! data becomes non-burnable (NB9, [`NODATA_FUEL_CODE`]), and every such cell is counted in the
 //! landscape's label. Both spread engines take slope and aspect from the elevation between
 //! cells, as they do on every landscape; the window's slope, aspect and canopy layers are kept
-//! ([`LandfireSite::layers`]) for an engine that reads them.
+//! ([`LandfireSite::layers`]), and [`LandfireSite::mtt_arrival_h`] spreads a fire with the MTT
+//! engine over them (LANDFIRE's slope and aspect, FlamMap's wind adjustment under the canopy), as
+//! `firecast bench spread` does.
 
 use std::collections::{BTreeMap, VecDeque};
 use std::path::{Path, PathBuf};
@@ -17,7 +19,10 @@ use std::path::{Path, PathBuf};
 use firecast_landscape::landfire::{FuelLayer, LandfireError, LandfireLandscape, LayerKind};
 use firecast_landscape::{Crs, GeoReference, Landscape};
 use firecast_sim::FuelModel;
-use firecast_spread::bench::{Window, crop};
+use firecast_sim::behavior::{BehaviorParams, FuelChoice, MoisturePercent, SlopeMode};
+use firecast_sim::crown::CrownMethod;
+use firecast_spread::bench::{Window, crop, landfire_arrival_lazy_h};
+use firecast_spread::mtt::MttConfig;
 use serde::{Deserialize, Serialize};
 
 use crate::EpisodeError;
@@ -375,6 +380,55 @@ impl LandfireSite {
             self.cells.elevation_nodata,
             self.cells.unknown_codes,
         )
+    }
+
+    /// Arrival time per cell in hours (`f64::INFINITY` where the fire does not arrive by
+    /// `cfg.max_time_h`; simulator cell order, row 0 south) of a fire lit at simulator cell
+    /// `ignition`, spread by the MTT engine over the window's own layers: LANDFIRE's slope and
+    /// aspect, the 20-ft wind reduced to midflame by FlamMap's adjustment (sheltered under a
+    /// canopy), surface fire only, each cell's ellipse evaluated when the fire first reaches it
+    /// (`firecast_spread::bench::LandfireEllipses`). None when the wind is given at midflame (the
+    /// adjustment needs a 20-ft or 10-m wind; 10-m = 1.15 × 20-ft).
+    pub fn mtt_arrival_h(
+        &self,
+        cfg: &MttConfig,
+        ignition: (usize, usize),
+    ) -> Result<Option<Vec<f64>>, EpisodeError> {
+        let wind = cfg.wind;
+        let wind_20ft_mph = match wind.measured_at {
+            firecast_sim::WindHeight::Midflame => return Ok(None),
+            firecast_sim::WindHeight::TwentyFoot => wind.speed_mph,
+            firecast_sim::WindHeight::TenMetre => wind.speed_mph / 1.15,
+        };
+        let m = cfg.moisture;
+        let params = BehaviorParams {
+            fuel: match self.layers.fuel_layer {
+                FuelLayer::Fbfm40 => FuelChoice::Fbfm40,
+                FuelLayer::Fbfm13 => FuelChoice::Fbfm13,
+            },
+            moisture: MoisturePercent {
+                dead_1h: 100.0 * m.dead_1h_frac,
+                dead_10h: 100.0 * m.dead_10h_frac,
+                dead_100h: 100.0 * m.dead_100h_frac,
+                live_herbaceous: 100.0 * m.live_herb_frac,
+                live_woody: 100.0 * m.live_woody_frac,
+            },
+            wind_20ft_mph,
+            wind_from_deg: wind.from_direction_deg,
+            slope: SlopeMode::AsGiven,
+            wind_limit: false,
+            crown: CrownMethod::None,
+            foliar_moisture_pct: 100.0,
+        };
+        let run = landfire_arrival_lazy_h(
+            &self.layers,
+            &params,
+            &[ignition],
+            cfg.stencil_radius,
+            cfg.max_time_h,
+        )
+        .map_err(|e| EpisodeError::Engine(format!("minimum travel time on the LANDFIRE layers: {e}")))?;
+        Ok(Some(run.arrival_h(self.landscape.len())))
     }
 
     /// Why simulator cell (`x`, `y`) (row 0 south) cannot burn, naming the LANDFIRE cell and the

@@ -734,6 +734,46 @@ impl<'a> LandfireEllipses<'a> {
     }
 }
 
+/// A fire on a LANDFIRE landscape spread by the MTT engine over the cells' own slope, aspect and
+/// canopy ([`LandfireEllipses`]), each cell's ellipse evaluated when the fire's moves first
+/// reach it: `ignitions` as (column, row) of the MTT grid (row 0 south), `hours` the time limit.
+/// A kernel error (a fuel model that cannot be prepared) stops the fire where it occurs and is
+/// returned after the run.
+pub fn landfire_arrival_lazy_h(
+    land: &LandfireLandscape,
+    params: &BehaviorParams,
+    ignitions: &[(usize, usize)],
+    stencil_radius: u32,
+    hours: f64,
+) -> Result<crate::mtt::LazyRun, BenchError> {
+    let mut ellipses = LandfireEllipses::new(land, params);
+    let cell_ft = ellipses.cell_size_ft();
+    let mut failed = None;
+    let run = arrival_times_lazy_h(
+        land.grid.width,
+        land.grid.height,
+        cell_ft,
+        |j| {
+            let i = ellipses.landscape_index(j);
+            ellipses.at(i).unwrap_or_else(|e| {
+                failed.get_or_insert(e);
+                Ellipse {
+                    head_ftmin: 0.0,
+                    eccentricity: 0.0,
+                    head_azimuth_deg: 0.0,
+                }
+            })
+        },
+        ignitions,
+        stencil_radius,
+        hours,
+    )?;
+    match failed {
+        Some(e) => Err(e),
+        None => Ok(run),
+    }
+}
+
 /// The burnt areas of the two engines.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct BurntAreas {
@@ -833,33 +873,13 @@ pub fn bench_spread(
     // fire's moves first reach it; timed together, on one thread, around pyretechnics' runs.
     let ours = || -> Result<(f64, crate::mtt::LazyRun), BenchError> {
         let started = Instant::now();
-        let mut ellipses = LandfireEllipses::new(&land, &opts.params);
-        let cell_ft = ellipses.cell_size_ft();
-        // A kernel error (a fuel model that cannot be prepared) stops the fire where it
-        // occurs and is returned after the run.
-        let mut failed = None;
-        let run = arrival_times_lazy_h(
-            w,
-            h,
-            cell_ft,
-            |j| {
-                let i = ellipses.landscape_index(j);
-                ellipses.at(i).unwrap_or_else(|e| {
-                    failed.get_or_insert(e);
-                    Ellipse {
-                        head_ftmin: 0.0,
-                        eccentricity: 0.0,
-                        head_azimuth_deg: 0.0,
-                    }
-                })
-            },
+        let run = landfire_arrival_lazy_h(
+            &land,
+            &opts.params,
             &[(icol, h - 1 - irow)],
             stencil_radius,
             hours,
         )?;
-        if let Some(e) = failed {
-            return Err(e);
-        }
         Ok((started.elapsed().as_secs_f64(), run))
     };
     let (seconds, run, peer) = around_peer(opts.repeats, ours, || run_peer(&opts.python, &opts.work, job))?;

@@ -172,6 +172,43 @@ fn the_lcp_and_the_geotiff_layers_give_the_same_fires() {
     assert!(burnt > 5, "{burnt}");
 }
 
+/// The MTT engine over the window's own slope, aspect and canopy (what the free-spread ensemble
+/// can call instead of the elevation-derived slope): the fire starts at the ignition, burns only
+/// burnable cells, and a midflame wind (which FlamMap's adjustment cannot take) gives None.
+#[test]
+fn the_mtt_engine_runs_on_the_windows_own_layers() {
+    use firecast_spread::mtt::{DEFAULT_STENCIL_RADIUS, MttConfig};
+    let spec = landfire(fixture("landfire"), Some(lat_lon(60, 105)), Some([80, 60]));
+    let setup = Setup::new(scenario(spec, 8), Path::new("."), Some(lat_lon(52, 100))).unwrap();
+    let site = setup.scenario.landscape.landfire_site().unwrap();
+    let env = setup.env();
+    let firecast_sim::KernelConfig::Rothermel { moisture, .. } = env.sim.kernel else {
+        unreachable!()
+    };
+    let mut cfg = MttConfig {
+        moisture,
+        wind: env.sim.wind,
+        stencil_radius: DEFAULT_STENCIL_RADIUS,
+        max_time_h: 8.0,
+    };
+    let [x, y] = setup.ignition;
+    let arrival = site.mtt_arrival_h(&cfg, (x, y)).unwrap().unwrap();
+    let land = &setup.landscape;
+    assert_eq!(arrival.len(), land.len());
+    assert_eq!(arrival[land.index(x, y)], 0.0);
+    let burnt: Vec<usize> = (0..arrival.len()).filter(|&i| arrival[i] <= 8.0).collect();
+    assert!(burnt.len() > 20, "{} cells in 8 h", burnt.len());
+    for &i in &burnt {
+        let code = land.land_cover[i];
+        assert!(
+            firecast_sim::FuelModel::by_number(code).is_some_and(|m| m.burnable),
+            "cell {i} burnt on fuel code {code}"
+        );
+    }
+    cfg.wind.measured_at = firecast_sim::WindHeight::Midflame;
+    assert_eq!(site.mtt_arrival_h(&cfg, (x, y)).unwrap(), None);
+}
+
 fn setup_error(spec: LandscapeSpec, ignition: Option<[f64; 2]>) -> String {
     match Setup::new(scenario(spec, 1), Path::new("."), ignition) {
         Ok(_) => panic!("accepted"),
