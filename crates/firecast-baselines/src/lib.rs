@@ -27,17 +27,17 @@
 //! - LR and NB return probabilities with scikit-learn's `float32` final arithmetic
 //!   (it keeps `float32` input in `float32`): its saturation at exactly 0 and 1 creates
 //!   ties that move AUROC by more than 0.01 on wide data, so the ties are kept.
-//! - **`decision_tree`**, **`random_forest`**: CART with scikit-learn's best-split search
-//!   (midpoint thresholds, its 1e-7 tie gap, strict-improvement rule, `max_features`
-//!   draws counting constant features, leaf rules, Gini proxy); bootstrap counts as
-//!   sample weights; forest probability = mean of the trees' leaf fractions. The random
-//!   streams are ChaCha8, not NumPy's, so trees differ from scikit-learn's wherever a
-//!   random choice matters (bootstrap, feature subsets, exact ties between features).
-//! - **`gradient_boosting`**: log-loss boosting with prior log-odds init (scipy's
-//!   `logit`), squared-error regression trees on the negative gradient (scikit-learn 1.9
-//!   maps `friedman_mse` to `squared_error`), Newton leaf values and shrinkage. The
-//!   features are sorted once and reused by every tree; each level scans all features in
-//!   parallel (exact splits, not histograms).
+//! - **`decision_tree`**, **`random_forest`**, **`gradient_boosting`**: scikit-learn's
+//!   trees themselves. For the same `random_state` (the `seed` of [`fit`]) and
+//!   hyper-parameters every tree has the same split features, thresholds and node values
+//!   (the tests compare `tree_` arrays node by node) and the probabilities are equal: its
+//!   NumPy streams (`RandomState` per-tree seeds, bootstrap draws, boosting's subsample
+//!   mask), its splitter (xorshift feature draws over a persistent feature array,
+//!   constant-feature tracking, introsort of the node's samples and in-place partition, so
+//!   ties and float sums come out in its order), Gini / squared-error criteria with its
+//!   update and improvement rules, the depth-first builder, boosting's prior log-odds init
+//!   (scipy's `logit`) and Newton leaf values with NumPy's pairwise sums. Forest trees grow
+//!   in parallel; each tree, like scikit-learn's, is sequential.
 //! - **`knn`**: brute-force Euclidean neighbours. `f32` dot-product estimates with
 //!   rigorous error bounds select the candidates, whose distances are then computed
 //!   exactly in `f64`; equal distances resolve to the lower training index.

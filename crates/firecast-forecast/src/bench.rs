@@ -1164,8 +1164,9 @@ pub fn run(
 
     let notes = vec![
         format!(
-            "bounds: |Δ accuracy| ≤ {ACCURACY_BOUND_POINTS} points and |Δ AUROC| ≤ {AUROC_BOUND}; accuracy at \
-             threshold 0.5 (scikit-learn's predict) on both sides"
+            "bounds: |Δ accuracy| ≤ {ACCURACY_BOUND_POINTS} points, both at threshold 0.5 (scikit-learn's \
+             predict) and at each side's Table III threshold (its rule on its own validation scores), and \
+             |Δ AUROC| ≤ {AUROC_BOUND}"
         ),
         format!(
             "threads: {threads} on both sides (rayon and libtorch; n_jobs / nthread / torch.set_num_threads and \
