@@ -181,6 +181,29 @@ pub struct Ensemble {
     /// Per cell: the time by which at least half of the runs had burned it, hours (None: it
     /// burned in fewer than half).
     pub arrival_median_h: Vec<Option<f32>>,
+    /// How the map grew until the runs stayed inside it (`grow` on an MTT ensemble), or the
+    /// size another ensemble's growth chose (`domain` input). None: the map as given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub domain: Option<DomainGrowth>,
+}
+
+/// The map's growth: the size asked for, the size the runs burned on, and whether that size
+/// held every run (no burnt cell on the border).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DomainGrowth {
+    /// [width, height] in cells as the landscape was given.
+    pub base: [usize; 2],
+    /// [width, height] in cells the runs burned on.
+    pub size: [usize; 2],
+    /// Largest growth allowed, per side (the map's width and height at most this many times
+    /// the base).
+    pub max_factor: u32,
+    /// Sizes tried, the last included (1: the base size held every run).
+    pub rounds: u32,
+    /// Every run stayed off the border at `size` (false: the largest size was reached and some
+    /// runs still burned border cells; the burnt area is then a lower bound).
+    pub contained: bool,
 }
 
 impl Ensemble {
@@ -339,6 +362,8 @@ pub struct Setup {
     pub weather: Option<ResolvedWeather>,
     pub ignition: [usize; 2],
     pub perturbation: Perturbation,
+    /// The growth that chose this map's size, when one did (recorded in the ensemble).
+    pub domain: Option<DomainGrowth>,
 }
 
 impl Setup {
@@ -395,6 +420,7 @@ impl Setup {
             weather,
             ignition,
             perturbation: Perturbation::default(),
+            domain: None,
         })
     }
 
@@ -591,6 +617,7 @@ pub fn assemble(
         burn_count,
         arrival_first_h: first.into_iter().map(|t| t.is_finite().then_some(t)).collect(),
         arrival_median_h: median,
+        domain: setup.domain,
     })
 }
 

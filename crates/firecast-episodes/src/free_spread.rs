@@ -7,8 +7,8 @@
 use firecast_sim::KernelConfig;
 use firecast_spread::mtt::{self, MttConfig};
 
-use crate::EpisodeError;
-use crate::ensemble::{Ensemble, EpisodeRecord, Setup, assemble, edge_of};
+use crate::ensemble::{DomainGrowth, Ensemble, EpisodeRecord, Setup, assemble, edge_of};
+use crate::{EpisodeError, LandscapeSpec};
 
 /// What the description of an MTT ensemble says.
 pub const MTT_DESCRIPTION: &str = "no suppression, spread by the minimum-travel-time engine (radius-8 stencil, \
@@ -22,8 +22,93 @@ pub fn run_mtt(
     setup: &Setup,
     runs: usize,
     seed: u64,
+    on_run: impl FnMut(usize),
+) -> Result<Ensemble, EpisodeError> {
+    let out = mtt_runs(setup, runs, seed, false, on_run)?.unwrap_or_default();
+    assemble(setup, "none", MTT_DESCRIPTION.to_string(), out)
+}
+
+/// The same ensemble on a map that grows until no run burns a border cell: the landscape is
+/// rebuilt around the same centre with its width and height doubled, at most `max_factor`
+/// times the base. `setup_at(width, height)` builds the setup at a size (the base size first).
+/// A round stops at the first run that reaches the border. Only landscapes that can be built
+/// at any size around their centre grow (see [`resized`]).
+pub fn run_mtt_growing(
+    mut setup_at: impl FnMut(usize, usize) -> Result<Setup, EpisodeError>,
+    base: [usize; 2],
+    max_factor: u32,
+    runs: usize,
+    seed: u64,
     mut on_run: impl FnMut(usize),
 ) -> Result<Ensemble, EpisodeError> {
+    let mut factor = 1u32;
+    let mut rounds = 0u32;
+    loop {
+        rounds += 1;
+        let size = [base[0] * factor as usize, base[1] * factor as usize];
+        let setup = setup_at(size[0], size[1])?;
+        let last = factor.saturating_mul(2) > max_factor;
+        if let Some(out) = mtt_runs(&setup, runs, seed, !last, &mut on_run)? {
+            let contained = out.iter().all(|(e, _)| e.edge_cells_burned == 0);
+            let mut ensemble = assemble(&setup, "none", MTT_DESCRIPTION.to_string(), out)?;
+            ensemble.domain = Some(DomainGrowth {
+                base,
+                size,
+                max_factor,
+                rounds,
+                contained,
+            });
+            return Ok(ensemble);
+        }
+        factor *= 2;
+    }
+}
+
+/// The landscape spec at another size around the same centre, for the kinds that are
+/// anchored to the world (the synthetic world, GeoTIFF rasters, a LANDFIRE window around a
+/// centre); None for the others (a
+/// procedural map changes with its size, FireCastRL's PNGs have one).
+pub fn resized(spec: &LandscapeSpec, width: usize, height: usize) -> Option<LandscapeSpec> {
+    let mut spec = spec.clone();
+    match &mut spec {
+        LandscapeSpec::Synthetic {
+            width: w, height: h, ..
+        }
+        | LandscapeSpec::Geotiff {
+            width: w, height: h, ..
+        } => {
+            *w = width;
+            *h = height;
+            Some(spec)
+        }
+        // A LANDFIRE window around its centre (read again at the new size).
+        LandscapeSpec::Landfire {
+            center: Some(_),
+            width: w,
+            height: h,
+            site,
+            ..
+        } => {
+            *w = Some(width);
+            *h = Some(height);
+            *site = None;
+            Some(spec)
+        }
+        _ => None,
+    }
+}
+
+/// One run's record and its arrival map, hours.
+type Run = (EpisodeRecord, Vec<f32>);
+
+/// Runs and arrival maps; None when `stop_at_edge` and a run burned a border cell.
+fn mtt_runs(
+    setup: &Setup,
+    runs: usize,
+    seed: u64,
+    stop_at_edge: bool,
+    mut on_run: impl FnMut(usize),
+) -> Result<Option<Vec<Run>>, EpisodeError> {
     let land = &setup.landscape;
     let mut out = Vec::with_capacity(runs);
     for k in 0..runs {
@@ -43,8 +128,17 @@ pub fn run_mtt(
             max_time_h: period_h,
         };
         let [ix, iy] = setup.ignition;
-        let arrival_h = mtt::arrival_times_h(land, &cfg, &[(ix, iy)])
-            .map_err(|e| EpisodeError::Engine(format!("minimum travel time: {e}")))?;
+        // A LANDFIRE window spreads over its own slope, aspect and canopy layers.
+        let site = setup.scenario.landscape.landfire_site();
+        let arrival_h = match site
+            .map(|s| s.mtt_arrival_h(&cfg, (ix, iy)))
+            .transpose()?
+            .flatten()
+        {
+            Some(a) => a,
+            None => mtt::arrival_times_h(land, &cfg, &[(ix, iy)])
+                .map_err(|e| EpisodeError::Engine(format!("minimum travel time: {e}")))?,
+        };
         let arrival: Vec<f32> = arrival_h
             .iter()
             .map(|&t| if t <= period_h { t as f32 } else { f32::INFINITY })
@@ -67,6 +161,9 @@ pub fn run_mtt(
         let last = times.last().copied().unwrap_or(0.0);
         let went_out = last + residence_h <= period_h;
         let (edge_cells_burned, edge_first_hour) = edge_of(&arrival, land.width, land.height);
+        if stop_at_edge && edge_cells_burned > 0 {
+            return Ok(None);
+        }
         out.push((
             EpisodeRecord {
                 seed: s,
@@ -88,5 +185,5 @@ pub fn run_mtt(
         ));
         on_run(k);
     }
-    assemble(setup, "none", MTT_DESCRIPTION.to_string(), out)
+    Ok(Some(out))
 }

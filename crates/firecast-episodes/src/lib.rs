@@ -622,7 +622,7 @@ impl Policy for Replay<'_> {
         let (a, teleport) = self.decisions.get(self.next).copied().unwrap_or((0, None));
         self.next += 1;
         Decision {
-            action: Action::try_from(a).unwrap_or(Action::Down),
+            action: Action::try_from(a).unwrap_or(Action::North),
             teleport,
         }
     }

@@ -741,6 +741,10 @@ pub struct EnsembleParams {
     /// `agent: none` only).
     #[serde(default, skip_serializing_if = "SpreadEngine::is_automaton")]
     pub engine: SpreadEngine,
+    /// `engine: mtt` only: grow the map (around its centre, doubling width and height) until
+    /// no run burns a border cell, at most `max_factor` times the given size per side.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grow: Option<GrowParams>,
     /// How each run departs from the day's wind and fuel moisture.
     #[serde(default)]
     pub perturb: crate::ensemble::Perturbation,
@@ -754,6 +758,19 @@ pub struct EnsembleParams {
 
 fn default_runs() -> usize {
     20
+}
+
+/// How far an MTT ensemble's map may grow.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GrowParams {
+    /// Width and height at most this many times the landscape's (1, 2, 4, 8 or 16).
+    #[serde(default = "default_max_factor")]
+    pub max_factor: u32,
+}
+
+fn default_max_factor() -> u32 {
+    4
 }
 
 impl EnsembleParams {
@@ -779,6 +796,39 @@ impl EnsembleParams {
                         .into(),
             });
         }
+        if let Some(g) = self.grow {
+            if self.engine != SpreadEngine::Mtt {
+                return Err(ParamsError {
+                    path: "grow".into(),
+                    message:
+                        "only the mtt engine grows its map (engine: mtt); the automaton's ensembles take \
+                              the grown size from the input `domain`"
+                            .into(),
+                });
+            }
+            if !matches!(g.max_factor, 1 | 2 | 4 | 8 | 16) {
+                return Err(ParamsError {
+                    path: "grow.max_factor".into(),
+                    message: format!(
+                        "{} is not one of 1, 2, 4, 8, 16 (the map doubles each time)",
+                        g.max_factor
+                    ),
+                });
+            }
+            if !matches!(
+                self.landscape,
+                LandscapeParams::Synthetic { .. }
+                    | LandscapeParams::Geotiff { .. }
+                    | LandscapeParams::Landfire { center: Some(_), .. }
+            ) {
+                return Err(ParamsError {
+                    path: "grow".into(),
+                    message: "only a landscape anchored to the world (synthetic, geotiff, landfire with a center) can \
+                              grow around its centre"
+                        .into(),
+                });
+            }
+        }
         match (agent_required, self.agent) {
             (true, None) => Err(ParamsError {
                 path: "agent".into(),
@@ -794,18 +844,48 @@ impl EnsembleParams {
 }
 
 /// The scenario of an ensemble stage, with its ignition placed and checked.
+/// With the input `domain` (an ensemble file), the landscape takes that ensemble's size: the
+/// automaton's strategies then burn on the map the verified engine's free fire grew to.
 pub fn prepare_ensemble(
     ctx: &StageContext<'_>,
     params: &EnsembleParams,
 ) -> Result<crate::ensemble::Setup, StageError> {
+    let size = match ctx.input("domain") {
+        Ok(path) => {
+            let domain = crate::ensemble::Ensemble::read(path)?;
+            Some((domain.grid.width, domain.grid.height, domain.domain))
+        }
+        Err(_) => None,
+    };
+    let mut setup = prepare_ensemble_sized(ctx, params, size.map(|(w, h, _)| (w, h)))?;
+    if let Some((_, _, growth)) = size {
+        setup.domain = growth;
+    }
+    Ok(setup)
+}
+
+/// The setup at a given size (None: the landscape's own).
+fn prepare_ensemble_sized(
+    ctx: &StageContext<'_>,
+    params: &EnsembleParams,
+    size: Option<(usize, usize)>,
+) -> Result<crate::ensemble::Setup, StageError> {
     let env = serde_path_to_error_env(&params.env).map_err(|e| StageError::msg(e.message))?;
-    let scenario = scenario_of(
+    let mut scenario = scenario_of(
         ctx,
         &params.landscape,
         env,
         params.weather_date.as_deref(),
         params.fuel_moisture,
     )?;
+    if let Some((w, h)) = size {
+        scenario.landscape = crate::free_spread::resized(&scenario.landscape, w, h).ok_or_else(|| {
+            StageError::msg(
+                "input `domain`: this landscape cannot be built at another size (only synthetic and geotiff \
+                 landscapes can)",
+            )
+        })?;
+    }
     let setup =
         crate::ensemble::Setup::new(scenario, ctx.root(), params.ignition)?.with_perturbation(params.perturb);
     if let Some(w) = &setup.weather {
@@ -818,7 +898,17 @@ pub fn prepare_ensemble(
 }
 
 /// Ports shared by `sim.ensemble` and `rl.ensemble` (which adds `policy`).
-pub const ENSEMBLE_INPUTS: &[Port] = INPUTS;
+pub const ENSEMBLE_INPUTS: &[Port] = &[
+    INPUTS[0],
+    INPUTS[1],
+    INPUTS[2],
+    Port {
+        name: "domain",
+        required: false,
+        many: false,
+        description: "an ensemble whose map size to burn on (the size an MTT ensemble's `grow` chose)",
+    },
+];
 pub const ENSEMBLE_OUTPUTS: &[Port] = &[Port {
     name: "ensemble",
     required: true,
@@ -903,9 +993,41 @@ impl StageKind for EnsembleStage {
             SpreadEngine::Automaton => {
                 crate::ensemble::run_agent(&setup, agent, params.runs, params.seed, |_| bar.inc(1))?
             }
-            SpreadEngine::Mtt => {
-                crate::free_spread::run_mtt(&setup, params.runs, params.seed, |_| bar.inc(1))?
-            }
+            SpreadEngine::Mtt => match params.grow {
+                None => crate::free_spread::run_mtt(&setup, params.runs, params.seed, |_| bar.inc(1))?,
+                Some(g) => {
+                    let base = [setup.landscape.width, setup.landscape.height];
+                    let mut first = Some(setup);
+                    let ensemble = crate::free_spread::run_mtt_growing(
+                        |w, h| {
+                            bar.set_position(0);
+                            match first.take() {
+                                Some(s) if [s.landscape.width, s.landscape.height] == [w, h] => Ok(s),
+                                _ => {
+                                    ctx.log(format!(
+                                        "a run reached the map's edge: growing the map to {w} × {h} cells"
+                                    ));
+                                    prepare_ensemble_sized(ctx, &params, Some((w, h))).map_err(|e| {
+                                        crate::EpisodeError::Engine(format!("growing the map: {e}"))
+                                    })
+                                }
+                            }
+                        },
+                        base,
+                        g.max_factor,
+                        params.runs,
+                        params.seed,
+                        |_| bar.inc(1),
+                    )?;
+                    if let Some(d) = ensemble.domain.filter(|d| !d.contained) {
+                        ctx.log(format!(
+                            "the map reached its largest size ({} × {} cells) and runs still burned its border",
+                            d.size[0], d.size[1]
+                        ));
+                    }
+                    ensemble
+                }
+            },
         };
         bar.finish_and_clear();
         write_ensemble(ctx, &ensemble, agent.name())

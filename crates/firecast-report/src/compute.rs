@@ -360,6 +360,9 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
                 burned_acres_p10: percentile(&acres, 0.1),
                 burned_acres_p90: percentile(&acres, 0.9),
                 automaton_burned_acres: strategies[baseline].burned_acres.value,
+                grid_cells: [sp.grid.width, sp.grid.height],
+                grown_from_cells: sp.domain.filter(|d| d.base != d.size).map(|d| d.base),
+                grown_map_held: sp.domain.filter(|d| d.base != d.size).map(|d| d.contained),
                 fire,
             })
         }
@@ -825,9 +828,14 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 }
 
 fn median(values: &[f64]) -> f64 {
+    sorted_percentile(values, 0.5)
+}
+
+/// Percentile of unsorted values.
+fn sorted_percentile(values: &[f64], q: f64) -> f64 {
     let mut v = values.to_vec();
     v.sort_by(f64::total_cmp);
-    percentile(&v, 0.5)
+    percentile(&v, q)
 }
 
 fn strategy_summary(
@@ -899,6 +907,8 @@ fn strategy_summary(
             high: ha(burned_acres.high),
         },
         burned_acres_median: median(&acres),
+        burned_acres_p10: sorted_percentile(&acres, 0.1),
+        burned_acres_p90: sorted_percentile(&acres, 0.9),
         burned_fraction_pct: burned_acres.value / cell_acres / burnable as f64 * 100.0,
         contained_pct: contained.len() as f64 / e.runs() as f64 * 100.0,
         containment_hours_median: (!contained.is_empty()).then(|| median(&contained)),
@@ -952,6 +962,7 @@ fn compare(
     .map_err(|err| ReportError::input("bootstrap", err.to_string()))?;
     let base_mean = b.iter().sum::<f64>() / b.len() as f64;
     let better = b.iter().zip(&s).filter(|(b, s)| s < b).count();
+    let saved: Vec<f64> = b.iter().zip(&s).map(|(b, s)| b - s).collect();
     Ok(Comparison {
         strategy: e.strategy.clone(),
         baseline: base.strategy.clone(),
@@ -967,6 +978,9 @@ fn compare(
             0.0
         },
         runs_better_pct: better as f64 / b.len() as f64 * 100.0,
+        acres_saved_median: median(&saved),
+        acres_saved_p10: sorted_percentile(&saved, 0.1),
+        acres_saved_p90: sorted_percentile(&saved, 0.9),
     })
 }
 
@@ -1095,6 +1109,7 @@ fn assets(
     for (name, source, cells) in list {
         let zone = buffer(land, &cells, r);
         let (mut first, mut who) = (f64::INFINITY, None);
+        let mut half = f64::INFINITY;
         let mut reached = Vec::new();
         // With the verified engine's free fire, arrival comes from it alone (the automaton's
         // capped head arrives late); its reach is listed first, the strategies' after it.
@@ -1111,6 +1126,9 @@ fn assets(
             // reached the zone is at least the burn probability of its most-burned cell.
             let mut best_count = 0u32;
             for &c in &zone {
+                if let Some(t) = e.arrival_median_h[c].filter(|_| counts_arrival) {
+                    half = half.min(f64::from(t));
+                }
                 if let Some(t) = e.arrival_first_h[c].filter(|_| counts_arrival) {
                     let t = f64::from(t);
                     if t < first {
@@ -1171,6 +1189,7 @@ fn assets(
             area_acres: cells.len() as f64 * cell_acres,
             first_arrival_h: first_arrival,
             first_arrival_strategy: who.filter(|_| first_arrival.is_some()),
+            half_runs_by_h: half.is_finite().then_some(half),
             reached_pct: reached,
             band,
             advice,

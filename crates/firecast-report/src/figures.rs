@@ -10,8 +10,19 @@ use firecast_render::{Basemap, Chart, RenderOptions, RgbImage, Series};
 use crate::ReportError;
 use crate::model::{FireBehaviour, StrategySummary};
 
-/// Pixels per cell of the maps.
-pub const MAP_SCALE: usize = 3;
+/// Width of every map in the report, in SVG units (pixels at 100 %): whatever the grid's size,
+/// symbols and labels keep their size on the page.
+pub const MAP_WIDTH: f64 = 900.0;
+
+/// Pixels per cell of the maps' rasters: about [`MAP_WIDTH`] wide, at least one per cell.
+pub fn raster_scale(width: usize) -> usize {
+    ((MAP_WIDTH / width.max(1) as f64).round() as usize).max(1)
+}
+
+/// Map units per cell of the maps' vector layers (lines, symbols).
+pub fn vector_scale(width: usize) -> f64 {
+    MAP_WIDTH / width.max(1) as f64
+}
 
 /// Strategy colours, shared by charts and the map.
 pub fn strategy_color(s: &str) -> [u8; 3] {
@@ -52,9 +63,9 @@ pub fn data_uri(png: &[u8]) -> String {
     )
 }
 
-fn map_options() -> RenderOptions {
+fn map_options(scale: usize) -> RenderOptions {
     RenderOptions {
-        scale: MAP_SCALE,
+        scale,
         legend: false,
         ..RenderOptions::default()
     }
@@ -62,7 +73,36 @@ fn map_options() -> RenderOptions {
 
 /// Land cover over hillshade, no legend strip.
 pub fn basemap(land: &Landscape) -> RgbImage {
-    Basemap::new(land, &map_options()).image
+    basemap_at(land, raster_scale(land.width))
+}
+
+/// The basemap at `scale` pixels per cell.
+pub fn basemap_at(land: &Landscape, scale: usize) -> RgbImage {
+    Basemap::new(land, &map_options(scale)).image
+}
+
+/// The pixels of `window` (cells: x0, y0 from the south-west, width, height) of a map image
+/// drawn at `scale` pixels per cell of a grid `grid_height` cells high (row 0 north).
+pub fn crop(img: &RgbImage, scale: usize, grid_height: usize, window: [usize; 4]) -> RgbImage {
+    let [x0, y0, w, h] = window;
+    let (px0, py0) = (x0 * scale, (grid_height - y0 - h) * scale);
+    let mut out = RgbImage::new(w * scale, h * scale);
+    for row in 0..h * scale {
+        let src = ((py0 + row) * img.width + px0) * 3;
+        let dst = row * out.width * 3;
+        out.data[dst..dst + w * scale * 3].copy_from_slice(&img.data[src..src + w * scale * 3]);
+    }
+    out
+}
+
+/// The basemap faded toward white, under coloured layers that must stand out from the land
+/// cover (arrival bands, burn probability).
+pub fn faded_basemap(land: &Landscape, scale: usize) -> RgbImage {
+    let mut img = basemap_at(land, scale);
+    for p in img.data.iter_mut() {
+        *p = (f32::from(*p) * 0.55 + 255.0 * 0.45) as u8;
+    }
+    img
 }
 
 /// Colour of a burn probability in (0, 1]: pale yellow → orange → dark red.
@@ -86,12 +126,9 @@ pub fn probability_color(p: f64) -> [u8; 3] {
 
 /// The basemap, faded, with every cell that burned in any run coloured by its burn
 /// probability.
-pub fn burn_probability(land: &Landscape, e: &Ensemble) -> RgbImage {
-    let mut img = basemap(land);
-    for p in img.data.iter_mut() {
-        *p = (f32::from(*p) * 0.55 + 255.0 * 0.45) as u8;
-    }
-    let (w, h, s) = (land.width, land.height, MAP_SCALE);
+pub fn burn_probability(land: &Landscape, e: &Ensemble, scale: usize) -> RgbImage {
+    let mut img = faded_basemap(land, scale);
+    let (w, h, s) = (land.width, land.height, scale);
     let runs = e.runs() as f64;
     for y in 0..h {
         for x in 0..w {

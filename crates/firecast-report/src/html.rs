@@ -6,7 +6,7 @@ use std::fmt::Write;
 
 use crate::ReportError;
 use crate::compute::Computed;
-use crate::figures::{self, MAP_SCALE, hex, strategy_color};
+use crate::figures::{self, hex, strategy_color};
 use crate::geometry;
 use crate::model::*;
 use crate::units::{compass, fmt_num, lat_lon_text};
@@ -51,10 +51,10 @@ const CSS: &str = r#"
 :root{--ink:#1b1b1b;--muted:#5b5b5b;--line:#d6d6d6;--bg:#fff}
 *{box-sizing:border-box}
 body{font-family:"DejaVu Sans","Liberation Sans",Arial,sans-serif;color:var(--ink);background:var(--bg);margin:0;line-height:1.4;font-size:15px}
-main{max-width:960px;margin:0 auto;padding:12px}
-h1{font-size:1.5em;margin:.2em 0}
+main{max-width:1180px;margin:0 auto;padding:12px}
+h1{font-size:1.45em;margin:.1em 0}
 h2{font-size:1.15em;border-bottom:2px solid var(--ink);margin:1.2em 0 .4em;padding-bottom:2px}
-h3{font-size:1em;margin:.8em 0 .3em}
+h3{font-size:1em;margin:.7em 0 .25em}
 table{border-collapse:collapse;width:100%;margin:.3em 0;font-size:.92em}
 th,td{border-bottom:1px solid var(--line);padding:3px 6px;text-align:left;vertical-align:top}
 th{background:#f2f2f2}
@@ -66,19 +66,119 @@ td.n{text-align:right;white-space:nowrap}
 .GO{background:#b71c1c;color:#fff}.SET{background:#ef6c00;color:#fff}.READY{background:#f9a825}.NONE{background:#e0e0e0}
 .band{font-weight:bold;padding:1px 6px;border-radius:3px;white-space:nowrap}
 .box{border:2px solid var(--ink);padding:8px 12px;margin:.6em 0;border-radius:4px}
-.box ul{margin:.2em 0;padding-left:1.2em}
-.grid2{display:grid;grid-template-columns:1fr 1fr;gap:12px}
+.box ul,.facts ul{margin:.2em 0;padding-left:1.2em}
+.grid2{display:grid;grid-template-columns:minmax(0,1fr) minmax(0,1fr);gap:12px}
+.answer{display:grid;grid-template-columns:minmax(0,1.25fr) minmax(0,1fr);gap:16px;align-items:start;margin-top:.4em}
+.facts p{margin:.2em 0 .5em}
+.facts h3{border-bottom:1px solid var(--line)}
+.tw{overflow-x:auto;max-width:100%}
+svg.map text{font-size:17px}svg.map text.big{font-size:19px}
 img,svg{max-width:100%;height:auto;display:block}
 figure{margin:.5em 0}
 figcaption{font-size:.85em;color:var(--muted)}
-.legend span{display:inline-block;margin-right:12px;font-size:.85em;white-space:nowrap}
+.legend{font-size:.85em;margin:.2em 0}
+.legend span{display:inline-block;margin-right:12px;white-space:nowrap}
 .sw{display:inline-block;width:22px;height:0;border-top:3px solid;vertical-align:middle;margin-right:4px}
-.swf{display:inline-block;width:14px;height:14px;vertical-align:middle;margin-right:4px}
+.swd{display:inline-block;width:22px;height:0;border-top:3px dashed;vertical-align:middle;margin-right:4px}
+.swf{display:inline-block;width:14px;height:14px;vertical-align:middle;margin-right:4px;border:1px solid #999}
 header .meta{font-size:.85em;color:var(--muted)}
-@media (max-width:640px){.grid2{grid-template-columns:1fr}body{font-size:14px}table{font-size:.85em}}
-@media print{main{max-width:none;padding:0}h2,h3{break-after:avoid}tr{break-inside:avoid}figure,.box,.keep{break-inside:avoid}.pb{break-before:page}}
-@page{size:Letter;margin:12mm}
+@media (max-width:900px){.answer{grid-template-columns:1fr}}
+@media (max-width:640px){.grid2{grid-template-columns:1fr}body{font-size:14px}main{padding:8px}
+table.stack thead{display:none}table.stack tr{display:block;border-bottom:1px solid var(--line);padding:3px 0}
+table.stack td{display:flex;justify-content:space-between;gap:10px;border:0;padding:1px 4px;text-align:right;white-space:normal}
+table.stack td::before{content:attr(data-l);font-weight:bold;color:var(--muted);text-align:left;flex:0 0 40%}
+table.stack td.n{white-space:normal}.legend span{white-space:normal}
+svg.map text{font-size:30px}svg.map text.big{font-size:32px}}
+@media print{body{font-size:12px}main{max-width:none;padding:0}.answer{grid-template-columns:minmax(0,1.2fr) minmax(0,1fr)}
+h2,h3{break-after:avoid}tr,figure,.box,.keep,.legend{break-inside:avoid}thead{display:table-header-group}.tw{overflow:visible}}
 "#;
+
+/// A table whose header row repeats on printed pages and that turns into labelled rows on a
+/// phone: `head` are the columns, each row's cells are (html, numeric).
+struct Table<'a> {
+    head: &'a [&'a str],
+    html: String,
+}
+
+impl<'a> Table<'a> {
+    fn new(head: &'a [&'a str]) -> Self {
+        let mut html = String::from("<div class=tw><table class=stack><thead><tr>");
+        for c in head {
+            let _ = write!(html, "<th>{c}</th>");
+        }
+        html.push_str("</tr></thead><tbody>");
+        Self { head, html }
+    }
+
+    fn row(&mut self, cells: &[(String, bool)]) {
+        self.html.push_str("<tr>");
+        for (k, (cell, numeric)) in cells.iter().enumerate() {
+            let label = strip_tags(self.head.get(k).copied().unwrap_or(""));
+            let _ = write!(
+                self.html,
+                "<td data-l=\"{}\"{}>{cell}</td>",
+                esc(&label),
+                if *numeric { " class=n" } else { "" }
+            );
+        }
+        self.html.push_str("</tr>");
+    }
+
+    fn wide(&mut self, html: &str) {
+        let _ = write!(self.html, "<tr><td colspan={}>{html}</td></tr>", self.head.len());
+    }
+
+    fn finish(mut self) -> String {
+        self.html.push_str("</tbody></table></div>");
+        self.html
+    }
+}
+
+fn strip_tags(s: &str) -> String {
+    let mut out = String::new();
+    let mut inside = false;
+    for c in s.chars() {
+        match c {
+            '<' => inside = true,
+            '>' => inside = false,
+            c if !inside => out.push(c),
+            _ => {}
+        }
+    }
+    out
+}
+
+fn n(s: String) -> (String, bool) {
+    (s, true)
+}
+fn t(s: String) -> (String, bool) {
+    (s, false)
+}
+
+/// The printed page: a running header with the place and day, page numbers in the footer.
+fn page_css(hd: &Header) -> String {
+    let css_str = |s: &str| s.replace('\\', "\\\\").replace('"', "\\\"");
+    format!(
+        "@page{{size:Letter;margin:16mm 11mm 14mm 11mm;\
+         @top-left{{content:\"{}\";font:8.5pt 'DejaVu Sans',Arial,sans-serif;color:#444}}\
+         @top-right{{content:\"{}\";font:8.5pt 'DejaVu Sans',Arial,sans-serif;color:#444}}\
+         @bottom-right{{content:\"Page \" counter(page) \" of \" counter(pages);font:8.5pt 'DejaVu Sans',Arial,sans-serif;color:#444}}\
+         @bottom-left{{content:\"FireCast {} · simulated fires are a planning aid, not a prediction\";font:8pt 'DejaVu Sans',Arial,sans-serif;color:#777}}}}",
+        css_str(&format!("{} · {}", hd.title, lat_lon_text(hd.lat, hd.lon))),
+        css_str(&format!("forecast day {} · issued {}", hd.date, hd.issued_at)),
+        css_str(&hd.firecast_version)
+    )
+}
+
+/// Burnt area as a responder reads it: the median run and the range most runs fall in.
+fn outcome(median: f64, p10: f64, p90: f64) -> String {
+    format!(
+        "<b>{} acres</b> in the median run (8 runs in 10: {}–{})",
+        fmt_num(median, 0),
+        fmt_num(p10, 0),
+        fmt_num(p90, 0)
+    )
+}
 
 /// Renders the report.
 pub fn render(c: &Computed) -> Result<String, ReportError> {
@@ -86,143 +186,231 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     let mut h = String::new();
     let w = |h: &mut String, s: &str| h.push_str(s);
     let hd = &r.header;
+    let fb = &r.fire_behaviour;
     write!(
         h,
         "<!DOCTYPE html>\n<html lang=en><head><meta charset=utf-8>\
          <meta name=viewport content=\"width=device-width, initial-scale=1\">\
          <link rel=icon href=\"data:,\">\
-         <title>{} — {} on {}</title><style>{CSS}</style></head><body><main>",
+         <title>{} — {} on {}</title><style>{CSS}{}</style></head><body><main>",
         esc(&hd.title),
         esc(&lat_lon_text(hd.lat, hd.lon)),
-        esc(&hd.date)
+        esc(&hd.date),
+        page_css(hd)
     )?;
 
     // Header.
     write!(
         h,
-        "<header><h1>{}</h1>\
-         <div><b>{}</b> · {} · forecast day <b>{}</b> · risk <span class=\"badge {}\">{}</span></div>\
-         <div class=meta>Issued {} · valid from {} for {} · run <code>{}</code> · FireCast {}</div>\
-         <div class=meta>Forecaster: {} · Agent: {}</div></header>",
+        "<header><h1>{} <span class=\"badge {}\">{} risk</span></h1>\
+         <div><b>{}</b> · {} · forecast day <b>{}</b> · simulated period <b>{} h</b> after ignition (cut-off at hour {})</div>\
+         <div class=meta>Issued {} · valid from {} for {} · run <code>{}</code> · FireCast {} · {}</div></header>",
         esc(&hd.title),
+        r.risk.level.as_str(),
+        r.risk.level.as_str(),
         esc(&lat_lon_text(hd.lat, hd.lon)),
         esc(&hd.grid_location),
         esc(&hd.date),
-        r.risk.level.as_str(),
-        r.risk.level.as_str(),
+        fmt_num(hd.horizon_h, 0),
+        fmt_num(hd.horizon_h, 0),
         esc(&hd.issued_at),
         esc(&hd.valid_from),
         esc(&hd.valid_until),
         esc(&hd.run_id),
         esc(&hd.firecast_version),
-        esc(&hd.forecaster),
-        esc(&hd.agent)
+        if c.landscape_synthetic() {
+            "<b>synthetic landscape</b>"
+        } else {
+            "landscape from data"
+        }
     )?;
 
-    // Bottom line.
-    let base = &r.strategies[c.baseline];
-    let day = |s: &StrategySummary, hours: f64| {
-        let k = s
-            .series_hours
-            .iter()
-            .position(|&x| x >= hours)
-            .unwrap_or(s.series_hours.len() - 1);
-        s.series_acres_mean[k]
-    };
-    w(
-        &mut h,
-        "<section class=box><h2 style=\"margin-top:0\">Bottom line</h2><ul>",
-    );
-    let spread = if r.forecast.interval[1] - r.forecast.interval[0] > 1e-9 {
-        format!(
-            "range over {} model seeds {:.0}–{:.0} %",
-            r.forecast.seeds,
-            r.forecast.interval[0] * 100.0,
-            r.forecast.interval[1] * 100.0
-        )
+    // The answer: the map and what a duty officer needs from it.
+    let times: Vec<f64> = r.strategies[0].isochrone_acres.iter().map(|p| p[0]).collect();
+    let free = c.free_fire();
+    let engine_note = if c.spread.is_some() {
+        "verified minimum-travel-time engine"
     } else {
-        "no interval: the trained models agree".to_string()
+        "FireCastRL's automaton"
+    };
+    w(&mut h, "<section class=answer id=answer><div>");
+    let window = map_window(c);
+    let scale = figures::raster_scale(window[2]);
+    let cropped = |img: &firecast_render::RgbImage| {
+        figures::png_bytes(&figures::crop(img, scale, c.landscape.height, window))
+    };
+    let base_png = cropped(&figures::faded_basemap(&c.landscape, scale))?;
+    let mut map = crate::maps::MapFrame::new(
+        &c.landscape,
+        window,
+        &base_png,
+        "Map: where the unsuppressed fire goes and when",
+    );
+    map.arrival_bands(
+        &free.arrival_median_h,
+        &times,
+        fb.head_direction_deg,
+        free.ignition,
+    );
+    let runs = free.runs() as u32;
+    map.perimeter(
+        |i| free.burn_count[i] * 10 >= runs && free.burn_count[i] > 0,
+        "#222",
+        1.6,
+        true,
+        "reached in at least 1 run in 10",
+    );
+    map.perimeter(
+        |i| free.arrival_median_h[i].is_some(),
+        FINAL_PERIMETER,
+        3.0,
+        false,
+        "final perimeter: burnt in at least half of the runs",
+    );
+    map.assets(&asset_points(c, true), true);
+    map.ignition(free.ignition);
+    map.head_arrow(
+        free.ignition,
+        fb.head_direction_deg,
+        &format!(
+            "head → {}, {} mi/h",
+            compass(fb.head_direction_deg),
+            mph(fb.rate_of_spread.field)
+        ),
+    );
+    write!(
+        h,
+        "<figure class=keep>{}<figcaption>Where the fire goes without suppression and when ({}, {} runs): colours are \
+         the hours after ignition by which half of the runs had burned a cell; the thick line is the final perimeter at hour \
+         {} (burnt in at least half of the runs), the dashed line what 1 run in 10 reached. {}</figcaption></figure>{}\
+         <div class=legend><span><i class=sw style=\"border-color:{FINAL_PERIMETER}\"></i>final perimeter (half of the runs)</span>\
+         <span><i class=swd style=\"border-color:#222\"></i>1 run in 10</span><span>★ ignition</span><span>■ assets</span>\
+         <span>→ head of the fire</span></div>{}",
+        map.finish(),
+        engine_note,
+        free.runs(),
+        fmt_num(hd.horizon_h, 0),
+        esc(&extent(&c.landscape, window)),
+        crate::maps::bands_legend(&times, "Fire arrives (hours after ignition)"),
+        crate::maps::land_cover_legend(&c.landscape)
+    )?;
+    w(&mut h, "</div><div class=facts>");
+    write!(
+        h,
+        "<h3>Where it goes and how fast</h3><p>The head runs toward <b>{} ({:.0}°)</b> at <b>{} ch/h ({} mi/h, {} class)</b> \
+         with <b>{} ft flames</b> ({} class). {}</p>",
+        esc(&fb.head_direction),
+        fb.head_direction_deg,
+        fmt_num(
+            fb.rate_of_spread.field,
+            if fb.rate_of_spread.field < 10.0 { 1 } else { 0 }
+        ),
+        mph(fb.rate_of_spread.field),
+        esc(&class_word(fb.rate_of_spread.class.as_deref())),
+        fmt_num(fb.flame_length.field, 1),
+        esc(&class_word(fb.flame_length.class.as_deref())),
+        esc(&fb.tactic)
+    )?;
+    let (median_acres, p10, p90) = match &r.free_spread {
+        Some(f) => (f.fire.burned_acres_median, f.burned_acres_p10, f.burned_acres_p90),
+        None => {
+            let b = &r.strategies[c.baseline];
+            (b.burned_acres_median, b.burned_acres_p10, b.burned_acres_p90)
+        }
     };
     write!(
         h,
-        "<li>Ignition probability <b>{:.0} %</b> ({spread}; threshold {:.0} %): {}.</li>",
+        "<h3>How big by hour {}</h3><p>Without suppression {}.{}</p>",
+        fmt_num(hd.horizon_h, 0),
+        outcome(median_acres, p10, p90),
+        match &r.free_spread {
+            Some(f) => edge_sentence(f, hd),
+            None => String::new(),
+        }
+    )?;
+    // Assets, most urgent first.
+    w(&mut h, "<h3>Assets</h3>");
+    if r.assets.is_empty() {
+        w(
+            &mut h,
+            "<p>No assets: none were listed and the landscape has no developed land.</p>",
+        );
+    } else {
+        let mut tb = Table::new(&["Asset", "Band", "Fire first arrives", "In half the runs by"]);
+        for a in r.assets.iter().take(6) {
+            tb.row(&[
+                t(esc(&a.name)),
+                t(format!(
+                    "<span class=\"band {}\">{}</span>",
+                    a.band.as_str(),
+                    a.band.as_str()
+                )),
+                n(a.first_arrival_h
+                    .map_or("not reached".into(), |v| format!("hour {}", fmt_num(v, 1)))),
+                n(a.half_runs_by_h
+                    .map_or("—".into(), |v| format!("hour {}", fmt_num(v, 1)))),
+            ]);
+        }
+        h.push_str(&tb.finish());
+        if r.assets.len() > 6 {
+            write!(h, "<p class=muted>{} more in section 6.</p>", r.assets.len() - 6)?;
+        }
+    }
+    // What suppression saves.
+    write!(
+        h,
+        "<h3>What suppression saves by hour {}</h3><ul>",
+        fmt_num(hd.horizon_h, 0)
+    )?;
+    for cmp in &r.comparisons {
+        let label = crate::compute::strategy_label(&cmp.strategy);
+        let meaningful = cmp.acres_saved.low > 0.0;
+        write!(
+            h,
+            "<li>{}: {} acres in the median run (8 runs in 10: {} to {}); burns less in {:.0} % of runs.{}</li>",
+            esc(&label),
+            if meaningful {
+                format!("<b>saves {}</b>", fmt_num(cmp.acres_saved_median, 0))
+            } else {
+                format!("saves {}", fmt_num(cmp.acres_saved_median, 0))
+            },
+            fmt_num(cmp.acres_saved_p10, 0),
+            fmt_num(cmp.acres_saved_p90, 0),
+            cmp.runs_better_pct,
+            if meaningful {
+                String::new()
+            } else {
+                " <b>No reliable saving</b> (the interval of the mean includes 0).".to_string()
+            }
+        )?;
+    }
+    w(&mut h, "</ul>");
+    let spread = if r.forecast.interval[1] - r.forecast.interval[0] > 1e-9 {
+        format!(
+            "{:.0}–{:.0} % over {} model seeds",
+            r.forecast.interval[0] * 100.0,
+            r.forecast.interval[1] * 100.0,
+            r.forecast.seeds
+        )
+    } else if r.forecast.seeds <= 1 {
+        "one trained model, no interval".to_string()
+    } else {
+        format!("the {} trained models agree", r.forecast.seeds)
+    };
+    write!(
+        h,
+        "<h3>Will a fire start?</h3><p>Ignition probability <b>{:.0} %</b> ({spread}; alert threshold {:.0} %): {}.</p>\
+         <p class=muted>Risk {}: {}</p></div></section>",
         r.forecast.probability * 100.0,
         r.forecast.threshold * 100.0,
         if r.forecast.ignition_expected {
             "<b>a fire is expected</b>"
         } else {
             "below the alert threshold"
-        }
+        },
+        r.risk.level.as_str(),
+        esc(&r.risk.rule)
     )?;
-    write!(
-        h,
-        "<li>Head fire at the point: <b>{} ft flames</b>, {} ch/h ({} class) — {}</li>",
-        fmt_num(r.fire_behaviour.flame_length.field, 1),
-        fmt_num(r.fire_behaviour.rate_of_spread.field, 1),
-        esc(r.fire_behaviour.flame_length.class.as_deref().unwrap_or("")),
-        esc(&r.fire_behaviour.tactic)
-    )?;
-    match &r.free_spread {
-        Some(f) => write!(
-            h,
-            "<li>Unsuppressed, the fire burns <b>{} acres</b> (median of {} runs; 10–90 % of runs {}–{}; mean {}, 95 % \
-             interval {}–{}); {} acres after 24 h — spread by the verified minimum-travel-time engine. On the \
-             automaton the strategies are compared on, the free fire burns {} acres.{}</li>",
-            fmt_num(f.fire.burned_acres_median, 0),
-            f.fire.runs,
-            fmt_num(f.burned_acres_p10, 0),
-            fmt_num(f.burned_acres_p90, 0),
-            fmt_num(f.fire.burned_acres.value, 0),
-            fmt_num(f.fire.burned_acres.low, 0),
-            fmt_num(f.fire.burned_acres.high, 0),
-            fmt_num(day(&f.fire, 24.0), 0),
-            fmt_num(f.automaton_burned_acres, 0),
-            match f.edge_first_h_median {
-                Some(t) if f.edge_runs_pct > 0.0 => format!(
-                    " The fire reached the map's edge in <b>{:.0} % of runs</b> (median hour {}): the burnt area is a lower \
-                     bound.",
-                    f.edge_runs_pct,
-                    fmt_num(t, 0)
-                ),
-                _ => String::new(),
-            }
-        )?,
-        None => write!(
-            h,
-            "<li>Unsuppressed, the fire burns <b>{} acres</b> on average (95 % interval {}–{}); {} acres after 24 h.</li>",
-            fmt_num(base.burned_acres.value, 0),
-            fmt_num(base.burned_acres.low, 0),
-            fmt_num(base.burned_acres.high, 0),
-            fmt_num(day(base, 24.0), 0)
-        )?,
-    }
-    for cmp in &r.comparisons {
-        let label = crate::compute::strategy_label(&cmp.strategy);
-        write!(
-            h,
-            "<li>{}: saves <b>{} acres</b> [{}, {}] ({:.0} %) against no suppression; burns less in {:.0} % of runs.</li>",
-            esc(&label),
-            fmt_num(cmp.acres_saved.value, 0),
-            fmt_num(cmp.acres_saved.low, 0),
-            fmt_num(cmp.acres_saved.high, 0),
-            cmp.reduction_pct,
-            cmp.runs_better_pct
-        )?;
-    }
-    let go: Vec<&Asset> = r.assets.iter().filter(|a| a.band == Band::Go).collect();
-    let set: Vec<&Asset> = r.assets.iter().filter(|a| a.band == Band::Set).collect();
-    write!(
-        h,
-        "<li>Evacuation: <b>{}</b> asset(s) in GO, <b>{}</b> in SET{}.</li>",
-        go.len(),
-        set.len(),
-        go.first().map_or(String::new(), |a| format!(
-            " (first: {}, fire within {} h)",
-            esc(&a.name),
-            opt(a.first_arrival_h, 1, "")
-        ))
-    )?;
-    w(&mut h, "</ul></section>");
 
     // Forecast.
     let f = &r.forecast;
@@ -338,72 +526,87 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
          direct attack (11 ft).</figcaption></figure>",
         figures::data_uri(&haul)
     )?;
-    w(
-        &mut h,
-        "<h3>Contingency thresholds</h3><table><tr><th>Limit</th><th>Wind at 10 m that passes it</th><th>Today</th><th></th></tr>",
-    );
+    w(&mut h, "<h3>Contingency thresholds</h3>");
+    let mut tb = Table::new(&["Limit", "Wind at 10 m that passes it", "Today", "What it means"]);
     for ct in &r.contingencies {
-        write!(
-            h,
-            "<tr><td>{} ft — {}</td><td class=n>{}</td><td>{}</td><td>{}</td></tr>",
-            ct.flame_length_ft,
-            esc(&ct.resource),
-            ct.wind_10m_mph.map_or_else(
+        tb.row(&[
+            t(format!("{} ft — {}", ct.flame_length_ft, esc(&ct.resource))),
+            n(ct.wind_10m_mph.map_or_else(
                 || format!("not below {:.0} mi/h", ct.searched_to_mph),
-                |v| format!("{} mi/h", fmt_num(v, 1))
-            ),
-            if ct.exceeded_today {
+                |v| format!("{} mi/h", fmt_num(v, 1)),
+            )),
+            t(if ct.exceeded_today {
                 "<b>exceeded</b>"
             } else {
                 "within"
-            },
-            esc(&ct.statement)
-        )?;
+            }
+            .to_string()),
+            t(esc(&ct.statement)),
+        ]);
     }
-    w(&mut h, "</table>");
+    h.push_str(&tb.finish());
 
-    // Map.
-    w(
-        &mut h,
-        if c.spread.is_some() {
-            "<h2 class=pb>3. Map: where the free fire goes and when, and the agent's drops</h2>"
-        } else {
-            "<h2 class=pb>3. Map: fire arrival and the agent's drops</h2>"
-        },
-    );
-    h.push_str(&map_svg(c)?);
+    // The strategies' fires side by side, and the agent's drops.
     let agent_label = c
         .agent
         .map(|a| crate::compute::strategy_label(&c.ensembles[a].strategy))
         .unwrap_or_default();
-    if c.spread.is_some() {
+    write!(
+        h,
+        "<h2>3. The fire under each strategy{}</h2><p class=muted>Each map shows one strategy's runs: colours are the \
+         hours by which half of them had burned a cell, the line the final perimeter (half of the runs). The drops are \
+         the {}'s representative run, as the path the aircraft flew between them.</p><div class=grid2>",
+        if c.spread.is_some() {
+            ", on FireCastRL's automaton"
+        } else {
+            ""
+        },
+        esc(&crate::compute::strategy_label(&r.drops.strategy))
+    )?;
+    let mut shown: Vec<usize> = vec![c.baseline];
+    shown.extend(c.agent.filter(|&a| a != c.baseline));
+    for &k in &shown {
+        let e = &c.ensembles[k];
+        let label = crate::compute::strategy_label(&e.strategy);
+        let mut m = crate::maps::MapFrame::new(
+            &c.landscape,
+            window,
+            &base_png,
+            &format!("Map: the fire under {label}"),
+        );
+        m.arrival_bands(&e.arrival_median_h, &times, fb.head_direction_deg, e.ignition);
+        m.perimeter(
+            |i| e.arrival_median_h[i].is_some(),
+            &hex(strategy_color(&e.strategy)),
+            3.0,
+            false,
+            "final perimeter: burnt in at least half of the runs",
+        );
+        if e.strategy == r.drops.strategy {
+            m.drop_path(&r.drops.drops);
+        }
+        m.assets(&asset_points(c, false), false);
+        m.ignition(e.ignition);
         write!(
             h,
-            "<div class=legend><span><i class=sw style=\"border-color:{}\"></i>free fire, minimum-travel-time engine</span>\
-             <span>isochrones: {} h after ignition (thicker = later), median arrival over runs</span>\
-             <span><i class=sw style=\"border-color:{}\"></i>final perimeter: burnt in at least half of the runs</span>\
-             <span>● numbered drops ({}, on the automaton: section 5)</span><span>■ assets</span><span>★ ignition</span></div>",
-            hex(strategy_color("none")),
-            r.header_isochrones(),
-            FINAL_PERIMETER,
-            esc(&crate::compute::strategy_label(&r.drops.strategy))
-        )?;
-    } else {
-        write!(
-            h,
-            "<div class=legend><span><i class=sw style=\"border-color:{}\"></i>no suppression</span>{}\
-         <span>isochrones: {} h after ignition (thicker = later), median arrival over runs</span>\
-         <span>● numbered drops ({})</span><span>■ assets</span><span>★ ignition</span></div>",
-            hex(strategy_color("none")),
-            c.agent.map_or(String::new(), |a| format!(
-                "<span><i class=sw style=\"border-color:{}\"></i>{}</span>",
-                hex(strategy_color(&c.ensembles[a].strategy)),
-                esc(&agent_label)
-            )),
-            r.header_isochrones(),
-            esc(&crate::compute::strategy_label(&r.drops.strategy))
+            "<figure class=keep>{}<figcaption><i class=sw style=\"border-color:{}\"></i><b>{}</b>: median {} acres by hour {}{}</figcaption></figure>",
+            m.finish(),
+            hex(strategy_color(&e.strategy)),
+            esc(&label),
+            fmt_num(r.strategies[k].burned_acres_median, 0),
+            fmt_num(hd.horizon_h, 0),
+            if e.strategy == r.drops.strategy && !r.drops.drops.is_empty() {
+                " · <span style=\"color:#0d47a1\">—●—</span> drops in order, numbered"
+            } else {
+                ""
+            }
         )?;
     }
+    w(&mut h, "</div>");
+    h.push_str(&crate::maps::bands_legend(
+        &times,
+        "Fire arrives (hours after ignition)",
+    ));
     let d = &r.drops;
     if d.drops.is_empty() {
         w(
@@ -414,7 +617,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         write!(
             h,
             "<h3>Drops: {}, representative run</h3><p class=muted>The run with the median burnt area \
-             (seed {}, {} acres); {} drops{}.{}</p><table><tr><th>#</th><th>hour</th><th>latitude</th><th>longitude</th><th>burning acres put out</th></tr>",
+             (seed {}, {} acres); {} drops{}; repeated drops on one spot share a row.{}</p>",
             esc(&crate::compute::strategy_label(&d.strategy)),
             d.run_seed.map_or("—".into(), |s| s.to_string()),
             opt(d.run_burned_acres, 0, ""),
@@ -433,7 +636,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
                 _ => String::new(),
             }
         )?;
-        // Consecutive drops on one spot share a row.
+        let mut tb = Table::new(&["#", "hour", "latitude", "longitude", "burning acres put out"]);
         let listed = &d.drops[..d.drops.len().min(DROPS_LISTED)];
         let mut i = 0;
         while i < listed.len() {
@@ -452,26 +655,22 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
                     format!("{}–{}", fmt_num(first.hour, 1), fmt_num(last.hour, 1)),
                 )
             };
-            write!(
-                h,
-                "<tr><td>{numbers}</td><td class=n>{hours}</td><td class=n>{:.5}</td><td class=n>{:.5}</td><td class=n>{}</td></tr>",
-                first.lat,
-                first.lon,
-                fmt_num(f64::from(quenched) * crate::units::cell_acres(hd.cell_size_ft), 1)
-            )?;
+            tb.row(&[
+                t(numbers),
+                n(hours),
+                n(format!("{:.5}", first.lat)),
+                n(format!("{:.5}", first.lon)),
+                n(fmt_num(
+                    f64::from(quenched) * crate::units::cell_acres(hd.cell_size_ft),
+                    1,
+                )),
+            ]);
             i = j + 1;
         }
-        w(&mut h, "</table>");
+        h.push_str(&tb.finish());
     }
 
     // Burn probability.
-    let agent_ens = c.agent.map_or(&c.ensembles[c.baseline], |a| &c.ensembles[a]);
-    let bp = figures::png_bytes(&figures::burn_probability(&c.landscape, &c.ensembles[c.baseline]))?;
-    let bp_free = match &c.spread {
-        Some(sp) => Some(figures::png_bytes(&figures::burn_probability(&c.landscape, sp))?),
-        None => None,
-    };
-    let bp_agent = figures::png_bytes(&figures::burn_probability(&c.landscape, agent_ens))?;
     let swatches: String = [0.1, 0.3, 0.5, 0.7, 0.9, 1.0]
         .iter()
         .map(|&p| {
@@ -485,117 +684,168 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     write!(
         h,
         "<h2>4. Burn probability across the runs</h2><p><b>This is a probability map, not a progression map:</b> \
-         the colour is the share of simulated runs in which the cell burned, not when it burned.</p>"
+         the colour is the share of simulated runs in which the cell burned by hour {}, not when it burned.</p>",
+        fmt_num(hd.horizon_h, 0)
     )?;
-    if let (Some(png), Some(sp)) = (&bp_free, &c.spread) {
+    let prob_map = |e: &firecast_episodes::ensemble::Ensemble, what: &str| -> Result<String, ReportError> {
+        let mut m = crate::maps::MapFrame::new(
+            &c.landscape,
+            window,
+            &cropped(&figures::burn_probability(&c.landscape, e, scale))?,
+            &format!("Burn probability: {what}"),
+        );
+        m.assets(&asset_points(c, false), false);
+        m.ignition(e.ignition);
+        Ok(format!(
+            "<figure class=keep>{}<figcaption>{}, {} runs</figcaption></figure>",
+            m.finish(),
+            esc(what),
+            e.runs()
+        ))
+    };
+    if let Some(sp) = &c.spread {
         write!(
             h,
-            "<div class=keep><figure><img alt=\"Burn probability of the free fire, minimum-travel-time engine\" src=\"{}\">\
-             <figcaption>Free fire, verified minimum-travel-time engine, {} runs</figcaption></figure></div>\
-             <p class=muted>Below: the same runs on FireCastRL's automaton, where the strategies are compared (its head \
+            "{}<p class=muted>Below: the same runs on FireCastRL's automaton, where the strategies are compared (its head \
              advances at most 2.5 cells a step, so its fires are smaller).</p>",
-            figures::data_uri(png),
-            sp.runs()
+            prob_map(sp, "Free fire, verified minimum-travel-time engine")?
         )?;
     }
+    let agent_ens = c.agent.map_or(&c.ensembles[c.baseline], |a| &c.ensembles[a]);
     write!(
         h,
-        "<div class=keep><div class=grid2><figure><img alt=\"Burn probability without suppression\" src=\"{}\"><figcaption>No suppression, {} runs</figcaption></figure>\
-         <figure><img alt=\"Burn probability with the agent\" src=\"{}\"><figcaption>{}, {} runs</figcaption></figure></div>\
-         <div class=legend>{swatches}</div></div>",
-        figures::data_uri(&bp),
-        c.ensembles[c.baseline].runs(),
-        figures::data_uri(&bp_agent),
-        esc(&crate::compute::strategy_label(&agent_ens.strategy)),
-        agent_ens.runs()
+        "<div class=grid2>{}{}</div><div class=legend><b>Share of runs that burned the cell:</b> {swatches}\
+         <span>★ ignition</span><span>■ assets</span></div>",
+        prob_map(&c.ensembles[c.baseline], "No suppression (automaton)")?,
+        prob_map(agent_ens, &crate::compute::strategy_label(&agent_ens.strategy))?
     )?;
 
     // Strategies.
     let chart = figures::png_bytes(&figures::burnt_area_chart(&r.strategies))?;
     write!(
         h,
-        "<h2 class=pb>5. Strategies compared (Table IV){}</h2><figure><img alt=\"Burnt area over time\" src=\"{}\"></figure>\
-         <table><tr><th>Strategy</th><th>runs</th><th>burnt acres, mean [95 %]</th><th>hectares</th><th>median acres</th>\
-         <th>share of burnable land</th><th>fire out</th><th>hours to out (median)</th><th>peak spread at (median)</th><th>drops</th><th>water, gal</th></tr>",
+        "<h2>5. Strategies compared (Table IV){}</h2><figure class=keep><img alt=\"Burnt area over time\" src=\"{}\"></figure>\
+         <p class=muted>Burnt area by hour {}: the median run and the range of 8 runs in 10 (10th–90th percentile) describe \
+         the outcomes; the mean's 95 % bootstrap interval says how well the {} runs pin down the average, not how \
+         large a single fire can be. <i>Out by the end</i>: the share of runs with no cell still burning at hour {} (a \
+         suppressed fire still burning then counts as not out, however small).</p>",
         if c.spread.is_some() {
             ", on FireCastRL's automaton"
         } else {
             ""
         },
-        figures::data_uri(&chart)
+        figures::data_uri(&chart),
+        fmt_num(hd.horizon_h, 0),
+        r.strategies.first().map_or(0, |s| s.runs),
+        fmt_num(hd.horizon_h, 0)
     )?;
+    let mut tb = Table::new(&[
+        "Strategy",
+        "runs",
+        "burnt acres, median",
+        "8 runs in 10",
+        "mean [95 % interval of the mean]",
+        "hectares, median",
+        "share of burnable land",
+        "out by the end",
+        "hours to out (median)",
+        "drops",
+        "water, gal",
+    ]);
     for s in &r.strategies {
-        write!(
-            h,
-            "<tr><td><i class=sw style=\"border-color:{}\"></i>{}</td><td class=n>{}</td><td class=n>{}</td><td class=n>{}</td>\
-             <td class=n>{}</td><td class=n>{:.1} %</td><td class=n>{:.0} %</td><td class=n>{}</td><td class=n>{} h</td><td class=n>{}</td><td class=n>{}</td></tr>",
-            hex(strategy_color(&s.strategy)),
-            esc(&s.label),
-            s.runs,
-            est(&s.burned_acres, 0),
-            est(&s.burned_hectares, 0),
-            fmt_num(s.burned_acres_median, 0),
-            s.burned_fraction_pct,
-            s.contained_pct,
-            opt(s.containment_hours_median, 1, "h"),
-            fmt_num(s.peak_burning_hours_median, 1),
-            fmt_num(s.helitacks_mean, 1),
-            fmt_num(s.water_gal_mean, 0)
-        )?;
+        tb.row(&[
+            t(format!(
+                "<i class=sw style=\"border-color:{}\"></i>{}",
+                hex(strategy_color(&s.strategy)),
+                esc(&s.label)
+            )),
+            n(s.runs.to_string()),
+            n(format!("<b>{}</b>", fmt_num(s.burned_acres_median, 0))),
+            n(format!(
+                "{}–{}",
+                fmt_num(s.burned_acres_p10, 0),
+                fmt_num(s.burned_acres_p90, 0)
+            )),
+            n(est(&s.burned_acres, 0)),
+            n(fmt_num(s.burned_acres_median * crate::units::HA_PER_ACRE, 0)),
+            n(format!("{:.1} %", s.burned_fraction_pct)),
+            n(format!("{:.0} %", s.contained_pct)),
+            n(opt(s.containment_hours_median, 1, "h")),
+            n(fmt_num(s.helitacks_mean, 1)),
+            n(fmt_num(s.water_gal_mean, 0)),
+        ]);
     }
-    w(
-        &mut h,
-        "</table><table><tr><th>Against no suppression</th><th>paired runs</th><th>acres saved [95 %]</th><th>reduction</th><th>runs with less burnt</th></tr>",
-    );
+    h.push_str(&tb.finish());
+    let mut tb = Table::new(&[
+        "Against no suppression",
+        "paired runs",
+        "acres saved, median",
+        "8 runs in 10",
+        "mean saved [95 % interval]",
+        "reduction of the mean",
+        "runs with less burnt",
+    ]);
     for cmp in &r.comparisons {
-        write!(
-            h,
-            "<tr><td>{}</td><td class=n>{}</td><td class=n>{}</td><td class=n>{:.1} %</td><td class=n>{:.0} %</td></tr>",
-            esc(&crate::compute::strategy_label(&cmp.strategy)),
-            cmp.paired_runs,
-            est(&cmp.acres_saved, 0),
-            cmp.reduction_pct,
-            cmp.runs_better_pct
-        )?;
+        tb.row(&[
+            t(esc(&crate::compute::strategy_label(&cmp.strategy))),
+            n(cmp.paired_runs.to_string()),
+            n(format!("<b>{}</b>", fmt_num(cmp.acres_saved_median, 0))),
+            n(format!(
+                "{} to {}",
+                fmt_num(cmp.acres_saved_p10, 0),
+                fmt_num(cmp.acres_saved_p90, 0)
+            )),
+            n(est(&cmp.acres_saved, 0)),
+            n(format!("{:.1} %", cmp.reduction_pct)),
+            n(format!("{:.0} %", cmp.runs_better_pct)),
+        ]);
     }
-    w(&mut h, "</table>");
+    h.push_str(&tb.finish());
 
     // Evacuation.
     let b = &r.evacuation_bands;
     write!(
         h,
-        "<h2>6. Evacuation advisories (Ready, Set, Go)</h2><p class=muted>Earliest simulated fire arrival within {} ft \
-         of each asset over every run of every strategy. GO: arrival within {} h of ignition; SET: within {} h; \
-         READY: within {} h. Trigger = the hour after ignition at which to move to the next band.</p>\
-         <table><tr><th>Band</th><th>Asset</th><th>where</th><th>area, acres</th><th>earliest arrival</th><th>trigger</th><th>advice</th></tr>",
+        "<h2>6. Evacuation advisories (Ready, Set, Go)</h2><p class=muted>Fire arrival within {} ft of each asset, \
+         hours after ignition: the earliest over every run ({}), and the hour by which half of the runs had arrived. \
+         GO: earliest arrival within {} h of ignition; SET: within {} h; READY: within {} h. Trigger = the hour after \
+         ignition at which to move to the next band.</p>",
         fmt_num(b.buffer_ft, 0),
+        engine_note,
         fmt_num(b.go_within_h, 0),
         fmt_num(b.set_within_h, 0),
         fmt_num(b.ready_within_h, 0)
     )?;
+    let mut tb = Table::new(&[
+        "Band",
+        "Asset",
+        "where",
+        "area, acres",
+        "earliest arrival",
+        "half the runs by",
+        "trigger",
+        "advice",
+    ]);
     if r.assets.is_empty() {
-        w(
-            &mut h,
-            "<tr><td colspan=7>No assets: none were listed and the landscape has no developed land.</td></tr>",
-        );
+        tb.wide("No assets: none were listed and the landscape has no developed land.");
     }
     for a in &r.assets {
-        write!(
-            h,
-            "<tr><td><span class=\"band {}\">{}</span></td><td>{}</td><td class=n>{:.5}, {:.5}</td><td class=n>{}</td>\
-             <td class=n>{}</td><td class=n>{}</td><td>{}</td></tr>",
-            a.band.as_str(),
-            a.band.as_str(),
-            esc(&a.name),
-            a.lat,
-            a.lon,
-            fmt_num(a.area_acres, 0),
-            opt(a.first_arrival_h, 1, "h"),
-            opt(a.trigger_h, 1, "h"),
-            esc(&a.advice)
-        )?;
+        tb.row(&[
+            t(format!(
+                "<span class=\"band {}\">{}</span>",
+                a.band.as_str(),
+                a.band.as_str()
+            )),
+            t(esc(&a.name)),
+            n(format!("{:.5}, {:.5}", a.lat, a.lon)),
+            n(fmt_num(a.area_acres, 0)),
+            n(opt(a.first_arrival_h, 1, "h")),
+            n(opt(a.half_runs_by_h, 1, "h")),
+            n(opt(a.trigger_h, 1, "h")),
+            t(esc(&a.advice)),
+        ]);
     }
-    w(&mut h, "</table>");
+    h.push_str(&tb.finish());
 
     // Priority zones.
     write!(
@@ -629,24 +879,26 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             "<p>No zone: suppression did not lower the burn probability anywhere.</p>",
         );
     } else {
-        w(
-            &mut h,
-            "<table><tr><th>rank</th><th>centre</th><th>acres kept from burning</th><th>drops per run</th><th>burn probability: none → agent</th></tr>",
-        );
+        let mut tb = Table::new(&[
+            "rank",
+            "centre",
+            "acres kept from burning",
+            "drops per run",
+            "burn probability: none → agent",
+        ]);
         for z in &r.priority_zones {
-            write!(
-                h,
-                "<tr><td>{}</td><td class=n>{:.5}, {:.5}</td><td class=n>{}</td><td class=n>{}</td><td class=n>{:.0} % → {:.0} %</td></tr>",
-                z.rank,
-                z.lat,
-                z.lon,
-                fmt_num(z.acres_protected, 0),
-                fmt_num(z.drops_per_run, 1),
-                z.burn_probability_unsuppressed_pct,
-                z.burn_probability_agent_pct
-            )?;
+            tb.row(&[
+                n(z.rank.to_string()),
+                n(format!("{:.5}, {:.5}", z.lat, z.lon)),
+                n(fmt_num(z.acres_protected, 0)),
+                n(fmt_num(z.drops_per_run, 1)),
+                n(format!(
+                    "{:.0} % → {:.0} %",
+                    z.burn_probability_unsuppressed_pct, z.burn_probability_agent_pct
+                )),
+            ]);
         }
-        w(&mut h, "</table>");
+        h.push_str(&tb.finish());
     }
 
     // Risk, inputs, lineage.
@@ -669,22 +921,19 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     for a in &r.what_would_change {
         write!(h, "<li>{}</li>", esc(a))?;
     }
-    w(
-        &mut h,
-        "</ul><h3>Lineage</h3><table><tr><th>role</th><th>file</th><th>detail</th></tr>",
-    );
+    w(&mut h, "</ul><h3>Lineage</h3>");
+    let mut tb = Table::new(&["role", "file", "detail"]);
     for l in &r.lineage {
-        write!(
-            h,
-            "<tr><td>{}</td><td><code>{}</code></td><td>{}</td></tr>",
-            esc(&l.role),
-            esc(&l.path),
-            esc(&l.detail)
-        )?;
+        tb.row(&[
+            t(esc(&l.role)),
+            t(format!("<code>{}</code>", esc(&l.path))),
+            t(esc(&l.detail)),
+        ]);
     }
+    h.push_str(&tb.finish());
     writeln!(
         h,
-        "</table><p class=muted>Landscape: {} ({}). Every number in this report is in <code>report.json</code> \
+        "<p class=muted>Landscape: {} ({}). Every number in this report is in <code>report.json</code> \
          (schema {} v{}); perimeters, drops, assets and zones are in <code>report.geojson</code>. Simulated fires are \
          a planning aid, not a prediction of where a real fire will go.</p></main></body></html>",
         esc(&hd.landscape),
@@ -695,162 +944,143 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     Ok(h)
 }
 
-impl ThreatReport {
-    fn header_isochrones(&self) -> String {
-        self.strategies
+/// A rate of spread in ch/h as mi/h, with the digits a slow fire needs.
+fn mph(chains_per_hour: f64) -> String {
+    let v = chains_per_hour * 66.0 / 5280.0;
+    fmt_num(v, if v < 0.1 { 2 } else { 1 })
+}
+
+/// "Moderate class" words for a class (or nothing).
+fn class_word(class: Option<&str>) -> String {
+    class.map_or_else(String::new, |c| c.split(" (").next().unwrap_or(c).to_string())
+}
+
+/// What the free fire did at the map's edge, and how the map grew, in one or two sentences.
+fn edge_sentence(f: &FreeSpread, hd: &Header) -> String {
+    let mi = |cells: usize| cells as f64 * hd.cell_size_ft / 5280.0;
+    let grown = match (f.grown_from_cells, f.grown_map_held) {
+        (Some(from), Some(held)) => format!(
+            " The map grew from {} × {} mi to {} × {} mi{}.",
+            fmt_num(mi(from[0]), 0),
+            fmt_num(mi(from[1]), 0),
+            fmt_num(mi(f.grid_cells[0]), 0),
+            fmt_num(mi(f.grid_cells[1]), 0),
+            if held {
+                " so that no run reached its edge"
+            } else {
+                ", its largest size"
+            }
+        ),
+        _ => String::new(),
+    };
+    let edge = match f.edge_first_h_median {
+        Some(t) if f.edge_runs_pct > 0.0 => format!(
+            " <b>The fire left the {} × {} mi map in {:.0} % of runs</b> (median hour {}): those runs' areas are lower bounds.",
+            fmt_num(mi(f.grid_cells[0]), 0),
+            fmt_num(mi(f.grid_cells[1]), 0),
+            f.edge_runs_pct,
+            fmt_num(t, 0)
+        ),
+        _ => String::new(),
+    };
+    format!("{grown}{edge}")
+}
+
+/// Assets as (name, x, y) cell positions for the maps; only the GO and SET ones (and listed
+/// ones) are named when `named`.
+fn asset_points(c: &Computed, named: bool) -> Vec<(String, f64, f64)> {
+    let land = &c.landscape;
+    c.report
+        .assets
+        .iter()
+        .zip(&c.asset_cells)
+        .map(|(a, cells)| {
+            let (x, y) = land
+                .lat_lon_to_cell(a.lat, a.lon)
+                .unwrap_or((cells[0] % land.width, cells[0] / land.width));
+            let show = named && (matches!(a.band, Band::Go | Band::Set) || a.source == AssetSource::Listed);
+            (
+                if show { a.name.clone() } else { String::new() },
+                x as f64,
+                y as f64,
+            )
+        })
+        .collect()
+}
+
+impl Computed {
+    /// Whether the map is made up (the synthetic world or a procedural map).
+    fn landscape_synthetic(&self) -> bool {
+        self.ensembles
             .first()
-            .map(|s| {
-                s.isochrone_acres
-                    .iter()
-                    .map(|[t, _]| fmt_num(*t, 0))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            })
-            .unwrap_or_default()
+            .and_then(|e| e.landscape.as_ref())
+            .is_some_and(|l| l.synthetic)
     }
 }
 
-/// The map: basemap image, isochrones of the unsuppressed fire and of the agent, drops,
-/// assets, ignition, north arrow and scale bar.
-fn map_svg(c: &Computed) -> Result<String, ReportError> {
+/// The map's extent in words.
+fn extent(land: &firecast_landscape::Landscape, window: [usize; 4]) -> String {
+    let [x0, y0, w, h] = window;
+    let mi = |cells: usize| cells as f64 * land.cell_size_ft / 5280.0;
+    format!(
+        "North is up; {:.1} × {:.1} mi{} at {} ft cells ({}), corners {} (south-west) and {} (north-east).",
+        mi(w),
+        mi(h),
+        if [w, h] == [land.width, land.height] {
+            String::new()
+        } else {
+            format!(
+                " around the fire, of the {:.1} × {:.1} mi simulated",
+                mi(land.width),
+                mi(land.height)
+            )
+        },
+        land.cell_size_ft,
+        land.georef.crs,
+        corner(land, x0 as i64, y0 as i64),
+        corner(land, (x0 + w) as i64, (y0 + h) as i64)
+    )
+}
+
+/// The part of the grid the maps show, [x0, y0, width, height] in cells: the whole grid,
+/// unless the map grew to hold the free fire — then the fire's cells (any run of any
+/// ensemble) and the ignition with a margin, at least the landscape's size as given and in
+/// its proportions.
+fn map_window(c: &Computed) -> [usize; 4] {
     let land = &c.landscape;
     let (gw, gh) = (land.width, land.height);
-    let s = MAP_SCALE as f64;
-    let (pw, ph) = (gw as f64 * s, gh as f64 * s);
-    let base = figures::png_bytes(&figures::basemap(land))?;
-    let mut svg = String::new();
-    write!(
-        svg,
-        "<figure><svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 {pw} {ph}\" width=\"{pw}\" height=\"{ph}\" \
-         role=img aria-label=\"Map of fire arrival times and drops\" font-family=\"DejaVu Sans, Arial, sans-serif\">\
-         <image href=\"{}\" x=\"0\" y=\"0\" width=\"{pw}\" height=\"{ph}\"/>",
-        figures::data_uri(&base)
-    )?;
-    let times: Vec<f64> = c.report.strategies[0]
-        .isochrone_acres
-        .iter()
-        .map(|p| p[0])
-        .collect();
-    // With the verified engine's free fire, the map shows it alone: the agent's isochrones
-    // are on the automaton, whose capped head would read as suppression.
-    let mut strategies: Vec<(&firecast_episodes::ensemble::Ensemble, bool)> = Vec::new();
-    match &c.spread {
-        Some(sp) => strategies.push((sp, true)),
-        None => {
-            strategies.push((&c.ensembles[c.baseline], true));
-            strategies.extend(c.agent.map(|a| (&c.ensembles[a], false)));
-        }
-    }
-    for &(e, free) in &strategies {
-        let color = hex(strategy_color(&e.strategy));
-        for (j, &t) in times.iter().enumerate() {
-            let rings = geometry::rings(gw, gh, |i| {
-                e.arrival_median_h[i].is_some_and(|a| f64::from(a) <= t)
-            });
-            if rings.is_empty() {
-                continue;
+    let Some(base) = c.report.free_spread.as_ref().and_then(|f| f.grown_from_cells) else {
+        return [0, 0, gw, gh];
+    };
+    let [ix, iy] = c.free_fire().ignition;
+    let (mut x0, mut y0, mut x1, mut y1) = (ix, iy, ix + 1, iy + 1);
+    for e in c.ensembles.iter().chain(c.spread.as_ref()) {
+        for (i, &n) in e.burn_count.iter().enumerate() {
+            if n > 0 {
+                let (x, y) = (i % gw, i / gw);
+                x0 = x0.min(x);
+                y0 = y0.min(y);
+                x1 = x1.max(x + 1);
+                y1 = y1.max(y + 1);
             }
-            write!(
-                svg,
-                "<path d=\"{}\" fill=\"none\" stroke=\"{color}\" stroke-width=\"{:.1}\" stroke-opacity=\"0.9\" fill-rule=\"evenodd\"{}><title>{} — {} h</title></path>",
-                geometry::svg_path(&rings, gh, s),
-                1.0 + j as f64 * 0.8,
-                if free { " stroke-dasharray=\"6 3\"" } else { "" },
-                esc(&crate::compute::strategy_label(&e.strategy)),
-                fmt_num(t, 0)
-            )?;
         }
     }
-    // The verified free fire's final perimeter: the cells at least half of the runs burnt.
-    if let Some(sp) = &c.spread {
-        let rings = geometry::rings(gw, gh, |i| sp.arrival_median_h[i].is_some());
-        if !rings.is_empty() {
-            write!(
-                svg,
-                "<path d=\"{}\" fill=\"none\" stroke=\"{FINAL_PERIMETER}\" stroke-width=\"3.5\" fill-rule=\"evenodd\"><title>Free fire: final perimeter ({} h)</title></path>",
-                geometry::svg_path(&rings, gh, s),
-                fmt_num(c.report.header.horizon_h, 0)
-            )?;
-        }
+    // A margin of a tenth of the fire's size each side, then the base size's proportions.
+    let (fw, fh) = (x1 - x0, y1 - y0);
+    let mut w = (fw + fw / 5 + 4).max(base[0]);
+    let mut h = (fh + fh / 5 + 4).max(base[1]);
+    let aspect = base[0] as f64 / base[1] as f64;
+    if (w as f64) < h as f64 * aspect {
+        w = (h as f64 * aspect).ceil() as usize;
+    } else {
+        h = (w as f64 / aspect).ceil() as usize;
     }
-    // Assets.
-    for (a, cells) in c.report.assets.iter().zip(&c.asset_cells) {
-        let (x, y) = land
-            .lat_lon_to_cell(a.lat, a.lon)
-            .unwrap_or((cells[0] % gw, cells[0] / gw));
-        let (px, py) = ((x as f64 + 0.5) * s, (gh as f64 - y as f64 - 0.5) * s);
-        write!(
-            svg,
-            "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"9\" height=\"9\" fill=\"#222\" stroke=\"#fff\"/>\
-             <text x=\"{:.1}\" y=\"{:.1}\" font-size=\"11\" fill=\"#000\" stroke=\"#fff\" stroke-width=\"3\" paint-order=\"stroke\">{}</text>",
-            px - 4.5,
-            py - 4.5,
-            px + 7.0,
-            py + 4.0,
-            esc(&a.name)
-        )?;
-    }
-    // Drops.
-    for d in &c.report.drops.drops {
-        let (px, py) = ((f64::from(d.x) + 0.5) * s, (gh as f64 - f64::from(d.y) - 0.5) * s);
-        if d.number <= DROPS_LISTED {
-            write!(
-                svg,
-                "<circle cx=\"{px:.1}\" cy=\"{py:.1}\" r=\"6\" fill=\"#1565c0\" stroke=\"#fff\"/>\
-                 <text x=\"{px:.1}\" y=\"{:.1}\" font-size=\"8\" text-anchor=\"middle\" fill=\"#fff\">{}</text>",
-                py + 3.0,
-                d.number
-            )?;
-        } else {
-            write!(
-                svg,
-                "<circle cx=\"{px:.1}\" cy=\"{py:.1}\" r=\"2\" fill=\"#1565c0\"/>"
-            )?;
-        }
-    }
-    // Ignition.
-    let [ix, iy] = c.ensembles[0].ignition;
-    let (px, py) = ((ix as f64 + 0.5) * s, (gh as f64 - iy as f64 - 0.5) * s);
-    let star: String = (0..10)
-        .map(|k| {
-            let r = if k % 2 == 0 { 10.0 } else { 4.0 };
-            let a = std::f64::consts::PI * f64::from(k) / 5.0 - std::f64::consts::FRAC_PI_2;
-            format!("{:.1},{:.1} ", px + r * a.cos(), py + r * a.sin())
-        })
-        .collect();
-    write!(
-        svg,
-        "<polygon points=\"{}\" fill=\"#ffeb3b\" stroke=\"#000\"/>",
-        star.trim_end()
-    )?;
-    // North arrow and a one-mile scale bar.
-    let mile_px = 5280.0 / land.cell_size_ft * s;
-    write!(
-        svg,
-        "<g><polygon points=\"{0:.1},14 {1:.1},34 {0:.1},28 {2:.1},34\" fill=\"#000\"/>\
-         <text x=\"{0:.1}\" y=\"46\" font-size=\"12\" text-anchor=\"middle\" stroke=\"#fff\" stroke-width=\"3\" paint-order=\"stroke\">N</text></g>\
-         <g><rect x=\"10\" y=\"{3:.1}\" width=\"{4:.1}\" height=\"6\" fill=\"#000\" stroke=\"#fff\"/>\
-         <text x=\"10\" y=\"{5:.1}\" font-size=\"11\" stroke=\"#fff\" stroke-width=\"3\" paint-order=\"stroke\">1 mile ({6} m)</text></g>",
-        pw - 20.0,
-        pw - 28.0,
-        pw - 12.0,
-        ph - 16.0,
-        mile_px,
-        ph - 20.0,
-        1609
-    )?;
-    write!(
-        svg,
-        "</svg><figcaption>Land cover over hillshade; north is up. {:.1} × {:.1} mi at {} ft resolution in {}; corners \
-         {} (south-west) to {} (north-east).</figcaption></figure>",
-        gw as f64 * land.cell_size_ft / 5280.0,
-        gh as f64 * land.cell_size_ft / 5280.0,
-        land.cell_size_ft,
-        esc(&land.georef.crs),
-        esc(&corner(land, 0, 0)),
-        esc(&corner(land, gw as i64, gh as i64))
-    )?;
-    Ok(svg)
+    let (w, h) = (w.min(gw), h.min(gh));
+    let cx = (x0 + x1) / 2;
+    let cy = (y0 + y1) / 2;
+    let left = cx.saturating_sub(w / 2).min(gw - w);
+    let bottom = cy.saturating_sub(h / 2).min(gh - h);
+    [left, bottom, w, h]
 }
 
 fn corner(land: &firecast_landscape::Landscape, x: i64, y: i64) -> String {

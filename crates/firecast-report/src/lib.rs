@@ -13,6 +13,7 @@ pub mod figures;
 pub mod geojson;
 pub mod geometry;
 pub mod html;
+pub mod maps;
 pub mod model;
 pub mod pdf;
 pub mod rasters;

@@ -12,7 +12,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Version of the JSON layout (semantic: a new field is a minor bump).
-pub const SCHEMA_VERSION: &str = "1.1.0";
+pub const SCHEMA_VERSION: &str = "1.2.0";
 /// `$id` of the schema.
 pub const SCHEMA_ID: &str = "https://firecast.dev/schemas/threat-report-1.schema.json";
 
@@ -319,10 +319,15 @@ pub struct StrategySummary {
     pub burned_hectares: Estimate,
     /// Median burnt area over the runs, acres.
     pub burned_acres_median: f64,
+    /// 10th percentile of the runs' burnt areas, acres: one run in ten burns less.
+    pub burned_acres_p10: f64,
+    /// 90th percentile of the runs' burnt areas, acres: one run in ten burns more.
+    pub burned_acres_p90: f64,
     /// Mean burnt area as a share of the landscape's burnable land, percent (0–100).
     pub burned_fraction_pct: f64,
-    /// Share of runs in which the fire went out before the cut-off (`header.horizon_h`),
-    /// percent (0–100).
+    /// Share of runs whose fire was out — no cell still burning — by the end of the simulated
+    /// period (`header.horizon_h`), percent (0–100). A suppressed fire still burning at the
+    /// cut-off counts as not out, even when it is smaller than the unsuppressed one.
     pub contained_pct: f64,
     /// Median hours after ignition until the fire went out, over the runs that went out, h
     /// (null: none went out).
@@ -369,6 +374,15 @@ pub struct FreeSpread {
     /// Mean final burnt area of the automaton's unsuppressed runs (`strategies`' "none") on
     /// the same runs, acres, for comparison.
     pub automaton_burned_acres: f64,
+    /// [width, height] of the map the free fire burned on, cells (`header.cell_size_ft`
+    /// square).
+    pub grid_cells: [usize; 2],
+    /// [width, height] of the landscape as given, when the map grew until no run reached its
+    /// edge (`grow` on the free-spread ensemble), cells (null: the map did not grow).
+    pub grown_from_cells: Option<[usize; 2]>,
+    /// Whether the grown map held every run (false: it reached its largest size with runs
+    /// still reaching the edge; null: the map did not grow).
+    pub grown_map_held: Option<bool>,
 }
 
 /// A strategy against no suppression on the same seeds.
@@ -389,6 +403,13 @@ pub struct Comparison {
     pub reduction_pct: f64,
     /// Share of paired runs in which the strategy burnt less, percent (0–100).
     pub runs_better_pct: f64,
+    /// Median over the paired runs of the acres saved (baseline's burnt area minus the
+    /// strategy's in the same run), acres.
+    pub acres_saved_median: f64,
+    /// 10th percentile of the paired runs' acres saved, acres.
+    pub acres_saved_p10: f64,
+    /// 90th percentile of the paired runs' acres saved, acres.
+    pub acres_saved_p90: f64,
 }
 
 /// One helicopter drop.
@@ -492,6 +513,11 @@ pub struct Asset {
     /// The strategy of the run that arrived first: "free-spread" for the verified engine's
     /// free fire (null: never reached).
     pub first_arrival_strategy: Option<String>,
+    /// Hours after ignition by which fire had reached the asset's buffer in at least half of
+    /// the runs of the same fire as `first_arrival_h`, at the latest (the earliest over the
+    /// buffer's cells of the hour by which half the runs had burned the cell), h (null: fewer
+    /// than half the runs burned any cell of the buffer).
+    pub half_runs_by_h: Option<f64>,
     /// Per strategy ("free-spread" first when the verified engine's free fire is given):
     /// [strategy, the highest burn probability among the cells within the buffer in percent
     /// (0–100)] — a lower bound on the share of runs in which fire reached the asset.

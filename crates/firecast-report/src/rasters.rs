@@ -35,6 +35,10 @@ pub fn geokeys(crs: &Crs) -> Option<GeoKeyTags> {
             let code = if *north { 32600 } else { 32700 } + u16::from(*zone);
             vec![1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, code]
         }
+        // CONUS Albers (LANDFIRE's grid): a projected CRS by its EPSG code.
+        Crs::Other(code) if code.eq_ignore_ascii_case("EPSG:5070") => {
+            vec![1, 1, 0, 3, 1024, 0, 1, 1, 1025, 0, 1, 1, 3072, 0, 1, 5070]
+        }
         Crs::Other(_) => return None,
     };
     Some(GeoKeyTags {
@@ -50,7 +54,7 @@ fn placement(land: &Landscape) -> Result<GridPlacement, ReportError> {
         ReportError::input(
             "landscape",
             format!(
-                "its CRS `{}` has no GeoTIFF keys here (EPSG:4326 and WGS84 UTM do)",
+                "its CRS `{}` has no GeoTIFF keys here (EPSG:4326, WGS84 UTM and EPSG:5070 do)",
                 g.crs
             ),
         )

@@ -282,7 +282,9 @@ impl StageKind for ReportStage {
         // 3: the verified engine's free fire (`spread`) draws where the fire goes and when;
         //    GeoJSON isochrones and zones carry their `engine`.
         // 4: the free fire's edge (`free_spread.edge_runs_pct`, `edge_first_h_median`).
-        4
+        // 5: the answer on the first screen, outcome ranges (schema 1.2.0), maps with legends,
+        //    per-strategy maps, a window around the fire on a grown map, print and phone.
+        5
     }
 
     fn summary(&self) -> &'static str {

@@ -351,6 +351,48 @@ fn the_committed_schema_is_the_model() {
     );
 }
 
+/// What the page looks like at a window width, measured by the browser: the script is added
+/// to a copy of the report (the report itself has none).
+fn layout(chromium: &Path, html: &Path, dir: &Path, width: u32) -> serde_json::Value {
+    let page = std::fs::read_to_string(html).expect("html");
+    let probe = r#"<script>
+const W = document.documentElement.clientWidth;
+const wide = [];
+for (const e of document.querySelectorAll('main *')) {
+  const r = e.getBoundingClientRect();
+  if (r.width > 0 && r.right > W + 1) wide.push(e.tagName + (e.className ? '.' + e.className : '') + ':' + Math.round(r.right));
+}
+const m = document.querySelector('#answer svg.map').getBoundingClientRect();
+document.body.setAttribute('data-look', JSON.stringify({width: W, scroll_width: document.documentElement.scrollWidth,
+  wide: wide.slice(0, 12), map_top: m.top, map_bottom: m.bottom, map_width: m.width}));
+</script></body>"#;
+    let probe_html = dir.join(format!("probe-{width}.html"));
+    std::fs::write(&probe_html, page.replace("</body>", probe)).expect("probe");
+    let run = Command::new(chromium)
+        .args(firecast_report::pdf::headless_args(
+            &dir.join(format!("profile-{width}")),
+        ))
+        .args([
+            "--dump-dom",
+            "--hide-scrollbars",
+            &format!("--window-size={width},900"),
+        ])
+        .arg(format!("file://{}", probe_html.display()))
+        .output()
+        .expect("chromium");
+    let dom = String::from_utf8_lossy(&run.stdout);
+    let attr = dom
+        .split("data-look=\"")
+        .nth(1)
+        .and_then(|rest| rest.split('"').next())
+        .expect("the probe ran");
+    serde_json::from_str(&attr.replace("&quot;", "\"").replace("&amp;", "&")).expect("probe JSON")
+}
+
+/// Renders the report in a real browser at a phone's and a desk's width and prints it, and
+/// checks what a reader sees: nothing wider than the page, the map on the first screen, a
+/// running header and page numbers on every printed page. With `FIRECAST_LOOK_DIR` set the
+/// screenshots and page images are kept there to look at.
 #[test]
 fn renders_in_chromium_and_prints_to_pdf() {
     let Ok(chromium) = firecast_report::pdf::chromium() else {
@@ -358,12 +400,13 @@ fn renders_in_chromium_and_prints_to_pdf() {
     };
     let f = fixture();
     let (_, out) = make(&f, true);
+    let html = out.join("report.html");
     // Rendered by a real browser without console errors.
     let profile = f.dir.join("profile");
     let run = Command::new(&chromium)
         .args(firecast_report::pdf::headless_args(&profile))
         .args(["--enable-logging=stderr", "--v=0", "--dump-dom"])
-        .arg(format!("file://{}", out.join("report.html").display()))
+        .arg(format!("file://{}", html.display()))
         .output()
         .expect("chromium");
     assert!(run.status.success());
@@ -372,7 +415,41 @@ fn renders_in_chromium_and_prints_to_pdf() {
     let stderr = String::from_utf8_lossy(&run.stderr);
     let console: Vec<&str> = stderr.lines().filter(|l| l.contains(":CONSOLE")).collect();
     assert!(console.is_empty(), "console messages: {console:?}");
-    // The PDF opens and carries the report, page by page (poppler).
+    // A phone and a desk: nothing sticks out, the map is on the first screen.
+    for width in [390u32, 1280] {
+        let look = layout(&chromium, &html, &f.dir, width);
+        let w = look["width"].as_f64().expect("width");
+        assert!(
+            look["scroll_width"].as_f64() <= Some(w) && look["wide"].as_array().is_some_and(Vec::is_empty),
+            "at {width} px something is wider than the page: {look}"
+        );
+        let top = look["map_top"].as_f64().expect("map");
+        assert!(
+            top < 450.0,
+            "at {width} px the map starts {top} px down: not on the first screen ({look})"
+        );
+        assert!(
+            look["map_width"].as_f64() >= Some((w * 0.9).min(560.0)),
+            "at {width} px the map is too small: {look}"
+        );
+    }
+    let keep = std::env::var_os("FIRECAST_LOOK_DIR").map(PathBuf::from);
+    if let Some(dir) = &keep {
+        std::fs::create_dir_all(dir).expect("look dir");
+        for (width, height) in [(390u32, 2400u32), (1280, 1600)] {
+            let shot = dir.join(format!("report-{width}.png"));
+            let status = Command::new(&chromium)
+                .args(firecast_report::pdf::headless_args(&f.dir.join("profile-shot")))
+                .args(["--hide-scrollbars", &format!("--window-size={width},{height}")])
+                .arg(format!("--screenshot={}", shot.display()))
+                .arg(format!("file://{}", html.display()))
+                .output()
+                .expect("chromium");
+            assert!(status.status.success());
+        }
+    }
+    // The PDF opens and carries the report, page by page (poppler), each page with the place,
+    // the day and its number.
     let pdf = out.join("report.pdf");
     let bytes = std::fs::read(&pdf).expect("pdf");
     assert!(bytes.starts_with(b"%PDF-"));
@@ -387,20 +464,47 @@ fn renders_in_chromium_and_prints_to_pdf() {
         .and_then(|v| v.trim().parse().ok())
         .expect("page count");
     assert!((3..=12).contains(&pages), "{pages} pages");
-    let text = Command::new("pdftotext")
-        .args(["-layout"])
-        .arg(&pdf)
-        .arg("-")
-        .output()
-        .expect("pdftotext");
-    let text = String::from_utf8_lossy(&text.stdout);
+    let page_text = |k: usize| {
+        let text = Command::new("pdftotext")
+            .args(["-layout", "-f", &k.to_string(), "-l", &k.to_string()])
+            .arg(&pdf)
+            .arg("-")
+            .output()
+            .expect("pdftotext");
+        String::from_utf8_lossy(&text.stdout).into_owned()
+    };
+    let mut all = String::new();
+    for k in 1..=pages {
+        let text = page_text(k);
+        assert!(
+            text.contains(&format!("Page {k} of {pages}")),
+            "page {k} has no page number:\n{text}"
+        );
+        assert!(
+            text.contains("forecast day 2019-08-01") && text.contains("39.") && text.contains("107."),
+            "page {k} lacks the running header with place and day:\n{text}"
+        );
+        // No page (the last included) holds only a few lines.
+        let lines = text.lines().filter(|l| !l.trim().is_empty()).count();
+        assert!(lines >= 8, "page {k} is nearly empty ({lines} lines):\n{text}");
+        all.push_str(&text);
+    }
     for needle in [
         "Fire threat assessment",
-        "Bottom line",
+        "Where it goes and how fast",
         "Evacuation advisories",
         "Ignition probability",
     ] {
-        assert!(text.contains(needle), "PDF text lacks {needle}");
+        assert!(all.contains(needle), "PDF text lacks {needle}");
+    }
+    if let Some(dir) = &keep {
+        let status = Command::new("pdftoppm")
+            .args(["-r", "50", "-png"])
+            .arg(&pdf)
+            .arg(dir.join("report-page"))
+            .status()
+            .expect("pdftoppm");
+        assert!(status.success());
     }
 }
 
@@ -751,7 +855,7 @@ fn the_verified_engine_draws_where_the_fire_goes() {
     );
     let html = std::fs::read_to_string(out.join("report.html")).expect("html");
     assert!(html.contains("Free fire, verified minimum-travel-time engine"));
-    assert!(html.contains("free fire, minimum-travel-time engine"));
+    assert!(html.contains("(verified minimum-travel-time engine, "));
 
     // The GeoJSON carries both engines' isochrones, named.
     let gj: serde_json::Value =

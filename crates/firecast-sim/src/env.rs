@@ -45,12 +45,6 @@ impl Action {
     /// Lower-case names by action number, as the Python package's `ACTIONS` lists them.
     pub const NAMES: [&'static str; 5] = ["north", "south", "west", "east", "drop"];
 
-    /// FireCastRL's name for [`Action::North`] (action 0), kept so callers not yet renamed
-    /// compile; it moves the helicopter north, *up* on FireCast's renders.
-    #[doc(hidden)]
-    #[allow(non_upper_case_globals)]
-    pub const Down: Action = Action::North;
-
     /// The lower-case name (`north`, `south`, `west`, `east`, `drop`).
     pub fn name(self) -> &'static str {
         Self::NAMES[self as usize]
