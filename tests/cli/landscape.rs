@@ -208,17 +208,44 @@ fn landfire_landscapes_run_ensembles_on_the_places_fuels() {
         serde_json::from_str(&p.read(&format!("build/{name}.json"))).unwrap()
     };
     for (a, b) in [("tif", "lcp"), ("tif_mtt", "lcp_mtt")] {
+        let mtt = a.ends_with("_mtt");
         let (a, b) = (read(a), read(b));
-        for key in [
-            "grid",
-            "land_cover",
-            "elevation_ft",
-            "ignition",
-            "episodes",
-            "burn_count",
-            "arrival_first_h",
-        ] {
+        // The MTT engine spreads over the window's own slope layer, which the .lcp stores in
+        // whole degrees (the GeoTIFF in percent): arrival times differ by that rounding, the
+        // cells burnt do not.
+        let exact: &[&str] = if mtt {
+            &["grid", "land_cover", "elevation_ft", "ignition", "burn_count"]
+        } else {
+            &[
+                "grid",
+                "land_cover",
+                "elevation_ft",
+                "ignition",
+                "episodes",
+                "burn_count",
+                "arrival_first_h",
+            ]
+        };
+        for key in exact {
             assert_eq!(a[key], b[key], "{key}");
+        }
+        if mtt {
+            let arrival = |v: &serde_json::Value| -> Vec<Option<f64>> {
+                v["arrival_first_h"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(serde_json::Value::as_f64)
+                    .collect()
+            };
+            for (x, y) in arrival(&a).into_iter().zip(arrival(&b)) {
+                match (x, y) {
+                    (Some(x), Some(y)) => {
+                        assert!((x - y).abs() <= 0.05 * x.max(y) + 1e-6, "arrival {x} h vs {y} h")
+                    }
+                    (x, y) => assert_eq!(x, y),
+                }
+            }
         }
         let burnt = a["burn_count"]
             .as_array()

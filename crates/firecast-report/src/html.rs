@@ -353,7 +353,12 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         }
         h.push_str(&tb.finish());
         if r.assets.len() > 6 {
-            write!(h, "<p class=muted>{} more in section 6.</p>", r.assets.len() - 6)?;
+            let banded = r.assets.iter().filter(|a| a.band != Band::None).count();
+            write!(
+                h,
+                "<p class=muted>{} assets in a band in all; every asset in section 6.</p>",
+                banded
+            )?;
         }
     }
     // What suppression saves.
@@ -829,7 +834,9 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     if r.assets.is_empty() {
         tb.wide("No assets: none were listed and the landscape has no developed land.");
     }
-    for a in &r.assets {
+    // Developed areas no fire comes near are counted, not listed (a grown map has hundreds).
+    let quiet = |a: &&Asset| a.band == Band::None && a.source == AssetSource::Developed;
+    for a in r.assets.iter().filter(|a| !quiet(a)) {
         tb.row(&[
             t(format!(
                 "<span class=\"band {}\">{}</span>",
@@ -844,6 +851,13 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             n(opt(a.trigger_h, 1, "h")),
             t(esc(&a.advice)),
         ]);
+    }
+    let unlisted = r.assets.iter().filter(quiet).count();
+    if unlisted > 0 {
+        tb.wide(&format!(
+            "{unlisted} more developed areas, none in a band: fire reaches them late or not at all (every one is in \
+             <code>report.json</code> and <code>report.geojson</code>)."
+        ));
     }
     h.push_str(&tb.finish());
 

@@ -124,7 +124,8 @@ fn ensembles_run_on_a_landfire_window_and_burn_only_fuel() {
 }
 
 /// The .lcp fixture is the clip's 48 × 40 cells from column 70, row 400, written by GDAL: the
-/// GeoTIFF layers cut around the same cells give the same landscape and the same fires.
+/// GeoTIFF layers cut around the same cells give the same landscape and the same fires (the
+/// MTT engine's arrival times within the .lcp's slope rounding).
 #[test]
 fn the_lcp_and_the_geotiff_layers_give_the_same_fires() {
     let root = Path::new(".");
@@ -165,10 +166,20 @@ fn the_lcp_and_the_geotiff_layers_give_the_same_fires() {
         run_agent(&b, AgentKind::None, 2, 3, |_| {}).unwrap(),
     );
     assert!(burnt > 5, "{burnt}");
-    let burnt = same(
+    // The MTT engine spreads over the window's own slope layer, which the .lcp stores in whole
+    // degrees (the GeoTIFF in percent): the same cells burn, at times within 5 %.
+    let (x, y) = (
         run_mtt(&a, 2, 3, |_| {}).unwrap(),
         run_mtt(&b, 2, 3, |_| {}).unwrap(),
     );
+    assert_eq!(x.burn_count, y.burn_count);
+    for (p, q) in x.arrival_first_h.iter().zip(&y.arrival_first_h) {
+        match (p, q) {
+            (Some(p), Some(q)) => assert!((p - q).abs() <= 0.05 * p.max(*q) + 1e-6, "{p} h vs {q} h"),
+            (p, q) => assert_eq!(p, q),
+        }
+    }
+    let burnt = burnt_cells_are_burnable(&x);
     assert!(burnt > 5, "{burnt}");
 }
 
