@@ -330,14 +330,26 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     )?;
     // Assets, most urgent first.
     w(&mut h, "<h3>Assets</h3>");
+    let at_risk: Vec<&Asset> = r
+        .assets
+        .iter()
+        .filter(|a| a.band != Band::None || a.source == AssetSource::Listed)
+        .collect();
     if r.assets.is_empty() {
         w(
             &mut h,
             "<p>No assets: none were listed and the landscape has no developed land.</p>",
         );
+    } else if at_risk.is_empty() {
+        write!(
+            h,
+            "<p>No asset in a band: fire reaches none of the {} watched within {} h of ignition (section 6).</p>",
+            r.assets.len(),
+            fmt_num(r.evacuation_bands.ready_within_h, 0)
+        )?;
     } else {
         let mut tb = Table::new(&["Asset", "Band", "Fire first arrives", "In half the runs by"]);
-        for a in r.assets.iter().take(6) {
+        for a in at_risk.iter().take(6) {
             tb.row(&[
                 t(esc(&a.name)),
                 t(format!(
@@ -352,12 +364,11 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             ]);
         }
         h.push_str(&tb.finish());
-        if r.assets.len() > 6 {
-            let banded = r.assets.iter().filter(|a| a.band != Band::None).count();
+        if at_risk.len() > 6 {
             write!(
                 h,
                 "<p class=muted>{} assets in a band in all; every asset in section 6.</p>",
-                banded
+                at_risk.len()
             )?;
         }
     }
@@ -382,10 +393,15 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             fmt_num(cmp.acres_saved_p10, 0),
             fmt_num(cmp.acres_saved_p90, 0),
             cmp.runs_better_pct,
-            if meaningful {
-                String::new()
-            } else {
+            if !meaningful {
                 " <b>No reliable saving</b> (the interval of the mean includes 0).".to_string()
+            } else if cmp.reduction_pct < 1.0 {
+                format!(
+                    " Negligible: {:.2} % of the unsuppressed fire's area.",
+                    cmp.reduction_pct
+                )
+            } else {
+                String::new()
             }
         )?;
     }

@@ -33,6 +33,10 @@ pub struct MapFrame<'a> {
     pw: f64,
     ph: f64,
     svg: String,
+    /// Hour labels of the arrival bands, written last so nothing covers them: (x, y, text).
+    labels: Vec<(f64, f64, String)>,
+    /// Boxes already holding text (centre x, centre y, half width, half height).
+    taken: Vec<(f64, f64, f64, f64)>,
 }
 
 impl<'a> MapFrame<'a> {
@@ -57,6 +61,8 @@ impl<'a> MapFrame<'a> {
             pw,
             ph,
             svg,
+            labels: Vec::new(),
+            taken: Vec::new(),
         }
     }
 
@@ -129,23 +135,11 @@ impl<'a> MapFrame<'a> {
                 labels.push((i, t));
             }
         }
-        // Labels on top of every band.
-        let mut placed: Vec<(f64, f64)> = Vec::new();
+        // Labels on top of every band (written by `finish`).
         for (i, t) in labels {
             let (x, y) = self.px((i % w) as f64, (i / w) as f64);
             let (x, y) = (x + dx * 8.0, y - dy * 8.0);
-            if placed
-                .iter()
-                .any(|&(px, py)| (px - x).abs() < 52.0 && (py - y).abs() < 20.0)
-            {
-                continue;
-            }
-            placed.push((x, y));
-            let _ = write!(
-                self.svg,
-                "<text class=big x=\"{x:.1}\" y=\"{y:.1}\" font-size=\"13\" font-weight=\"bold\" text-anchor=\"middle\" {HALO}>{} h</text>",
-                fmt_num(t, 0)
-            );
+            self.labels.push((x, y, format!("{} h", fmt_num(t, 0))));
         }
     }
 
@@ -300,6 +294,14 @@ impl<'a> MapFrame<'a> {
         } else {
             "middle"
         };
+        let (lx, ly) = (x1 + dx * 6.0, y1 + dy * 6.0 + if dy > 0.3 { 12.0 } else { 0.0 });
+        let half = label.chars().count() as f64 * 5.5;
+        let cx = match anchor {
+            "start" => lx + half,
+            "end" => lx - half,
+            _ => lx,
+        };
+        self.taken.push((cx, ly - 6.0, half, 11.0));
         let _ = write!(
             self.svg,
             "<g><line x1=\"{x0:.1}\" y1=\"{y0:.1}\" x2=\"{hx:.1}\" y2=\"{hy:.1}\" stroke=\"#fff\" stroke-width=\"6\"/>\
@@ -319,6 +321,22 @@ impl<'a> MapFrame<'a> {
     /// Closes the map with a north arrow and a scale bar.
     pub fn finish(mut self) -> String {
         let (pw, ph) = (self.pw, self.ph);
+        for (x, y, text) in std::mem::take(&mut self.labels) {
+            let half = text.chars().count() as f64 * 6.0;
+            let clear = !self
+                .taken
+                .iter()
+                .any(|&(cx, cy, hw, hh)| (cx - x).abs() < hw + half && (cy - (y - 6.0)).abs() < hh + 10.0);
+            if !clear {
+                continue;
+            }
+            self.taken.push((x, y - 6.0, half, 10.0));
+            let _ = write!(
+                self.svg,
+                "<text class=big x=\"{x:.1}\" y=\"{y:.1}\" font-size=\"13\" font-weight=\"bold\" text-anchor=\"middle\" {HALO}>{}</text>",
+                esc(&text)
+            );
+        }
         let mile = MILE_FT / self.land.cell_size_ft * self.s;
         // The longest of 0.5, 1, 2, 5, 10, 20, 50 miles within a fifth of the width.
         let miles = [0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0]
