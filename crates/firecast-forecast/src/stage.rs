@@ -305,6 +305,10 @@ pub struct PredictParams {
     /// the machine's core count.
     #[serde(default = "firecast_learn::default_threads")]
     pub threads: usize,
+    /// With the output `map`: also the day's probability at every GRIDMET cell within this
+    /// many degrees of the place (latitude and longitude), the ignition pattern around it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map_radius_deg: Option<f64>,
 }
 
 fn default_predict_device() -> String {
@@ -610,6 +614,125 @@ pub fn forecast_point(
     assemble_forecast(&answers)
 }
 
+/// The day's ignition probability over a grid of GRIDMET cells, row 0 south: the mean over
+/// the model's training seeds (what `forecast.predict`'s `map` output and the web app's map
+/// hold).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ProbabilityMap {
+    pub date: String,
+    pub model: String,
+    pub protocol: String,
+    /// Mean of the seeds' decision thresholds (0–1).
+    pub threshold: f64,
+    pub seeds: usize,
+    pub lats: Vec<f64>,
+    pub lons: Vec<f64>,
+    /// `lats.len()` rows of `lons.len()` values (0–1, mean over seeds); `null` where a cell
+    /// has no complete weather window (masked or outside the files).
+    pub probability: Vec<Vec<Option<f64>>>,
+}
+
+/// The probability at every (lat, lon) of `lats` × `lons` on `params.date`, by every saved
+/// seed of `params.model`.
+pub fn forecast_map(
+    experiment: &std::path::Path,
+    gridmet: &std::path::Path,
+    params: &PredictParams,
+    lats: &[f64],
+    lons: &[f64],
+    device: tch::Device,
+) -> Result<ProbabilityMap, crate::ForecastError> {
+    let results_path = experiment.join("results.json");
+    let results: Option<serde_json::Value> = std::fs::read(&results_path)
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok());
+    let available = sub_folders(&experiment.join("models"))?;
+    let headline = results.as_ref().and_then(|r| r.get("headline")?.as_str());
+    let protocol = choose_protocol(&available, headline, params.protocol.as_deref())?;
+    let bundles = seed_bundles(experiment, results.as_ref(), &protocol, &params.model)?;
+    let queries: Vec<crate::predict::Query> = lats
+        .iter()
+        .flat_map(|&lat| {
+            lons.iter().map(move |&lon| crate::predict::Query {
+                lat,
+                lon,
+                date: params.date.clone(),
+            })
+        })
+        .collect();
+    let mut sum = vec![0.0; queries.len()];
+    let mut count = vec![0usize; queries.len()];
+    let mut threshold = 0.0;
+    for (_, rel) in &bundles {
+        let bundle = crate::bundle::load(&experiment.join(rel), device)?;
+        threshold += bundle.info.threshold;
+        let (answers, _) = crate::predict::predict_available(&bundle, gridmet, &queries, device)?;
+        for (i, a) in answers.iter().enumerate() {
+            if let Some(p) = a {
+                sum[i] += p.probability;
+                count[i] += 1;
+            }
+        }
+    }
+    let n_lon = lons.len();
+    let probability = (0..lats.len())
+        .map(|r| {
+            (0..n_lon)
+                .map(|c| {
+                    let i = r * n_lon + c;
+                    (count[i] == bundles.len() && count[i] > 0).then(|| sum[i] / count[i] as f64)
+                })
+                .collect()
+        })
+        .collect();
+    Ok(ProbabilityMap {
+        date: params.date.clone(),
+        model: params.model.clone(),
+        protocol,
+        threshold: threshold / bundles.len().max(1) as f64,
+        seeds: bundles.len(),
+        lats: lats.to_vec(),
+        lons: lons.to_vec(),
+        probability,
+    })
+}
+
+/// The GRIDMET cells (sorted latitudes and longitudes) within `radius_deg` of a place, read
+/// from a GRIDMET file of the date's year.
+fn cells_around(
+    gridmet: &std::path::Path,
+    date: &str,
+    lat: f64,
+    lon: f64,
+    radius_deg: f64,
+) -> Result<(Vec<f64>, Vec<f64>), crate::ForecastError> {
+    use firecast_data::gridmet::{GridmetFile, GridmetVariable};
+    let year: i32 = date.get(..4).and_then(|y| y.parse().ok()).unwrap_or(0);
+    // Any variable's file of the year: they share one grid.
+    let (variable, path) = GridmetVariable::ALL
+        .iter()
+        .map(|&v| (v, gridmet.join(v.file_name(year))))
+        .find(|(_, p)| p.is_file())
+        .ok_or_else(|| crate::ForecastError::Data {
+            path: gridmet.to_path_buf(),
+            message: format!("no GRIDMET file of {year} to read the grid from"),
+        })?;
+    let file = GridmetFile::open(&path, variable).map_err(|e| crate::ForecastError::Data {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
+    let pick = |v: &[f64], centre: f64| {
+        let mut out: Vec<f64> = v
+            .iter()
+            .copied()
+            .filter(|x| (x - centre).abs() <= radius_deg + 1e-9)
+            .collect();
+        out.sort_by(f64::total_cmp);
+        out
+    };
+    Ok((pick(file.lats(), lat), pick(file.lons(), lon)))
+}
+
 /// A name that must stay one folder inside the experiment.
 fn check_folder_name(key: &str, name: &str) -> Result<(), ParamsError> {
     if name.is_empty() || name == "." || name == ".." || name.contains(['/', '\\']) {
@@ -648,11 +771,18 @@ impl StageKind for PredictStage {
                 "GRIDMET folder with <var>_<year>.nc files covering the input window",
             ),
         ];
-        const OUT: &[Port] = &[port(
-            "forecast",
-            true,
-            "probability per seed, mean, range, threshold (JSON)",
-        )];
+        const OUT: &[Port] = &[
+            port(
+                "forecast",
+                true,
+                "probability per seed, mean, range, threshold (JSON)",
+            ),
+            port(
+                "map",
+                false,
+                "with `map_radius_deg`: the day's probability at every GRIDMET cell around the place (JSON)",
+            ),
+        ];
         Ports {
             inputs: IN,
             outputs: OUT,
@@ -683,6 +813,14 @@ impl StageKind for PredictStage {
         if let Some(protocol) = &p.protocol {
             check_folder_name("protocol", protocol)?;
         }
+        if let Some(r) = p.map_radius_deg
+            && !(r > 0.0 && r <= 5.0)
+        {
+            return Err(ParamsError {
+                path: "map_radius_deg".into(),
+                message: format!("{r} is not in (0, 5] degrees"),
+            });
+        }
         crate::parse_device(&p.device).map_err(|e| match e {
             crate::ForecastError::Config { key, message } => ParamsError { path: key, message },
             other => ParamsError {
@@ -702,6 +840,16 @@ impl StageKind for PredictStage {
             firecast_learn::set_threads(params.threads);
             let f = forecast_point(&experiment, &gridmet, &params, device)?;
             std::fs::write(ctx.output("forecast")?, serde_json::to_vec_pretty(&f)?)?;
+            if let (Some(radius), Ok(out)) = (params.map_radius_deg, ctx.output("map")) {
+                let (lats, lons) = cells_around(&gridmet, &params.date, params.lat, params.lon, radius)?;
+                let map = forecast_map(&experiment, &gridmet, &params, &lats, &lons, device)?;
+                std::fs::write(out, serde_json::to_vec(&map)?)?;
+                ctx.log(format!(
+                    "ignition pattern: {} × {} GRIDMET cells within {radius}° of the place",
+                    lats.len(),
+                    lons.len()
+                ));
+            }
             ctx.metric("probability", 0, f.probability);
             ctx.log(format!(
             "{} ({}, protocol {}): P(ignition) at ({}, {}) on {} = {:.3} [{:.3}, {:.3}] over {} seeds, threshold {:.3}: {}",
@@ -918,6 +1066,7 @@ mod tests {
             protocol: None,
             device: "cpu".into(),
             threads: 1,
+            map_radius_deg: None,
         };
         let f = forecast_point(exp, &fixture_gridmet(), &params, tch::Device::Cpu).unwrap();
         assert_eq!(f.protocol, "leak_free");
@@ -932,6 +1081,22 @@ mod tests {
         assert!((f.threshold - 0.65).abs() < 1e-12);
         assert_eq!(f.ignition_expected, f.probability > 0.65);
         assert!((f.validation_auroc.unwrap() - 0.65).abs() < 1e-12);
+        // The map over the GRIDMET cells around the place holds the same mean at the place's
+        // cell, and the same threshold.
+        let (lats, lons) =
+            cells_around(&fixture_gridmet(), &params.date, params.lat, params.lon, 0.05).unwrap();
+        assert!(!lats.is_empty() && !lons.is_empty(), "{lats:?} {lons:?}");
+        let map = forecast_map(exp, &fixture_gridmet(), &params, &lats, &lons, tch::Device::Cpu).unwrap();
+        assert_eq!((map.seeds, map.protocol.as_str()), (2, "leak_free"));
+        assert!((map.threshold - f.threshold).abs() < 1e-12);
+        let nearest = |v: &[f64], x: f64| {
+            (0..v.len())
+                .min_by(|&a, &b| (v[a] - x).abs().total_cmp(&(v[b] - x).abs()))
+                .unwrap()
+        };
+        let (r, c) = (nearest(&lats, params.lat), nearest(&lons, params.lon));
+        let at = map.probability[r][c].expect("a probability at the place");
+        assert!((at - f.probability).abs() < 1e-9, "{at} vs {}", f.probability);
         assert_eq!(f.test_auroc, Some(0.5));
         assert_eq!(f.per_seed[0].bundle, "models/leak_free/fdi/seed-0");
 

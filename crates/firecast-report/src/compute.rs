@@ -620,6 +620,7 @@ fn forecast_block(f: &ForecastFile) -> Forecast {
         validation_auprc: (!auprc.is_empty()).then(|| auprc.iter().sum::<f64>() / auprc.len() as f64),
         test_auroc: f.test_auroc,
         input_days: [f.input_days.0, f.input_days.1],
+        pattern: None,
     }
 }
 

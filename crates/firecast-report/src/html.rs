@@ -465,6 +465,10 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         esc(&f.dataset_version)
     )?;
 
+    if let Some(p) = &f.pattern {
+        h.push_str(&ignition_pattern_figure(p, hd.lat, hd.lon));
+    }
+
     // Weather and fire behaviour.
     let wx = &r.weather;
     let fb = &r.fire_behaviour;
@@ -972,6 +976,96 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         esc(&r.schema_version)
     )?;
     Ok(h)
+}
+
+/// The forecasted ignition pattern: one square per GRIDMET cell coloured by the day's
+/// probability, the cells at or above the threshold outlined, the place starred.
+fn ignition_pattern_figure(p: &IgnitionPattern, lat: f64, lon: f64) -> String {
+    let threshold = p.threshold_pct / 100.0;
+    let (rows, cols) = (p.lats.len(), p.lons.len());
+    if rows == 0 || cols == 0 {
+        return String::new();
+    }
+    let cell = (460.0 / cols.max(rows) as f64).min(40.0);
+    let (pw, ph) = (cols as f64 * cell, rows as f64 * cell);
+    let mut svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"-2 -2 {:.0} {:.0}\" width=\"{:.0}\" height=\"{:.0}\" \
+         role=img aria-label=\"Ignition probability around the place\" font-family=\"DejaVu Sans, Arial, sans-serif\">",
+        pw + 4.0,
+        ph + 4.0,
+        pw + 4.0,
+        ph + 4.0
+    );
+    for (r, row) in p.probability_pct.iter().enumerate() {
+        for (c, v) in row.iter().enumerate() {
+            let (x, y) = (c as f64 * cell, (rows - 1 - r) as f64 * cell);
+            let (fill, stroke) = match v {
+                Some(v) => (
+                    hex(figures::probability_color(v / 100.0)),
+                    if *v >= threshold * 100.0 {
+                        " stroke=\"#000\" stroke-width=\"1.5\""
+                    } else {
+                        " stroke=\"#fff\" stroke-width=\"0.5\""
+                    },
+                ),
+                None => ("#e0e0e0".to_string(), " stroke=\"#fff\" stroke-width=\"0.5\""),
+            };
+            let _ = write!(
+                svg,
+                "<rect x=\"{x:.1}\" y=\"{y:.1}\" width=\"{cell:.1}\" height=\"{cell:.1}\" fill=\"{fill}\"{stroke}><title>{:.4}° N, {:.4}° E: {}</title></rect>",
+                p.lats[r],
+                p.lons[c],
+                v.map_or("no weather window".into(), |v| format!("{v:.0} %"))
+            );
+        }
+    }
+    // The place, between cell centres.
+    let frac = |v: f64, axis: &[f64]| {
+        let (a, b) = (axis[0], axis[axis.len() - 1]);
+        if axis.len() < 2 || b == a {
+            0.5
+        } else {
+            ((v - a) / (b - a) * (axis.len() - 1) as f64 + 0.5) / axis.len() as f64
+        }
+    };
+    let (sx, sy) = (frac(lon, &p.lons) * pw, (1.0 - frac(lat, &p.lats)) * ph);
+    let star: String = (0..10)
+        .map(|k| {
+            let r = if k % 2 == 0 { 9.0 } else { 3.6 };
+            let a = std::f64::consts::PI * f64::from(k) / 5.0 - std::f64::consts::FRAC_PI_2;
+            format!("{:.1},{:.1} ", sx + r * a.cos(), sy + r * a.sin())
+        })
+        .collect();
+    let _ = write!(
+        svg,
+        "<polygon points=\"{}\" fill=\"#ffeb3b\" stroke=\"#000\"><title>the place</title></polygon></svg>",
+        star.trim_end()
+    );
+    let swatches: String = [0.1, 0.3, 0.5, 0.7, 0.9]
+        .iter()
+        .map(|&q| {
+            format!(
+                "<span><i class=swf style=\"background:{}\"></i>{:.0} %</span>",
+                hex(figures::probability_color(q)),
+                q * 100.0
+            )
+        })
+        .collect();
+    format!(
+        "<h3>Forecasted ignition pattern</h3><figure class=keep style=\"max-width:480px\">{svg}<figcaption>The day's \
+         ignition probability at each of the {} GRIDMET cells from {:.3}° to {:.3}° N and {:.3}° to {:.3}° E by the same \
+         model (north up; the star is the place): {} at or above the {:.0} % threshold (outlined), highest {}.\
+         </figcaption></figure><div class=legend>{swatches}<span><i class=swf style=\"background:#e0e0e0\"></i>no weather \
+         window</span></div>",
+        p.cells,
+        p.lats[0],
+        p.lats[rows - 1],
+        p.lons[0],
+        p.lons[cols - 1],
+        p.cells_above_threshold,
+        threshold * 100.0,
+        p.max_pct.map_or("—".into(), |m| format!("{m:.0} %"))
+    )
 }
 
 /// A rate of spread in ch/h as mi/h, with the digits a slow fire needs.

@@ -193,6 +193,33 @@ pub struct Forecast {
     /// First and last day of the model's inputs, in days relative to the forecast day
     /// (inclusive; e.g. [-60, -1]).
     pub input_days: [i32; 2],
+    /// The day's ignition probability at every GRIDMET cell around the place, by the same
+    /// model (null: the report was not given `forecast.predict`'s `map`).
+    #[serde(default)]
+    pub pattern: Option<IgnitionPattern>,
+}
+
+/// The forecasted ignition pattern: the day's probability over the GRIDMET cells around the
+/// place.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct IgnitionPattern {
+    /// Latitudes of the cells' centres, south to north, degrees north.
+    pub lats: Vec<f64>,
+    /// Longitudes of the cells' centres, west to east, degrees east.
+    pub lons: Vec<f64>,
+    /// Probability per cell, rows south to north and columns west to east, percent (0–100);
+    /// null where the cell has no complete weather window.
+    pub probability_pct: Vec<Vec<Option<f64>>>,
+    /// Cells with a probability.
+    pub cells: usize,
+    /// The map's decision threshold (the mean of its seeds' thresholds, as `forecast.threshold`),
+    /// percent (0–100).
+    pub threshold_pct: f64,
+    /// Cells at or above `threshold_pct`.
+    pub cells_above_threshold: usize,
+    /// Highest probability over the cells, percent (0–100; null: no cell has one).
+    pub max_pct: Option<f64>,
 }
 
 /// A quantity in field and SI units, with its NWCG adjective class.

@@ -24,6 +24,12 @@ const INPUTS: &[Port] = &[
         description: "ensemble files of sim.ensemble / rl.ensemble, one of them `none`",
     },
     Port {
+        name: "ignition_map",
+        required: false,
+        many: false,
+        description: "forecast.predict's `map`: the day's ignition probability at every GRIDMET cell around the place",
+    },
+    Port {
         name: "spread",
         required: false,
         many: false,
@@ -132,6 +138,59 @@ pub struct ReportFiles<'a> {
     pub forecast: &'a Path,
     /// The GRIDMET folder holding the day.
     pub gridmet: &'a Path,
+    /// `forecast.predict`'s `map`: the day's probability around the place, if any.
+    pub ignition_map: Option<&'a Path>,
+}
+
+/// What the report reads of `forecast.predict`'s `map` file.
+#[derive(Debug, serde::Deserialize)]
+struct IgnitionMapFile {
+    date: String,
+    threshold: f64,
+    lats: Vec<f64>,
+    lons: Vec<f64>,
+    probability: Vec<Vec<Option<f64>>>,
+}
+
+/// The ignition pattern of a `map` file, checked against the report's day.
+fn ignition_pattern(
+    root: &Path,
+    path: &Path,
+    date: &str,
+) -> Result<crate::model::IgnitionPattern, ReportError> {
+    let bytes = std::fs::read(path).map_err(ReportError::io("reading the ignition map", path))?;
+    let m: IgnitionMapFile = serde_json::from_slice(&bytes)
+        .map_err(|e| ReportError::input(rel(root, path), format!("line {}: {e}", e.line())))?;
+    if m.date != date {
+        return Err(ReportError::input(
+            rel(root, path),
+            format!("the ignition map is for {}, the report for {date}", m.date),
+        ));
+    }
+    if m.probability.len() != m.lats.len() || m.probability.iter().any(|row| row.len() != m.lons.len()) {
+        return Err(ReportError::input(
+            rel(root, path),
+            format!(
+                "`probability` is not {} rows of {} cells",
+                m.lats.len(),
+                m.lons.len()
+            ),
+        ));
+    }
+    let values: Vec<f64> = m.probability.iter().flatten().flatten().copied().collect();
+    Ok(crate::model::IgnitionPattern {
+        cells: values.len(),
+        threshold_pct: m.threshold * 100.0,
+        cells_above_threshold: values.iter().filter(|&&p| p >= m.threshold).count(),
+        max_pct: values.iter().copied().reduce(f64::max).map(|p| p * 100.0),
+        probability_pct: m
+            .probability
+            .iter()
+            .map(|row| row.iter().map(|p| p.map(|p| p * 100.0)).collect())
+            .collect(),
+        lats: m.lats,
+        lons: m.lons,
+    })
 }
 
 /// Builds every output of a report; `out` maps an output name to where to write it.
@@ -148,6 +207,7 @@ pub fn build(
         spread,
         forecast,
         gridmet,
+        ignition_map,
     } = files;
     let mut lineage = Vec::new();
     let mut loaded = Vec::new();
@@ -204,7 +264,18 @@ pub fn build(
             settings.date, day.cell_lat, day.cell_lon
         ),
     });
-    let computed = compute::compute(
+    let pattern = match ignition_map {
+        Some(p) => {
+            lineage.push(Lineage {
+                role: "ignition map".into(),
+                path: rel(root, p),
+                detail: format!("the day's probability around the place, {}", settings.date),
+            });
+            Some(ignition_pattern(root, p, &settings.date)?)
+        }
+        None => None,
+    };
+    let mut computed = compute::compute(
         settings,
         Inputs {
             ensembles: loaded,
@@ -216,6 +287,7 @@ pub fn build(
             lineage,
         },
     )?;
+    computed.report.forecast.pattern = pattern;
     let doc = html::render(&computed)?;
     let write = |name: &str, bytes: &[u8]| -> Result<(), ReportError> {
         if let Some(p) = out(name) {
@@ -314,6 +386,10 @@ impl StageKind for ReportStage {
         };
         let forecast = ctx.input("forecast")?.to_path_buf();
         let gridmet = ctx.input("gridmet")?.to_path_buf();
+        let ignition_map = match ctx.input_list("ignition_map") {
+            [] => None,
+            _ => Some(ctx.input("ignition_map")?.to_path_buf()),
+        };
         let outputs: Vec<(String, PathBuf)> = ctx
             .output_names()
             .map(str::to_string)
@@ -330,6 +406,7 @@ impl StageKind for ReportStage {
                 spread: spread.as_deref(),
                 forecast: &forecast,
                 gridmet: &gridmet,
+                ignition_map: ignition_map.as_deref(),
             },
             ctx.run_id(),
             &out,

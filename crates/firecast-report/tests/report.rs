@@ -171,6 +171,7 @@ fn make_with(
             spread,
             forecast: &f.forecast,
             gridmet: &f.gridmet,
+            ignition_map: None,
         },
         "test-run",
         &outputs,
@@ -917,6 +918,72 @@ fn only_the_verified_engine_is_taken_as_the_free_fire() {
     assert!(
         err.to_string()
             .contains("not a free fire of the minimum-travel-time engine"),
+        "{err}"
+    );
+}
+
+/// The forecasted ignition pattern: `forecast.predict`'s `map` goes into the JSON in percent
+/// and into the page as a map; a map for another day is refused by its file.
+#[test]
+fn the_ignition_pattern_is_drawn_from_the_forecast_map() {
+    let f = fixture();
+    let map = f.dir.join("ignition_map.json");
+    let write = |date: &str| {
+        let doc = serde_json::json!({
+            "date": date, "model": "m", "protocol": "leak_free", "threshold": 0.5, "seeds": 1,
+            "lats": [39.25, 39.3, 39.35], "lons": [-107.45, -107.4],
+            "probability": [[0.1, 0.6], [null, 0.7], [0.2, 0.4]]
+        });
+        std::fs::write(&map, serde_json::to_vec(&doc).expect("json")).expect("write map");
+    };
+    write("2019-08-01");
+    let out = f.dir.join("pattern");
+    std::fs::create_dir_all(&out).expect("out");
+    let o = out.clone();
+    let outputs = move |name: &str| -> Option<PathBuf> {
+        match name {
+            "html" => Some(o.join("report.html")),
+            "json" => Some(o.join("report.json")),
+            _ => None,
+        }
+    };
+    let files = |ignition_map| ReportFiles {
+        ensembles: &f.ensembles,
+        spread: None,
+        forecast: &f.forecast,
+        gridmet: &f.gridmet,
+        ignition_map,
+    };
+    let report = build(
+        &f.dir,
+        &f.settings,
+        files(Some(&map)),
+        "test-run",
+        &outputs,
+        &|_| {},
+    )
+    .expect("report");
+    let p = report.forecast.pattern.expect("pattern");
+    assert_eq!((p.cells, p.cells_above_threshold), (5, 2));
+    assert_eq!(p.probability_pct[1][0], None);
+    assert!((p.probability_pct[0][1].expect("cell") - 60.0).abs() < 1e-9);
+    assert!((p.max_pct.expect("max") - 70.0).abs() < 1e-9);
+    let html = std::fs::read_to_string(out.join("report.html")).expect("html");
+    assert!(
+        html.contains("Forecasted ignition pattern") && html.contains("2 at or above the 50 % threshold")
+    );
+    write("2019-08-02");
+    let err = build(
+        &f.dir,
+        &f.settings,
+        files(Some(&map)),
+        "test-run",
+        &outputs,
+        &|_| {},
+    )
+    .expect_err("another day");
+    assert!(
+        err.to_string().contains("ignition_map.json") && err.to_string().contains("2019-08-02"),
         "{err}"
     );
 }
