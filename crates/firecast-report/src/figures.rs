@@ -145,12 +145,29 @@ pub fn burn_probability(land: &Landscape, e: &Ensemble, scale: usize) -> RgbImag
 }
 
 /// Burnt area (acres) over hours, one line per strategy with its 10–90 % band.
-pub fn burnt_area_chart(strategies: &[StrategySummary]) -> RgbImage {
+/// Colour of the verified engine's free fire where it is drawn beside the strategies.
+pub const FREE_FIRE_COLOR: [u8; 3] = [74, 20, 140];
+
+/// Burnt area over hours, one line per strategy with its 10–90 % band, and the verified
+/// engine's free fire (`free`) beside them when given.
+pub fn burnt_area_chart(strategies: &[StrategySummary], free: Option<&StrategySummary>) -> RgbImage {
     let mut chart = Chart::new(900, 460)
         .title("Burnt area over time (mean, band: 10th-90th percentile of runs)")
         .x_label("hours after ignition")
-        .y_label("acres burnt");
-    for s in strategies {
+        .y_label("acres burnt")
+        // Fires grow toward the top right: the legend goes where they have not been.
+        .legend(Some(firecast_render::chart::LegendPosition::TopLeft));
+    let free = free.map(|f| StrategySummary {
+        label: "Free fire (verified MTT engine)".into(),
+        strategy: "free-spread".into(),
+        ..f.clone()
+    });
+    for s in strategies.iter().chain(free.as_ref()) {
+        let color = if s.strategy == "free-spread" {
+            FREE_FIRE_COLOR
+        } else {
+            strategy_color(&s.strategy)
+        };
         let pts: Vec<(f64, f64)> = s
             .series_hours
             .iter()
@@ -166,7 +183,7 @@ pub fn burnt_area_chart(strategies: &[StrategySummary]) -> RgbImage {
         chart.push(
             Series::line(pts)
                 .label(s.label.clone())
-                .color(strategy_color(&s.strategy))
+                .color(color)
                 .with_band(band),
         );
     }

@@ -746,7 +746,10 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     )?;
 
     // Strategies.
-    let chart = figures::png_bytes(&figures::burnt_area_chart(&r.strategies))?;
+    let chart = figures::png_bytes(&figures::burnt_area_chart(
+        &r.strategies,
+        r.free_spread.as_ref().map(|f| &f.fire),
+    ))?;
     write!(
         h,
         "<h2>5. Strategies compared (Table IV){}</h2><figure class=keep><img alt=\"Burnt area over time\" src=\"{}\"></figure>\
