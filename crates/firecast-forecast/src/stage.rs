@@ -584,20 +584,7 @@ pub fn forecast_point(
     params: &PredictParams,
     device: tch::Device,
 ) -> Result<PointForecast, crate::ForecastError> {
-    let results_path = experiment.join("results.json");
-    let results: Option<serde_json::Value> = match std::fs::read(&results_path) {
-        Ok(bytes) => Some(
-            serde_json::from_slice(&bytes).map_err(|e| crate::ForecastError::Data {
-                path: results_path.clone(),
-                message: format!("line {}: {e}", e.line()),
-            })?,
-        ),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
-        Err(e) => return Err(crate::ForecastError::io("reading", &results_path)(e)),
-    };
-    let available = sub_folders(&experiment.join("models"))?;
-    let headline = results.as_ref().and_then(|r| r.get("headline")?.as_str());
-    let protocol = choose_protocol(&available, headline, params.protocol.as_deref())?;
+    let (results, protocol) = experiment_protocol(experiment, params)?;
     let query = crate::predict::Query {
         lat: params.lat,
         lon: params.lon,
@@ -612,6 +599,29 @@ pub fn forecast_point(
         answers.push((prediction, bundle.info, rel));
     }
     assemble_forecast(&answers)
+}
+
+/// An experiment's `results.json` (None when it has none) and the protocol a prediction
+/// uses: the one asked for, else the headline, else the only one saved.
+fn experiment_protocol(
+    experiment: &std::path::Path,
+    params: &PredictParams,
+) -> Result<(Option<serde_json::Value>, String), crate::ForecastError> {
+    let results_path = experiment.join("results.json");
+    let results: Option<serde_json::Value> = match std::fs::read(&results_path) {
+        Ok(bytes) => Some(
+            serde_json::from_slice(&bytes).map_err(|e| crate::ForecastError::Data {
+                path: results_path.clone(),
+                message: format!("line {}: {e}", e.line()),
+            })?,
+        ),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(crate::ForecastError::io("reading", &results_path)(e)),
+    };
+    let available = sub_folders(&experiment.join("models"))?;
+    let headline = results.as_ref().and_then(|r| r.get("headline")?.as_str());
+    let protocol = choose_protocol(&available, headline, params.protocol.as_deref())?;
+    Ok((results, protocol))
 }
 
 /// The day's ignition probability over a grid of GRIDMET cells, row 0 south: the mean over
@@ -642,13 +652,7 @@ pub fn forecast_map(
     lons: &[f64],
     device: tch::Device,
 ) -> Result<ProbabilityMap, crate::ForecastError> {
-    let results_path = experiment.join("results.json");
-    let results: Option<serde_json::Value> = std::fs::read(&results_path)
-        .ok()
-        .and_then(|b| serde_json::from_slice(&b).ok());
-    let available = sub_folders(&experiment.join("models"))?;
-    let headline = results.as_ref().and_then(|r| r.get("headline")?.as_str());
-    let protocol = choose_protocol(&available, headline, params.protocol.as_deref())?;
+    let (results, protocol) = experiment_protocol(experiment, params)?;
     let bundles = seed_bundles(experiment, results.as_ref(), &protocol, &params.model)?;
     let queries: Vec<crate::predict::Query> = lats
         .iter()

@@ -330,11 +330,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     )?;
     // Assets, most urgent first.
     w(&mut h, "<h3>Assets</h3>");
-    let at_risk: Vec<&Asset> = r
-        .assets
-        .iter()
-        .filter(|a| a.band != Band::None || a.source == AssetSource::Listed)
-        .collect();
+    let at_risk: Vec<&Asset> = r.assets.iter().filter(|a| watched(a)).collect();
     if r.assets.is_empty() {
         w(
             &mut h,
@@ -696,16 +692,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     }
 
     // Burn probability.
-    let swatches: String = [0.1, 0.3, 0.5, 0.7, 0.9, 1.0]
-        .iter()
-        .map(|&p| {
-            format!(
-                "<span><i class=swf style=\"background:{}\"></i>{:.0} %</span>",
-                hex(figures::probability_color(p)),
-                p * 100.0
-            )
-        })
-        .collect();
+    let swatches = crate::maps::probability_swatches(&[0.1, 0.3, 0.5, 0.7, 0.9, 1.0]);
     write!(
         h,
         "<h2>4. Burn probability across the runs</h2><p><b>This is a probability map, not a progression map:</b> \
@@ -857,9 +844,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     if r.assets.is_empty() {
         tb.wide("No assets: none were listed and the landscape has no developed land.");
     }
-    // Developed areas no fire comes near are counted, not listed (a grown map has hundreds).
-    let quiet = |a: &&Asset| a.band == Band::None && a.source == AssetSource::Developed;
-    for a in r.assets.iter().filter(|a| !quiet(a)) {
+    for a in r.assets.iter().filter(|a| watched(a)) {
         tb.row(&[
             t(format!(
                 "<span class=\"band {}\">{}</span>",
@@ -875,7 +860,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             t(esc(&a.advice)),
         ]);
     }
-    let unlisted = r.assets.iter().filter(quiet).count();
+    let unlisted = r.assets.iter().filter(|a| !watched(a)).count();
     if unlisted > 0 {
         tb.wide(&format!(
             "{unlisted} more developed areas, none in a band: fire reaches them late or not at all (every one is in \
@@ -1032,28 +1017,9 @@ fn ignition_pattern_figure(p: &IgnitionPattern, lat: f64, lon: f64) -> String {
         }
     };
     let (sx, sy) = (frac(lon, &p.lons) * pw, (1.0 - frac(lat, &p.lats)) * ph);
-    let star: String = (0..10)
-        .map(|k| {
-            let r = if k % 2 == 0 { 9.0 } else { 3.6 };
-            let a = std::f64::consts::PI * f64::from(k) / 5.0 - std::f64::consts::FRAC_PI_2;
-            format!("{:.1},{:.1} ", sx + r * a.cos(), sy + r * a.sin())
-        })
-        .collect();
-    let _ = write!(
-        svg,
-        "<polygon points=\"{}\" fill=\"#ffeb3b\" stroke=\"#000\"><title>the place</title></polygon></svg>",
-        star.trim_end()
-    );
-    let swatches: String = [0.1, 0.3, 0.5, 0.7, 0.9]
-        .iter()
-        .map(|&q| {
-            format!(
-                "<span><i class=swf style=\"background:{}\"></i>{:.0} %</span>",
-                hex(figures::probability_color(q)),
-                q * 100.0
-            )
-        })
-        .collect();
+    svg.push_str(&crate::maps::star(sx, sy, 9.0, "the place"));
+    svg.push_str("</svg>");
+    let swatches = crate::maps::probability_swatches(&[0.1, 0.3, 0.5, 0.7, 0.9]);
     format!(
         "<h3>Forecasted ignition pattern</h3><figure class=keep style=\"max-width:480px\">{svg}<figcaption>The day's \
          ignition probability at each of the {} GRIDMET cells from {:.3}° to {:.3}° N and {:.3}° to {:.3}° E by the same \
@@ -1075,6 +1041,12 @@ fn ignition_pattern_figure(p: &IgnitionPattern, lat: f64, lon: f64) -> String {
 fn mph(chains_per_hour: f64) -> String {
     let v = chains_per_hour * 66.0 / 5280.0;
     fmt_num(v, if v < 0.1 { 2 } else { 1 })
+}
+
+/// An asset the page lists by name: one in a band, or one the request named. Developed areas
+/// no fire comes near are counted instead (a grown map has hundreds).
+fn watched(a: &Asset) -> bool {
+    a.band != Band::None || a.source == AssetSource::Listed
 }
 
 /// "Moderate class" words for a class (or nothing).

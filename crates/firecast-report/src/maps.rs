@@ -265,18 +265,7 @@ impl<'a> MapFrame<'a> {
     /// The ignition as a yellow star.
     pub fn ignition(&mut self, at: [usize; 2]) {
         let (px, py) = self.px(at[0] as f64, at[1] as f64);
-        let star: String = (0..10)
-            .map(|k| {
-                let r = if k % 2 == 0 { 10.0 } else { 4.0 };
-                let a = std::f64::consts::PI * f64::from(k) / 5.0 - std::f64::consts::FRAC_PI_2;
-                format!("{:.1},{:.1} ", px + r * a.cos(), py + r * a.sin())
-            })
-            .collect();
-        let _ = write!(
-            self.svg,
-            "<polygon points=\"{}\" fill=\"#ffeb3b\" stroke=\"#000\"><title>ignition</title></polygon>",
-            star.trim_end()
-        );
+        self.svg.push_str(&star(px, py, 10.0, "ignition"));
     }
 
     /// An arrow from the ignition toward where the head runs, with `label` at its tip.
@@ -363,6 +352,36 @@ impl<'a> MapFrame<'a> {
         );
         self.svg
     }
+}
+
+/// A yellow five-pointed star centred at (x, y), `radius` to its tips, titled `title`.
+pub fn star(x: f64, y: f64, radius: f64, title: &str) -> String {
+    let points: String = (0..10)
+        .map(|k| {
+            let r = if k % 2 == 0 { radius } else { radius * 0.4 };
+            let a = std::f64::consts::PI * f64::from(k) / 5.0 - std::f64::consts::FRAC_PI_2;
+            format!("{:.1},{:.1} ", x + r * a.cos(), y + r * a.sin())
+        })
+        .collect();
+    format!(
+        "<polygon points=\"{}\" fill=\"#ffeb3b\" stroke=\"#000\"><title>{}</title></polygon>",
+        points.trim_end(),
+        esc(title)
+    )
+}
+
+/// Legend swatches of burn or ignition probabilities (0–1) at `levels`, labelled in percent.
+pub fn probability_swatches(levels: &[f64]) -> String {
+    levels
+        .iter()
+        .map(|&p| {
+            format!(
+                "<span><i class=swf style=\"background:{}\"></i>{:.0} %</span>",
+                hex(figures::probability_color(p)),
+                p * 100.0
+            )
+        })
+        .collect()
 }
 
 /// IGBP class names (MODIS MCD12Q1 type 1), codes 1–17.
