@@ -31,8 +31,20 @@ pub enum DatasetCommand {
     /// The published FireCastRL CSV (Wildfire_Dataset.csv) → windows, with a report of fill
     /// values, overlapping, contradictory and cut-short windows.
     ImportKaggle(ImportKaggleArgs),
-    /// A `paper`-framed dataset → a folder for `kaggle datasets create -p` (nothing uploaded).
-    PublishKaggle(PublishArgs),
+    /// A dataset → a published folder: the tables per split (and the FireCastRL CSV for a
+    /// `paper` framing), `croissant.json` (Croissant 1.1), `README.md` (Hugging Face card) and
+    /// `dataset-metadata.json` (Kaggle), checked and read back; nothing is uploaded.
+    #[command(alias = "publish-kaggle")]
+    Publish(PublishArgs),
+    /// Check a published folder: every file against croissant.json's SHA-256, and (with
+    /// `--dataset`) its tables equal to that dataset.
+    VerifyPublished {
+        /// The published folder.
+        dir: PathBuf,
+        /// The dataset it was published from.
+        #[arg(long, value_name = "DIR")]
+        dataset: Option<PathBuf>,
+    },
     /// Show a dataset's manifest.
     Show {
         /// Dataset directory.
@@ -145,7 +157,7 @@ pub struct ImportKaggleArgs {
 
 #[derive(Debug, Args)]
 pub struct PublishArgs {
-    /// A dataset directory built with `framing: {kind: paper}`.
+    /// A dataset directory (`firecast dataset build`).
     #[arg(long, value_name = "DIR")]
     pub dataset: PathBuf,
     /// The upload folder to create (must not exist).
@@ -395,8 +407,8 @@ pub fn run(settings: &Settings, command: DatasetCommand) -> anyhow::Result<ExitC
                 println!("-> {}", a.out.display());
             })
         }
-        DatasetCommand::PublishKaggle(a) => {
-            let cfg: firecast_dataset::kaggle::PublishConfig = params(
+        DatasetCommand::Publish(a) => {
+            let cfg: firecast_dataset::publish::PublishConfig = params(
                 a.common.config.as_deref(),
                 &[
                     ("id", a.id.clone().map(Value::from)),
@@ -405,11 +417,39 @@ pub fn run(settings: &Settings, command: DatasetCommand) -> anyhow::Result<ExitC
                     ("license", a.license.clone().map(Value::from)),
                 ],
             )?;
-            let r = firecast_dataset::kaggle::publish(&a.dataset, &a.out, &cfg)?;
+            let r = firecast_dataset::publish::publish(&a.dataset, &a.out, &cfg)?;
             print(settings, &r, || {
-                println!("{} CSV rows; files: {}", r.csv_rows, r.files.join(", "));
-                println!("dataset-metadata.json validated against the kaggle client's rules");
+                if let Some(rows) = r.csv_rows {
+                    println!("{rows} CSV rows");
+                }
+                for s in &r.splits {
+                    println!("{}: {} samples ({} positive)", s.name, s.samples, s.positives);
+                }
+                println!("version {}; files: {}", r.version, r.files.join(", "));
+                println!(
+                    "croissant.json (Croissant 1.1), README.md (Hugging Face card) and \
+                     dataset-metadata.json (validated against the kaggle client's rules) written; \
+                     the folder reads back as the dataset"
+                );
                 println!("upload with: kaggle datasets create -p {}", r.folder.display());
+            })
+        }
+        DatasetCommand::VerifyPublished { dir, dataset } => {
+            let r = firecast_dataset::publish::verify(&dir, dataset.as_deref())?;
+            print(settings, &r, || {
+                println!(
+                    "{} files match croissant.json's SHA-256; {} samples ({})",
+                    r.files_checked,
+                    r.samples,
+                    r.splits
+                        .iter()
+                        .map(|(k, v)| format!("{k} {v}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+                if let Some(d) = &r.dataset {
+                    println!("equal to the dataset {}", d.display());
+                }
             })
         }
         DatasetCommand::Show { dir } => {

@@ -204,10 +204,11 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
         describe(&out)
     );
 
-    // Publish for Kaggle, then import the published CSV back.
+    // Publish (Croissant, Hugging Face card, Kaggle metadata, tables per split), then import
+    // the published CSV back.
     let published = p.json(&[
         "dataset",
-        "publish-kaggle",
+        "publish",
         "--dataset",
         "data/a",
         "--out",
@@ -224,6 +225,7 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
     );
     let csv = p.read("kaggle/Wildfire_Dataset.csv");
     assert!(csv.starts_with("latitude,longitude,datetime,Wildfire,pr,rmax,rmin,sph,srad,tmmn,tmmx,vs,bi,fm100,fm1000,erc,etr,pet,vpd\n"));
+    check_publication(&p, "kaggle", &first, &published, &meta);
     let imported = p.json(&[
         "dataset",
         "import-kaggle",
@@ -255,7 +257,7 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
         .firecast()
         .args([
             "dataset",
-            "publish-kaggle",
+            "publish-kaggle", // the command's former name, kept as an alias
             "--dataset",
             "data/a",
             "--out",
@@ -274,7 +276,245 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
         describe(&out)
     );
     assert!(!p.path("k2").exists());
+
+    // A dataset whose files do not match dataset.json is refused, the damaged file named.
+    let path = p.path("data/b/samples.parquet");
+    let mut bytes = std::fs::read(&path).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x55;
+    std::fs::write(&path, &bytes).unwrap();
+    let out = p
+        .firecast()
+        .args([
+            "dataset",
+            "publish",
+            "--dataset",
+            "data/b",
+            "--out",
+            "k3",
+            "--id",
+            "someone/firecast-cli-test",
+            "--title",
+            "FireCast CLI test",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "{}", describe(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("samples.parquet") && err.contains("do not match dataset.json"),
+        "{err}"
+    );
+    assert!(!p.path("k3").exists());
 }
+
+/// Checks a folder `firecast dataset publish` wrote from the dataset `first` describes: the
+/// three metadata files say the same things, `verify-published` finds it equal to the
+/// dataset, mlcroissant validates `croissant.json` and reads every record set back equal to
+/// the Parquet files, and a damaged file is named.
+fn check_publication(
+    p: &Project,
+    folder: &str,
+    first: &serde_json::Value,
+    published: &serde_json::Value,
+    kaggle: &serde_json::Value,
+) {
+    let croissant: serde_json::Value =
+        serde_json::from_str(&p.read(&format!("{folder}/croissant.json"))).unwrap();
+    assert_eq!(croissant["conformsTo"], "http://mlcommons.org/croissant/1.1");
+    let version = published["version"].as_str().unwrap();
+    assert_eq!(croissant["version"], version);
+    assert_eq!(version, format!("1.0.0+{}", first["version"].as_str().unwrap()));
+    // Synthetic sources: the notice opens every description.
+    let notice = "SYNTHETIC DATA";
+    assert!(
+        croissant["description"].as_str().unwrap().starts_with(notice),
+        "{croissant}"
+    );
+    assert!(kaggle["description"].as_str().unwrap().contains(notice));
+    for key in [
+        "rai:dataCollection",
+        "rai:dataLimitations",
+        "rai:dataBiases",
+        "rai:personalSensitiveInformation",
+        "rai:dataUseCases",
+        "rai:dataPreprocessingProtocol",
+        "citeAs",
+        "license",
+    ] {
+        assert!(!croissant[key].is_null(), "croissant.json has no {key}");
+    }
+    // The splits, from the one source: Croissant's split record set, the card's front matter
+    // and Kaggle's resources name the same files.
+    let splits: Vec<String> = published["splits"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["name"].as_str().unwrap().to_string())
+        .collect();
+    let manifest_splits = first["splits"].as_object().unwrap();
+    assert_eq!(splits.len(), manifest_splits.len(), "{published}");
+    let readme = p.read(&format!("{folder}/README.md"));
+    assert!(readme.starts_with("---\nlicense: cc-by-4.0\n"), "{readme}");
+    for s in &splits {
+        for t in ["samples", "days"] {
+            let file = format!("{t}-{s}.parquet");
+            assert!(p.path(folder).join(&file).is_file(), "{file}");
+            assert!(
+                readme.contains(&format!("  - split: {s}\n    path: {file}\n")),
+                "{readme}"
+            );
+            assert!(
+                kaggle["resources"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .any(|r| r["path"] == file.as_str()),
+                "{kaggle}"
+            );
+            assert!(
+                croissant["distribution"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .any(|d| d["contentUrl"] == file.as_str() && d["sha256"].as_str().unwrap().len() == 64),
+                "{file} has no checksummed FileObject"
+            );
+        }
+    }
+
+    // Read back: every file matches its SHA-256 and the tables equal the dataset's.
+    let verified = p.json(&["dataset", "verify-published", folder, "--dataset", "data/a"]);
+    assert_eq!(verified["samples"], first["samples"], "{verified}");
+    assert_eq!(verified["splits"], first["splits"], "{verified}");
+
+    // mlcroissant (PyPI, pinned by xtask) validates the file and reads every record set.
+    let python = venv_bin("python");
+    let has_mlcroissant = std::process::Command::new(&python)
+        .args(["-c", "import mlcroissant"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if has_mlcroissant {
+        let jsonld = p.path(folder).join("croissant.json");
+        let cli = std::process::Command::new(venv_bin("mlcroissant"))
+            .args(["validate", "--jsonld", jsonld.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(cli.status.success(), "{}", describe(&cli));
+        let out = std::process::Command::new(&python)
+            .args(["-c", CROISSANT_READ_BACK, p.path(folder).to_str().unwrap()])
+            .env("CROISSANT_CACHE", p.path("croissant-cache"))
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", describe(&out));
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let samples = first["samples"].as_u64().unwrap();
+        let n_days = 75;
+        assert_eq!(report["samples"]["rows"], samples, "{report}");
+        assert_eq!(report["days"]["rows"], samples * n_days, "{report}");
+        assert_eq!(report["wildfire_csv"]["rows"], published["csv_rows"], "{report}");
+        assert_eq!(report["splits"]["rows"], splits.len(), "{report}");
+        assert_eq!(report["samples"]["by_split"], first["splits"], "{report}");
+        for s in &splits {
+            assert_eq!(
+                report["days"]["by_split"][s].as_u64().unwrap(),
+                first["splits"][s].as_u64().unwrap() * n_days,
+                "{report}"
+            );
+        }
+    } else {
+        eprintln!(
+            "skipped the mlcroissant checks: {} cannot import mlcroissant (`cargo xtask setup` installs it)",
+            python.display()
+        );
+    }
+
+    // A damaged published file is refused by its own name.
+    let victim = format!("days-{}.parquet", splits[0]);
+    let path = p.path(folder).join(&victim);
+    let mut bytes = std::fs::read(&path).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x55;
+    std::fs::write(&path, &bytes).unwrap();
+    let out = p
+        .firecast()
+        .args(["dataset", "verify-published", folder])
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "{}", describe(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&victim) && err.contains("do not match croissant.json"),
+        "{err}"
+    );
+    bytes[mid] ^= 0x55;
+    std::fs::write(&path, &bytes).unwrap();
+}
+
+/// mlcroissant validates `croissant.json` (a `ValidationError` otherwise), hashlib checks
+/// every FileObject's SHA-256, and every record set is generated: its rows, rows per split,
+/// and for each split every value of its first and last records compared with the Parquet
+/// file pandas reads.
+const CROISSANT_READ_BACK: &str = r#"
+import datetime, hashlib, json, os, sys
+import numpy as np, pandas as pd
+import mlcroissant as mlc
+
+folder = sys.argv[1]
+path = os.path.join(folder, "croissant.json")
+ds = mlc.Dataset(jsonld=path)
+meta = json.load(open(path))
+for d in meta["distribution"]:
+    if d["@type"] == "cr:FileObject":
+        with open(os.path.join(folder, d["contentUrl"]), "rb") as f:
+            assert hashlib.sha256(f.read()).hexdigest() == d["sha256"], d["contentUrl"]
+
+def norm(v):
+    if isinstance(v, bytes):
+        return v.decode()
+    if isinstance(v, (pd.Timestamp, datetime.datetime, datetime.date)):
+        t = pd.Timestamp(v)
+        if t.tzinfo is not None:
+            t = t.tz_convert("UTC").tz_localize(None)
+        return t.isoformat()
+    if v is None or (np.isscalar(v) and not isinstance(v, str) and pd.isna(v)):
+        return None
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        return float(v)
+    return v
+
+out = {}
+for rs in meta["recordSet"]:
+    rid = rs["@id"]
+    records = [{k.split("/", 1)[1]: norm(v) for k, v in r.items()} for r in ds.records(rid)]
+    info = {"rows": len(records)}
+    if rid in ("samples", "days"):
+        by_split = {}
+        for r in records:
+            by_split.setdefault(r["split"], []).append(r)
+        info["by_split"] = {k: len(v) for k, v in by_split.items()}
+        for split, rows in by_split.items():
+            df = pd.read_parquet(os.path.join(folder, f"{rid}-{split}.parquet"))
+            assert len(df) == len(rows), (rid, split, len(df), len(rows))
+            key = ["sample_id"] if rid == "samples" else ["sample_id", "day_index"]
+            mine = {tuple(r[k] for k in key): r for r in rows}
+            for i in sorted({0, len(df) // 2, len(df) - 1}):
+                want = {c: norm(df[c].iloc[i]) for c in df.columns}
+                got = mine[tuple(want[k] for k in key)]
+                for c, v in want.items():
+                    assert got[c] == v, (rid, split, i, c, got[c], v)
+    if rid == "wildfire_csv":
+        df = pd.read_csv(os.path.join(folder, "Wildfire_Dataset.csv"))
+        assert len(df) == len(records)
+        assert records[0]["Wildfire"] == df["Wildfire"].iloc[0]
+        assert abs(records[0]["latitude"] - df["latitude"].iloc[0]) < 1e-9
+    out[rid] = info
+print(json.dumps(out))
+"#;
 
 #[test]
 fn bad_params_name_the_file_and_key() {

@@ -3,11 +3,10 @@
 //! dataset as a folder ready for `kaggle datasets create -p` / `version -p`.
 
 use std::collections::{BTreeMap, HashMap};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::dataset::{DatasetManifest, FramingKind};
 use crate::time;
 use crate::windows::{PAPER_FEATURES, WindowSample, WindowTable};
 use crate::{DatasetError, Tier};
@@ -326,24 +325,7 @@ pub fn import(
     ))
 }
 
-/// Publishing settings: the fields of `dataset-metadata.json`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PublishConfig {
-    /// `<owner>/<dataset-slug>`.
-    pub id: String,
-    pub title: String,
-    #[serde(default)]
-    pub subtitle: Option<String>,
-    #[serde(default = "default_license")]
-    pub license: String,
-    #[serde(default)]
-    pub keywords: Vec<String>,
-}
-
-fn default_license() -> String {
-    "CC-BY-4.0".into()
-}
+pub use crate::publish::PublishConfig;
 
 /// Licence names the Kaggle client accepts (docs/spec/peers.md §3.3).
 pub const LICENSES: &[&str] = &[
@@ -495,16 +477,8 @@ pub fn validate_metadata(meta: &KaggleMetadata, folder: &Path) -> Vec<String> {
     problems
 }
 
-/// What [`publish`] wrote.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct PublishReport {
-    pub folder: PathBuf,
-    pub files: Vec<String>,
-    pub csv_rows: u64,
-    pub metadata: KaggleMetadata,
-}
-
-fn describe(name: &str) -> (&'static str, String) {
+/// Kaggle type and description of a column of the published CSV.
+pub(crate) fn describe(name: &str) -> (&'static str, String) {
     match name {
         "latitude" => ("latitude", "Sample latitude (WGS84 degrees)".into()),
         "longitude" => ("longitude", "Sample longitude (WGS84 degrees)".into()),
@@ -524,54 +498,15 @@ fn describe(name: &str) -> (&'static str, String) {
     }
 }
 
-/// Writes a Kaggle upload folder for a `paper`-framed dataset: the CSV in the published
-/// column order, the Parquet tables, the card and `dataset-metadata.json`. The folder is
-/// assembled under a temporary name and renamed into place; an existing folder is never
-/// overwritten.
-pub fn publish(
-    dataset_dir: &Path,
-    folder: &Path,
-    cfg: &PublishConfig,
-) -> Result<PublishReport, DatasetError> {
-    let manifest: DatasetManifest = crate::dataset::read_manifest(dataset_dir)?;
-    if manifest.framing.kind != FramingKind::Paper {
-        return Err(DatasetError::Input {
-            path: dataset_dir.to_path_buf(),
-            message: "only a dataset with `framing: {kind: paper}` has the published layout; build one \
-                      from the same windows to publish it"
-                .into(),
-        });
-    }
-    let paper: Vec<&str> = PAPER_FEATURES.iter().map(|v| v.short_name()).collect();
-    if manifest.features != paper {
-        return Err(DatasetError::Input {
-            path: dataset_dir.to_path_buf(),
-            message: format!(
-                "features are {:?}; the published layout needs exactly {:?}",
-                manifest.features, paper
-            ),
-        });
-    }
-    if folder.exists() {
-        return Err(DatasetError::Input {
-            path: folder.to_path_buf(),
-            message: "already exists; choose a new folder (nothing was changed)".into(),
-        });
-    }
-    let stored = crate::table::read_window_table(dataset_dir)?;
-    let t = &stored.table;
-    // The staging folder is removed when dropped unpublished (any error below).
-    let staged = firecast_fs::TempPath::dir(folder)?;
-    let tmp = staged.path().to_path_buf();
-
-    let csv_name = "Wildfire_Dataset.csv";
-    let csv_path = tmp.join(csv_name);
-    let mut w = csv::Writer::from_path(&csv_path).map_err(|e| DatasetError::Input {
-        path: csv_path.clone(),
+/// Writes the published CSV (the 19 columns of [`CSV_COLUMNS`], 75 rows per window) of a
+/// `paper`-framed table; returns its rows. The caller writes it inside a staging folder.
+pub(crate) fn write_csv(t: &WindowTable, csv_path: &Path) -> Result<u64, DatasetError> {
+    let mut w = csv::Writer::from_path(csv_path).map_err(|e| DatasetError::Input {
+        path: csv_path.to_path_buf(),
         message: e.to_string(),
     })?;
     let werr = |e: csv::Error| DatasetError::Input {
-        path: csv_path.clone(),
+        path: csv_path.to_path_buf(),
         message: e.to_string(),
     };
     w.write_record(CSV_COLUMNS).map_err(werr)?;
@@ -598,25 +533,13 @@ pub fn publish(
             rows += 1;
         }
     }
-    w.flush().map_err(DatasetError::io("writing", &csv_path))?;
-    drop(w);
+    w.flush().map_err(DatasetError::io("writing", csv_path))?;
+    Ok(rows)
+}
 
-    let mut files = vec![csv_name.to_string()];
-    for f in [
-        crate::table::SAMPLES_FILE,
-        crate::table::DAYS_FILE,
-        crate::dataset::CARD_FILE,
-        crate::dataset::MAP_FILE,
-        crate::dataset::NORMALIZATION_FILE,
-    ] {
-        std::fs::copy(dataset_dir.join(f), tmp.join(f))
-            .map_err(DatasetError::io("copying", &dataset_dir.join(f)))?;
-        files.push(f.to_string());
-    }
-    let card = std::fs::read_to_string(dataset_dir.join(crate::dataset::CARD_FILE)).map_err(
-        DatasetError::io("reading", &dataset_dir.join(crate::dataset::CARD_FILE)),
-    )?;
-    let csv_fields = CSV_COLUMNS
+/// The CSV's columns as `dataset-metadata.json` describes them.
+pub(crate) fn csv_fields() -> Vec<KaggleField> {
+    CSV_COLUMNS
         .iter()
         .map(|n| {
             let (kind, description) = describe(n);
@@ -626,60 +549,7 @@ pub fn publish(
                 kind: kind.into(),
             }
         })
-        .collect();
-    let meta = KaggleMetadata {
-        title: cfg.title.clone(),
-        subtitle: cfg.subtitle.clone(),
-        description: card,
-        id: cfg.id.clone(),
-        licenses: vec![KaggleLicense {
-            name: cfg.license.clone(),
-        }],
-        keywords: cfg.keywords.clone(),
-        resources: vec![
-            KaggleResource {
-                path: csv_name.into(),
-                description: format!(
-                    "{} windows of 75 days x 15 GRIDMET variables in the FireCastRL column order (dataset {})",
-                    t.samples.len(),
-                    manifest.version
-                ),
-                schema: Some(KaggleSchema { fields: csv_fields }),
-            },
-            KaggleResource {
-                path: crate::table::SAMPLES_FILE.into(),
-                description: "One row per window: place, date, tier, label, GRIDMET cell, split".into(),
-                schema: None,
-            },
-            KaggleResource {
-                path: crate::table::DAYS_FILE.into(),
-                description: "One row per window day (the CSV's rows as Parquet, nulls for missing)".into(),
-                schema: None,
-            },
-        ],
-    };
-    let problems = validate_metadata(&meta, &tmp);
-    if !problems.is_empty() {
-        return Err(DatasetError::Config {
-            key: "kaggle".into(),
-            message: format!(
-                "dataset-metadata.json would be rejected:\n  {}",
-                problems.join("\n  ")
-            ),
-        });
-    }
-    let text = serde_json::to_string_pretty(&meta).unwrap_or_default();
-    firecast_fs::write_atomically(&tmp.join("dataset-metadata.json"), text.as_bytes())?;
-    files.push("dataset-metadata.json".into());
-    staged
-        .publish()
-        .map_err(|e| DatasetError::io("renaming into place", folder)(e.source))?;
-    Ok(PublishReport {
-        folder: folder.to_path_buf(),
-        files,
-        csv_rows: rows,
-        metadata: meta,
-    })
+        .collect()
 }
 
 /// Summary counts of an import, for reports.

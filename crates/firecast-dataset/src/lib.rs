@@ -6,7 +6,9 @@
 //! 3. [`windows::extract`]: GRIDMET weather windows, one pass per file;
 //! 4. [`dataset::build`]: a framing (`paper` or `forecast`), leak-free splits, normalisation
 //!    statistics from the training split, a version id, a dataset card and a map;
-//! 5. [`kaggle`]: the published FireCastRL CSV in and out;
+//! 5. [`kaggle`]: the published FireCastRL CSV in and out; [`publish`]: a published folder
+//!    (tables per split, Croissant 1.1, a Hugging Face card and Kaggle's metadata, all from
+//!    one [`publish::Publication`]) and its check;
 //! 6. [`truth`]: for synthetic sources, the generator's true ignition probability per
 //!    sample (the oracle of a forecasting experiment; never a feature).
 //!
@@ -22,7 +24,9 @@ pub mod dataset;
 pub mod geo;
 pub mod kaggle;
 pub mod land;
+pub mod publish;
 pub mod sampling;
+pub mod sha256;
 pub mod stage;
 pub mod table;
 pub mod time;

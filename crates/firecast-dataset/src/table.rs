@@ -377,7 +377,22 @@ pub fn read_window_table(dir: &Path) -> Result<StoredTable, DatasetError> {
         let manifest = crate::dataset::read_manifest(dir)?;
         crate::dataset::verify_files(dir, &manifest)?;
     }
-    let path = dir.join(SAMPLES_FILE);
+    read_window_files(&dir.join(SAMPLES_FILE), &dir.join(DAYS_FILE))
+}
+
+/// The columns of a Parquet file as Arrow sees them (names, types, nullability), from its
+/// footer only.
+pub fn parquet_schema(path: &Path) -> Result<arrow::datatypes::SchemaRef, DatasetError> {
+    let file = File::open(path).map_err(DatasetError::io("opening", path))?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| pq_err(path)(e.to_string()))?;
+    Ok(builder.schema().clone())
+}
+
+/// Reads a window table from its two files, wherever they are and whatever their names
+/// (a published folder holds one pair per split). No manifest check: the caller checks the
+/// files against the hashes it holds.
+pub fn read_window_files(samples_path: &Path, days_path: &Path) -> Result<StoredTable, DatasetError> {
+    let path = samples_path.to_path_buf();
     let (batches, metadata, names) = read_batches(&path)?;
     match metadata.get(META_SCHEMA_VERSION) {
         Some(v) if v == SCHEMA_VERSION => {}
@@ -434,7 +449,7 @@ pub fn read_window_table(dir: &Path) -> Result<StoredTable, DatasetError> {
         }
     }
 
-    let path = dir.join(DAYS_FILE);
+    let path = days_path.to_path_buf();
     let (batches, _, names) = read_batches(&path)?;
     let features: Vec<String> = names.into_iter().skip(5).collect();
     let mut values = Vec::new();
@@ -475,9 +490,10 @@ pub fn read_window_table(dir: &Path) -> Result<StoredTable, DatasetError> {
         return Err(DatasetError::Parquet {
             path,
             message: format!(
-                "{rows} day rows do not line up with the {} samples of {SAMPLES_FILE} \
+                "{rows} day rows do not line up with the {} samples of {} \
                  (expected {n_days} rows per sample, in sample order)",
-                samples.len()
+                samples.len(),
+                samples_path.file_name().unwrap_or_default().to_string_lossy()
             ),
         });
     }
