@@ -172,6 +172,9 @@ pub struct PublishArgs {
     pub subtitle: Option<String>,
     #[arg(long)]
     pub license: Option<String>,
+    /// Publication date, `YYYY-MM-DD` (Croissant's `datePublished`; default today, UTC).
+    #[arg(long, value_name = "DATE")]
+    pub date_published: Option<String>,
     #[command(flatten)]
     pub common: CommonArgs,
 }
@@ -415,6 +418,7 @@ pub fn run(settings: &Settings, command: DatasetCommand) -> anyhow::Result<ExitC
                     ("title", a.title.clone().map(Value::from)),
                     ("subtitle", a.subtitle.clone().map(Value::from)),
                     ("license", a.license.clone().map(Value::from)),
+                    ("date_published", a.date_published.clone().map(Value::from)),
                 ],
             )?;
             let r = firecast_dataset::publish::publish(&a.dataset, &a.out, &cfg)?;

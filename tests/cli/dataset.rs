@@ -217,6 +217,8 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
         "someone/firecast-cli-test",
         "--title",
         "FireCast CLI test",
+        "--date-published",
+        "2026-11-28",
     ]);
     let meta: serde_json::Value = serde_json::from_str(&p.read("kaggle/dataset-metadata.json")).unwrap();
     assert_eq!(
@@ -322,6 +324,7 @@ fn check_publication(
     let croissant: serde_json::Value =
         serde_json::from_str(&p.read(&format!("{folder}/croissant.json"))).unwrap();
     assert_eq!(croissant["conformsTo"], "http://mlcommons.org/croissant/1.1");
+    assert_eq!(croissant["datePublished"], "2026-11-28");
     let version = published["version"].as_str().unwrap();
     assert_eq!(croissant["version"], version);
     assert_eq!(version, format!("1.0.0+{}", first["version"].as_str().unwrap()));

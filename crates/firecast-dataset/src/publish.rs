@@ -70,6 +70,9 @@ pub struct PublishConfig {
     /// How to cite the dataset (BibTeX). Default: one built from title, creator, id and version.
     #[serde(default)]
     pub citation: Option<String>,
+    /// Publication date (`YYYY-MM-DD`, Croissant's `datePublished`). Default: today (UTC).
+    #[serde(default)]
+    pub date_published: Option<String>,
     /// Whether the data are synthetic. Default: from the dataset (a dataset built from
     /// synthetic sources carries the generator's truth).
     #[serde(default)]
@@ -253,9 +256,9 @@ impl SplitSummary {
     }
 
     fn description(&self) -> String {
-        let tiers: Vec<String> = self.tiers.iter().map(|(t, n)| format!("{n} {t}")).collect();
+        let tiers: Vec<String> = self.tiers.iter().map(|(t, n)| format!("{t} {n}")).collect();
         format!(
-            "{} samples ({} positive, prevalence {:.3}; {}), {} day rows, {} to {}",
+            "{} samples ({} positive, prevalence {:.3}; tiers: {}), {} day rows, {} to {}",
             self.samples,
             self.positives,
             self.positives as f64 / self.samples.max(1) as f64,
@@ -309,6 +312,7 @@ pub struct Publication {
     pub content_version: String,
     /// Croissant's semantic version: release + content version.
     pub version: String,
+    pub date_published: String,
     pub license: String,
     pub keywords: Vec<String>,
     pub creator: String,
@@ -481,6 +485,26 @@ impl Publication {
                 message: format!("`{}` is not MAJOR.MINOR.PATCH", cfg.release),
             });
         }
+        let date_published = match &cfg.date_published {
+            Some(d) => match crate::time::parse_date(d) {
+                Some(day) if crate::time::format_date(day) == d.trim() => d.trim().to_string(),
+                _ => {
+                    return Err(DatasetError::Config {
+                        key: "date_published".into(),
+                        message: format!("`{d}` is not a YYYY-MM-DD date"),
+                    });
+                }
+            },
+            None => {
+                let secs = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| d.as_secs());
+                crate::time::format_instant(secs as i64 * 1000)
+                    .chars()
+                    .take(10)
+                    .collect()
+            }
+        };
         let synthetic = cfg.synthetic.unwrap_or(
             manifest.true_probability.is_some()
                 || manifest.provenance.keys().any(|k| k.starts_with("truth ")),
@@ -595,7 +619,7 @@ impl Publication {
                     .into()
             },
             preprocessing: format!(
-                "Reports of one fire de-duplicated into one ignition; negatives drawn per split in tiers (far: \
+                "Reports of one fire de-duplicated into one ignition; negatives drawn in tiers (far: \
                  ≥ 100 km from every ignition; near: within 100 km, shifted by months; yearly: an ignition's \
                  place whole years earlier); windows read from GRIDMET on the sample's cell, missing values \
                  kept as nulls; framing: {framing}; splits leak-free by groups of overlapping windows (no \
@@ -656,6 +680,7 @@ impl Publication {
             subtitle: cfg.subtitle.clone(),
             content_version: manifest.version.clone(),
             version,
+            date_published,
             license: license.kaggle.into(),
             keywords,
             creator: cfg.creator.clone(),
@@ -878,6 +903,7 @@ impl Publication {
             "license": license.croissant(),
             "url": self.url,
             "version": self.version,
+            "datePublished": self.date_published,
             "creator": {"@type": "sc:Organization", "name": self.creator},
             "keywords": self.keywords,
             "citeAs": self.citation,
