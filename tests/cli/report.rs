@@ -445,3 +445,169 @@ fn a_failed_run_leaves_the_last_good_report_of_each_place_and_day_untouched() {
     );
     assert_eq!(files(&p.path(&good_dir)), good);
 }
+
+/// The threat report on a real place's fuels: a window of the Worcester, Vermont LANDFIRE clip
+/// around the point, the day's GRIDMET weather there (synthetic files over Vermont), fuel
+/// moisture from that day, physical drops, the verified engine's map allowed to grow — and a
+/// forecaster trained in Colorado, which the report must call an extrapolation.
+#[test]
+fn a_threat_report_on_landfire_fuels_names_its_landscape_and_the_forecasts_reach() {
+    let p = Project::new();
+    let fuels =
+        crate::repo_root().join("crates/firecast-landscape/tests/fixtures/landfire-worcester/landfire");
+    let (lat, lon) = (44.3937, -72.6496);
+    p.write(
+        "pipelines/threat.yaml",
+        &format!(
+            r#"
+vars:
+  lat: {lat}
+  lon: {lon}
+  date: "2019-08-01"
+  landscape: {{landfire: {{center: ["${{lat}}", "${{lon}}"], width: 120, height: 80}}}}
+  env:
+    max_steps: 60
+    sim: {{helitack_footprint: coverage, helitack_volume_gal: 800, kernel: {{rothermel: {{}}}}}}
+stages:
+  sources:
+    uses: data.synthesize
+    params:
+      seed: 7
+      region: {{lat_min: 44.2, lat_max: 44.6, lon_min: -72.9, lon_max: -72.4}}
+      years: [2019, 2019]
+    outputs:
+      gridmet: build/sources/gridmet
+      incidents: build/sources/incidents.csv
+      model: build/sources/MODEL.md
+  free_spread:
+    uses: sim.ensemble
+    params:
+      landscape: ${{landscape}}
+      engine: mtt
+      grow: {{max_factor: 2}}
+      agent: none
+      runs: 3
+      weather_date: ${{date}}
+      fuel_moisture: day
+      ignition: ["${{lat}}", "${{lon}}"]
+      env: ${{env}}
+    inputs:
+      gridmet: {{from: sources.gridmet}}
+      land_cover: {fuels}
+    outputs:
+      ensemble: build/work/mtt.json
+  unsuppressed:
+    uses: sim.ensemble
+    params:
+      landscape: ${{landscape}}
+      agent: none
+      runs: 3
+      weather_date: ${{date}}
+      fuel_moisture: day
+      ignition: ["${{lat}}", "${{lon}}"]
+      env: ${{env}}
+    inputs:
+      gridmet: {{from: sources.gridmet}}
+      land_cover: {fuels}
+      domain: {{from: free_spread.ensemble}}
+    outputs:
+      ensemble: build/work/none.json
+  rule_plan:
+    uses: sim.ensemble
+    params:
+      landscape: ${{landscape}}
+      agent: rule
+      runs: 3
+      weather_date: ${{date}}
+      fuel_moisture: day
+      ignition: ["${{lat}}", "${{lon}}"]
+      env: ${{env}}
+    inputs:
+      gridmet: {{from: sources.gridmet}}
+      land_cover: {fuels}
+      domain: {{from: free_spread.ensemble}}
+    outputs:
+      ensemble: build/work/rule.json
+  report:
+    uses: report
+    params:
+      lat: ${{lat}}
+      lon: ${{lon}}
+      date: ${{date}}
+      bootstrap_resamples: 100
+      isochrones_h: [3, 6, 12]
+    inputs:
+      ensembles: [{{from: unsuppressed.ensemble}}, {{from: rule_plan.ensemble}}]
+      spread: {{from: free_spread.ensemble}}
+      forecast: forecast.json
+      gridmet: {{from: sources.gridmet}}
+    outputs:
+      html: build/report/report.html
+      json: build/report/report.json
+      arrival_tif: build/report/arrival_h.tif
+"#,
+            fuels = fuels.display()
+        ),
+    );
+    // A forecaster trained on Colorado's windows, asked about Vermont.
+    let mut forecast: serde_json::Value = serde_json::from_str(&forecast(lat, lon)).unwrap();
+    forecast["training_extent"] = serde_json::json!({
+        "lat_min": 39.1, "lat_max": 39.5, "lon_min": -107.6, "lon_max": -107.2,
+        "first_date": "2016-03-01", "last_date": "2019-04-30", "samples": 1799
+    });
+    forecast["inside_training_extent"] = false.into();
+    p.write("forecast.json", &forecast.to_string());
+
+    let outcomes = p.run_pipeline("pipelines/threat.yaml", &[]);
+    assert!(outcomes.values().all(|o| o == "ran"), "{outcomes:?}");
+
+    let report: serde_json::Value = serde_json::from_str(&p.read("build/report/report.json")).unwrap();
+    // The header and the assumptions say what the map is: LANDFIRE's files, its 30 m cells and
+    // the cells without fuel data — not a MODIS crosswalk.
+    assert_eq!(report["header"]["crs"], "EPSG:5070");
+    let landscape = report["header"]["landscape"].as_str().unwrap();
+    assert!(landscape.contains("cells of 98 ft (30 m;"), "{landscape}");
+    let assumptions = report["assumptions"].to_string();
+    assert!(
+        assumptions.contains("LANDFIRE GeoTIFF layers") && assumptions.contains("LC22_F40_230.tif"),
+        "{assumptions}"
+    );
+    assert!(assumptions.contains("without fuel data"), "{assumptions}");
+    assert!(!assumptions.contains("MODIS crosswalk"), "{assumptions}");
+    // The day's fuel moisture: dead 100-h is GRIDMET's fm100 at the point that day.
+    let fb = &report["fire_behaviour"];
+    let fm100 = report["weather"]["fm100_pct"].as_f64().unwrap();
+    assert!(
+        (fb["dead_100h_pct"].as_f64().unwrap() - fm100).abs() < 1e-6,
+        "{fb}"
+    );
+    // The forecast's reach: the model never saw this place.
+    let area = &report["forecast"]["training_area"];
+    assert_eq!(area["place_inside"], false, "{area}");
+    assert_eq!(area["last_date"], "2019-04-30");
+
+    let html = p.read("build/report/report.html");
+    assert!(html.contains("landscape: LANDFIRE fuels and terrain, 30 m cells"));
+    assert!(
+        html.contains("Outside the model&#39;s experience")
+            || html.contains("Outside the model's experience")
+    );
+    // The clip's nodata border lies in this window: the legend says those cells have no fuel
+    // data rather than calling them bare ground.
+    assert!(
+        html.contains("or no fuel data ("),
+        "legend does not name the nodata cells"
+    );
+    assert!(!html.contains("98.4251"), "unformatted cell size");
+
+    // The arrival GeoTIFF is georeferenced in LANDFIRE's Albers (GeoKey ProjectedCSType 3072 = 5070).
+    let tif = std::fs::read(p.path("build/report/arrival_h.tif")).unwrap();
+    let key: Vec<u8> = [3072u16, 0, 1, 5070]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    assert!(
+        tif.windows(key.len()).any(|w| w == key.as_slice()),
+        "no EPSG:5070 GeoKey"
+    );
+}

@@ -355,9 +355,10 @@ impl LandfireSite {
         format!(
             "LANDFIRE landscape from {} ({}: {}; fuel {}): {} x {} cells of {:.0} m from column {}, row {} of its \
              {} x {} grid ({}); {} cells burnable, non-burnable {nonburnable}, {} without fuel data (not burnable \
-             here), {} without elevation (filled from the nearest cell), {} unknown fuel codes; both engines read \
-             the fuel models and the elevation (slope and aspect between cells from it), not the slope, aspect or \
-             canopy layers (no crown fire)",
+             here), {} without elevation (filled from the nearest cell), {} unknown fuel codes; the minimum-travel-time \
+             engine reads the fuel models, LANDFIRE's slope and aspect and the canopy (which shelters the wind; \
+             surface fire only, no crown fire), the automaton the fuel models and the elevation (slope and aspect \
+             between cells from it)",
             self.path.display(),
             self.format,
             self.sources

@@ -34,6 +34,59 @@ pub struct BundleInfo {
     pub test_auroc: Option<f64>,
     /// The dataset variables the protocol's inputs carry, in order.
     pub features: Vec<String>,
+    /// Where and when the training windows lie (None in bundles written before 2026-11-28):
+    /// a forecast outside it is an extrapolation, and says so.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub training_extent: Option<TrainingExtent>,
+}
+
+/// The box and the period of a model's training windows.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainingExtent {
+    pub lat_min: f64,
+    pub lat_max: f64,
+    pub lon_min: f64,
+    pub lon_max: f64,
+    /// First and last predicted date, `YYYY-MM-DD`.
+    pub first_date: String,
+    pub last_date: String,
+    pub samples: usize,
+}
+
+impl TrainingExtent {
+    /// The extent of these windows (None when there are none).
+    pub fn of<'a>(meta: impl IntoIterator<Item = &'a crate::data::SampleMeta>) -> Option<Self> {
+        let mut it = meta.into_iter();
+        let first = it.next()?;
+        let mut e = Self {
+            lat_min: first.lat,
+            lat_max: first.lat,
+            lon_min: first.lon,
+            lon_max: first.lon,
+            first_date: String::new(),
+            last_date: String::new(),
+            samples: 1,
+        };
+        let (mut d0, mut d1) = (first.event_day, first.event_day);
+        for m in it {
+            e.lat_min = e.lat_min.min(m.lat);
+            e.lat_max = e.lat_max.max(m.lat);
+            e.lon_min = e.lon_min.min(m.lon);
+            e.lon_max = e.lon_max.max(m.lon);
+            d0 = d0.min(m.event_day);
+            d1 = d1.max(m.event_day);
+            e.samples += 1;
+        }
+        e.first_date = firecast_dataset::time::format_date(d0);
+        e.last_date = firecast_dataset::time::format_date(d1);
+        Some(e)
+    }
+
+    /// Whether a place lies in the box widened by `margin_deg` on every side.
+    pub fn contains(&self, lat: f64, lon: f64, margin_deg: f64) -> bool {
+        (self.lat_min - margin_deg..=self.lat_max + margin_deg).contains(&lat)
+            && (self.lon_min - margin_deg..=self.lon_max + margin_deg).contains(&lon)
+    }
 }
 
 #[derive(Serialize, Deserialize)]

@@ -361,7 +361,18 @@ pub struct PointForecast {
     pub test_auroc: Option<f64>,
     /// `probability > threshold` (both means).
     pub ignition_expected: bool,
+    /// Where and when the first seed's model was trained (None for bundles that do not say).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub training_extent: Option<crate::bundle::TrainingExtent>,
+    /// Whether the place lies within the training windows' box widened by one GRIDMET cell
+    /// (None when the bundle does not say): outside it the forecast is an extrapolation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inside_training_extent: Option<bool>,
 }
+
+/// How far outside its training windows' box a place may lie and still count as inside: one
+/// GRIDMET cell (1/24°).
+pub const EXTENT_MARGIN_DEG: f64 = 1.0 / 24.0;
 
 /// One seed's prediction, its bundle's facts and the bundle's path relative to the experiment.
 pub type SeedAnswer = (crate::predict::Prediction, crate::bundle::BundleInfo, String);
@@ -448,6 +459,11 @@ pub fn assemble_forecast(answers: &[SeedAnswer]) -> Result<PointForecast, crate:
         test_auroc: mean_of(per_seed.iter().filter_map(|s| s.test_auroc).collect()),
         per_seed,
         ignition_expected: probability > threshold,
+        training_extent: info0.training_extent.clone(),
+        inside_training_extent: info0
+            .training_extent
+            .as_ref()
+            .map(|e| e.contains(first.lat, first.lon, EXTENT_MARGIN_DEG)),
     })
 }
 
@@ -903,6 +919,15 @@ mod tests {
             validation_auprc: val.map(|v| v / 2.0),
             test_auroc: test,
             features: vec!["tmmx".into()],
+            training_extent: Some(crate::bundle::TrainingExtent {
+                lat_min: 39.0,
+                lat_max: 40.0,
+                lon_min: -108.0,
+                lon_max: -107.0,
+                first_date: "2016-03-01".into(),
+                last_date: "2019-04-30".into(),
+                samples: 10,
+            }),
         }
     }
 
@@ -959,6 +984,28 @@ mod tests {
         assert_eq!(one.interval, [0.6, 0.6]);
         assert!(one.ignition_expected);
         assert_eq!(one.interval_method, "range over 1 training seed");
+        // The place (40 N, 105 W) lies 2° east of the training windows' box: an extrapolation.
+        assert_eq!(one.inside_training_extent, Some(false));
+        assert_eq!(one.training_extent.as_ref().unwrap().last_date, "2019-04-30");
+        let mut inside = answer(4, 0.6, 0.5, None);
+        inside.0.lon = -107.02;
+        inside.0.lat = 40.03;
+        let f = assemble_forecast(&[inside]).unwrap();
+        assert_eq!(
+            f.inside_training_extent,
+            Some(true),
+            "within one GRIDMET cell of the box"
+        );
+        let mut unknown = answer(4, 0.6, 0.5, None);
+        unknown.1.training_extent = None;
+        let f = assemble_forecast(&[unknown]).unwrap();
+        assert_eq!(f.inside_training_extent, None);
+        assert!(
+            serde_json::to_value(&f)
+                .unwrap()
+                .get("inside_training_extent")
+                .is_none()
+        );
 
         assert!(assemble_forecast(&[]).is_err());
         let mut other = answer(1, 0.5, 0.5, None);

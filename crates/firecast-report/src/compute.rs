@@ -97,6 +97,23 @@ pub struct ForecastFile {
     pub per_seed: Vec<ForecastSeed>,
     pub validation_auroc: Option<f64>,
     pub test_auroc: Option<f64>,
+    /// Where and when the model was trained (absent in forecasts of older bundles).
+    #[serde(default)]
+    pub training_extent: Option<ForecastExtent>,
+    #[serde(default)]
+    pub inside_training_extent: Option<bool>,
+}
+
+/// `forecast.predict`'s `training_extent` (the report reads the file, not the forecasting
+/// crate, so it does not link libtorch).
+#[derive(Debug, Clone, Deserialize)]
+pub struct ForecastExtent {
+    pub lat_min: f64,
+    pub lat_max: f64,
+    pub lon_min: f64,
+    pub lon_max: f64,
+    pub first_date: String,
+    pub last_date: String,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -282,10 +299,11 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
         ),
         agent: agent.map_or_else(|| "none".to_string(), |a| ensembles[a].description.clone()),
         landscape: format!(
-            "{:.1} × {:.1} mi at {} ft resolution ({} × {} grid), {} land cover, centred near {}",
+            "{:.1} × {:.1} mi in cells of {} ft ({} m; {} × {} grid), {} land cover, centred near {}",
             first.grid.width as f64 * first.grid.cell_size_ft / 5280.0,
             first.grid.height as f64 * first.grid.cell_size_ft / 5280.0,
-            first.grid.cell_size_ft,
+            fmt_num(first.grid.cell_size_ft, 0),
+            fmt_num(first.grid.cell_size_ft * 0.3048, 0),
             first.grid.width,
             first.grid.height,
             first.grid.scheme,
@@ -432,10 +450,7 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
             },
             first.step_minutes
         ),
-        format!(
-            "Landscape: {}; land cover is mapped to fuel models by FireCast's MODIS crosswalk.",
-            header.landscape
-        ),
+        format!("Landscape: {}; {}", header.landscape, landscape_source(first)),
         format!(
             "Ensemble: {} runs per strategy, the same runs for every strategy; each run scales the day's wind speed by \
              up to ±{:.0} %, turns it by up to ±{:.0}° and shifts dead fuel moisture by up to ±{:.1} points (uniform \
@@ -585,6 +600,23 @@ fn check_spread(sp: &Ensemble, base: &Ensemble) -> Result<(), ReportError> {
     Ok(())
 }
 
+/// What the landscape is and where its fuels come from: the landscape's own line (LANDFIRE's
+/// files, window and cell counts; the synthetic world's seed) and, for land cover classes, the
+/// crosswalk to fuel models.
+fn landscape_source(e: &Ensemble) -> String {
+    let mut parts = Vec::new();
+    if let Some(label) = &e.landscape {
+        parts.push(label.note.trim_end_matches('.').to_string());
+    }
+    if e.grid.scheme.contains("modis") {
+        parts.push("land cover is mapped to fuel models by FireCast's MODIS crosswalk".to_string());
+    }
+    if parts.is_empty() {
+        parts.push("land cover codes are fuel models".to_string());
+    }
+    format!("{}.", parts.join("; "))
+}
+
 fn short(version: &str) -> &str {
     &version[..version.len().min(12)]
 }
@@ -621,6 +653,15 @@ fn forecast_block(f: &ForecastFile) -> Forecast {
         test_auroc: f.test_auroc,
         input_days: [f.input_days.0, f.input_days.1],
         pattern: None,
+        training_area: f.training_extent.as_ref().map(|e| TrainingArea {
+            lat_min: e.lat_min,
+            lat_max: e.lat_max,
+            lon_min: e.lon_min,
+            lon_max: e.lon_max,
+            first_date: e.first_date.clone(),
+            last_date: e.last_date.clone(),
+            place_inside: f.inside_training_extent.unwrap_or(true),
+        }),
     }
 }
 

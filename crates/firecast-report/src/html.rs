@@ -61,6 +61,7 @@ th{background:#f2f2f2}
 td.n{text-align:right;white-space:nowrap}
 .ci{color:var(--muted);font-size:.9em}
 .muted{color:var(--muted);font-size:.9em}
+.warn{border-left:4px solid #ef6c00;background:#fff3e0;padding:3px 8px}
 .badge{display:inline-block;padding:2px 10px;border-radius:4px;font-weight:bold;color:#fff}
 .LOW{background:#2e7d32}.MODERATE{background:#f9a825;color:#111}.HIGH{background:#ef6c00}.SEVERE{background:#b71c1c}
 .GO{background:#b71c1c;color:#fff}.SET{background:#ef6c00;color:#fff}.READY{background:#f9a825}.NONE{background:#e0e0e0}
@@ -218,11 +219,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         esc(&hd.valid_until),
         esc(&hd.run_id),
         esc(&hd.firecast_version),
-        if c.landscape_synthetic() {
-            "<b>synthetic landscape</b>"
-        } else {
-            "landscape from data"
-        }
+        landscape_words(c)
     )?;
 
     // The answer: the map and what a duty officer needs from it.
@@ -292,7 +289,12 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         fmt_num(hd.horizon_h, 0),
         esc(&extent(&c.landscape, window)),
         crate::maps::bands_legend(&times, "Fire arrives (hours after ignition)"),
-        crate::maps::land_cover_legend(&c.landscape)
+        crate::maps::land_cover_legend(
+            &c.landscape,
+            c.landscape_label()
+                .and_then(|l| l.fuel_cells.as_ref())
+                .map_or(0, |f| f.fuel_nodata),
+        )
     )?;
     w(&mut h, "</div><div class=facts>");
     write!(
@@ -416,7 +418,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     };
     write!(
         h,
-        "<h3>Will a fire start?</h3><p>Ignition probability <b>{:.0} %</b> ({spread}; alert threshold {:.0} %): {}.</p>\
+        "<h3>Will a fire start?</h3><p>Ignition probability <b>{:.0} %</b> ({spread}; alert threshold {:.0} %): {}.</p>{}\
          <p class=muted>Risk {}: {}</p></div></section>",
         r.forecast.probability * 100.0,
         r.forecast.threshold * 100.0,
@@ -425,6 +427,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         } else {
             "below the alert threshold"
         },
+        extrapolation_warning(&r.forecast).unwrap_or_default(),
         r.risk.level.as_str(),
         esc(&r.risk.rule)
     )?;
@@ -438,7 +441,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
          <tr><th>Decision threshold</th><td class=n>{:.1} %</td><td class=muted>chosen on validation data; {}</td></tr>\
          <tr><th>Model</th><td colspan=2>{} ({}) under the <i>{}</i> protocol, inputs from day {} to {} relative to the date</td></tr>\
          <tr><th>Validation skill</th><td colspan=2>AUROC {} · AUPRC {} · test AUROC {}</td></tr>\
-         <tr><th>Trained on</th><td colspan=2>{} <code>{}</code></td></tr></table>",
+         <tr><th>Trained on</th><td colspan=2>{} <code>{}</code>{}</td></tr></table>{}",
         f.probability * 100.0,
         f.interval[0] * 100.0,
         f.interval[1] * 100.0,
@@ -458,7 +461,11 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         opt(f.validation_auprc, 3, ""),
         opt(f.test_auroc, 3, ""),
         esc(&f.dataset),
-        esc(&f.dataset_version)
+        esc(&f.dataset_version),
+        f.training_area
+            .as_ref()
+            .map_or_else(String::new, |a| format!(": {}", esc(&training_area_text(a)))),
+        extrapolation_warning(f).unwrap_or_default()
     )?;
 
     if let Some(p) = &f.pattern {
@@ -1108,13 +1115,52 @@ fn asset_points(c: &Computed, named: bool) -> Vec<(String, f64, f64)> {
 }
 
 impl Computed {
-    /// Whether the map is made up (the synthetic world or a procedural map).
-    fn landscape_synthetic(&self) -> bool {
-        self.ensembles
-            .first()
+    /// The label of the map the fires burned on (the verified engine's, which may have grown).
+    fn landscape_label(&self) -> Option<&firecast_episodes::LandscapeLabel> {
+        self.spread
+            .as_ref()
             .and_then(|e| e.landscape.as_ref())
-            .is_some_and(|l| l.synthetic)
+            .or_else(|| self.ensembles.first().and_then(|e| e.landscape.as_ref()))
     }
+}
+
+/// What the map is made of, for the header: made up, or which data.
+fn landscape_words(c: &Computed) -> String {
+    let cell_m = fmt_num(c.landscape.cell_size_ft * 0.3048, 0);
+    match c.landscape_label() {
+        Some(l) if l.synthetic => "<b>synthetic landscape</b>".into(),
+        Some(l) if l.kind == "landfire" => format!("landscape: LANDFIRE fuels and terrain, {cell_m} m cells"),
+        Some(l) if l.kind == "geotiff" => {
+            format!("landscape: land cover and elevation rasters, {cell_m} m cells")
+        }
+        Some(l) if l.kind == "firecastrl" => "landscape: FireCastRL's map".into(),
+        _ => "landscape from data".into(),
+    }
+}
+
+/// Where and when a forecaster's training windows lie, in words.
+fn training_area_text(a: &TrainingArea) -> String {
+    let ns = |v: f64| format!("{:.2}° {}", v.abs(), if v >= 0.0 { "N" } else { "S" });
+    let ew = |v: f64| format!("{:.2}° {}", v.abs(), if v >= 0.0 { "E" } else { "W" });
+    format!(
+        "places {} to {}, {} to {}, days {} to {}",
+        ns(a.lat_min),
+        ns(a.lat_max),
+        ew(a.lon_min),
+        ew(a.lon_max),
+        a.first_date,
+        a.last_date
+    )
+}
+
+/// A warning when the place lies outside the area the forecaster learnt from.
+fn extrapolation_warning(f: &Forecast) -> Option<String> {
+    let a = f.training_area.as_ref().filter(|a| !a.place_inside)?;
+    Some(format!(
+        "<p class=warn><b>Outside the model's experience:</b> the forecaster was trained on {} and this place \
+         lies outside that area, so the probability is an extrapolation; weigh it below local knowledge.</p>",
+        esc(&training_area_text(a))
+    ))
 }
 
 /// The map's extent in words.
@@ -1122,7 +1168,7 @@ fn extent(land: &firecast_landscape::Landscape, window: [usize; 4]) -> String {
     let [x0, y0, w, h] = window;
     let mi = |cells: usize| cells as f64 * land.cell_size_ft / 5280.0;
     format!(
-        "North is up; {:.1} × {:.1} mi{} at {} ft cells ({}), corners {} (south-west) and {} (north-east).",
+        "North is up; {:.1} × {:.1} mi{} in cells of {} ft ({} m; {}), corners {} (south-west) and {} (north-east).",
         mi(w),
         mi(h),
         if [w, h] == [land.width, land.height] {
@@ -1134,7 +1180,8 @@ fn extent(land: &firecast_landscape::Landscape, window: [usize; 4]) -> String {
                 mi(land.height)
             )
         },
-        land.cell_size_ft,
+        fmt_num(land.cell_size_ft, 0),
+        fmt_num(land.cell_size_ft * 0.3048, 0),
         land.georef.crs,
         corner(land, x0 as i64, y0 as i64),
         corner(land, (x0 + w) as i64, (y0 + h) as i64)

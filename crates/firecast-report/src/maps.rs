@@ -407,7 +407,9 @@ const IGBP: [&str; 17] = [
 
 /// The land-cover legend of a map: the classes covering at least 1 % of it, most common
 /// first, as HTML swatches.
-pub fn land_cover_legend(land: &Landscape) -> String {
+/// `no_data_cells`: cells the landscape's source had no fuel for (LANDFIRE nodata), which the
+/// landscape holds as non-burnable code 99 and the legend names as such.
+pub fn land_cover_legend(land: &Landscape, no_data_cells: u64) -> String {
     let mut counts: std::collections::BTreeMap<u16, usize> = std::collections::BTreeMap::new();
     for &c in &land.land_cover {
         *counts.entry(c).or_default() += 1;
@@ -423,6 +425,14 @@ pub fn land_cover_legend(land: &Landscape) -> String {
                 .map_or_else(|| format!("class {code}"), |s| (*s).to_string()),
             scheme => firecast_episodes::ensemble::fuel_model_of(scheme, code)
                 .map_or_else(|| format!("code {code}"), |m| format!("{} {}", m.code, m.name)),
+        };
+        let name = if code == firecast_episodes::landfire::NODATA_FUEL_CODE && no_data_cells > 0 {
+            format!(
+                "{name} or no fuel data ({:.0} % of the map has none; not burnable)",
+                no_data_cells as f64 / n as f64 * 100.0
+            )
+        } else {
+            name
         };
         let _ = write!(
             out,

@@ -12,7 +12,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Version of the JSON layout (semantic: a new field is a minor bump).
-pub const SCHEMA_VERSION: &str = "1.2.0";
+pub const SCHEMA_VERSION: &str = "1.3.0";
 /// `$id` of the schema.
 pub const SCHEMA_ID: &str = "https://firecast.dev/schemas/threat-report-1.schema.json";
 
@@ -197,6 +197,30 @@ pub struct Forecast {
     /// model (null: the report was not given `forecast.predict`'s `map`).
     #[serde(default)]
     pub pattern: Option<IgnitionPattern>,
+    /// Where and when the model's training windows lie (null: the model does not say). A
+    /// place outside the area makes the probability an extrapolation.
+    #[serde(default)]
+    pub training_area: Option<TrainingArea>,
+}
+
+/// The box and period of a forecaster's training windows.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TrainingArea {
+    /// Southern edge of the training windows' places, degrees north.
+    pub lat_min: f64,
+    /// Northern edge, degrees north.
+    pub lat_max: f64,
+    /// Western edge, degrees east (negative west).
+    pub lon_min: f64,
+    /// Eastern edge, degrees east (negative west).
+    pub lon_max: f64,
+    /// First forecast day among the training windows, YYYY-MM-DD.
+    pub first_date: String,
+    /// Last forecast day among the training windows, YYYY-MM-DD.
+    pub last_date: String,
+    /// Whether the report's place lies in the box widened by one GRIDMET cell (1/24°).
+    pub place_inside: bool,
 }
 
 /// The forecasted ignition pattern: the day's probability over the GRIDMET cells around the
