@@ -241,6 +241,40 @@ fn experiment_runs_every_model_under_both_protocols_and_answers_predictions() {
     }
     let md = p.read("experiments/runs/cli-exp/table3.md");
     assert!(md.contains("rows = actual, columns = predicted"), "{md}");
+    // FireCast's forecaster against every other model over all seeds, Holm-corrected, and the
+    // best model against the best baseline; the table says what FireCast's forecaster beat.
+    let comparisons = results["comparisons"].as_array().unwrap();
+    for protocol in ["paper", "leak_free"] {
+        let here: Vec<&serde_json::Value> =
+            comparisons.iter().filter(|c| c["protocol"] == protocol).collect();
+        let against: Vec<&str> = here
+            .iter()
+            .filter(|c| c["questions"].to_string().contains("firecast_vs_model"))
+            .map(|c| {
+                assert_eq!(c["model"], "firecast", "{c}");
+                c["other"].as_str().unwrap()
+            })
+            .collect();
+        assert_eq!(against.len(), 6, "{protocol}: {against:?}");
+        assert!(
+            here.iter()
+                .any(|c| c["questions"].to_string().contains("best_vs_best_baseline"))
+        );
+        for c in &here {
+            let (p, holm) = (c["p_value"].as_f64().unwrap(), c["p_holm"].as_f64().unwrap());
+            assert!((0.0..=1.0).contains(&p) && holm >= p - 1e-12, "{c}");
+            let (lo, hi) = (
+                c["auroc_diff_interval"][0].as_f64().unwrap(),
+                c["auroc_diff_interval"][1].as_f64().unwrap(),
+            );
+            assert!(lo <= hi, "{c}");
+            // Two seeds of the network meet the deterministic models' one run twice.
+            assert_eq!(c["seeds"], 2, "{c}");
+            assert_eq!(c["delong_p"].as_array().unwrap().len(), 2, "{c}");
+        }
+    }
+    assert!(md.contains("Paired comparisons over all 2 seeds"), "{md}");
+    assert!(md.contains("FireCast's forecaster `firecast`"), "{md}");
 
     // Unchanged experiment and dataset: nothing re-runs. Forced: the same numbers (CPU, seeds).
     let again = p.ok(&["experiment", "run", "experiments/cli.yaml"]);

@@ -321,6 +321,126 @@ pub fn paired_diff_ci(
     })
 }
 
+/// A paired difference over samples and training seeds, with its two-sided bootstrap p-value.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SeedPairedInterval {
+    /// The interval of mean over seeds of statistic(A_s) − statistic(B_s).
+    #[serde(flatten)]
+    pub interval: PairedInterval,
+    /// Two-sided percentile-bootstrap p-value of "no difference": twice the smaller share of
+    /// valid resamples on either side of 0 (ties count on both), capped at 1; NaN when none.
+    #[serde(deserialize_with = "crate::serde_nan::nan_if_null")]
+    pub p_value: f64,
+    /// Seed pairs compared.
+    pub seeds: usize,
+}
+
+/// Interval of the mean over seeds of statistic(y, a[s]) − statistic(y, b[s]), where `a[s]`
+/// and `b[s]` are two models' scores of training seed `s` on the same samples. Each resample
+/// draws the samples (by cluster when given, as [`paired_diff_ci`]) and, independently, the
+/// seed pairs with replacement, so the interval carries both the test set's and the training
+/// seeds' variation. With one seed it is [`paired_diff_ci`]'s interval. Errors name `a`, `b`
+/// or `clusters` on a length mismatch, or `level` outside (0, 1).
+#[allow(clippy::too_many_arguments)] // `paired_diff_ci` with seeds
+pub fn paired_diff_ci_seeds(
+    y: &[bool],
+    a: &[Vec<f64>],
+    b: &[Vec<f64>],
+    clusters: Option<&[u64]>,
+    n_resamples: usize,
+    seed: u64,
+    level: f64,
+    statistic: impl Fn(&[bool], &[f64]) -> Option<f64>,
+) -> Result<SeedPairedInterval, EvalError> {
+    same_len("b (seeds)", b.len(), "a (seeds)", a.len())?;
+    for (pa, pb) in a.iter().zip(b) {
+        same_len("a", pa.len(), "y", y.len())?;
+        same_len("b", pb.len(), "y", y.len())?;
+    }
+    check_level(level)?;
+    let k = a.len();
+    let resampler = Resampler::new(y.len(), clusters, seed)?;
+    let (mut idx, mut ys, mut pa, mut pb) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut diffs = Vec::with_capacity(n_resamples);
+    let (mut above, mut below) = (0usize, 0usize);
+    let mut a_better = 0usize;
+    // One difference per seed pair and resample, computed only for the pairs drawn.
+    let mut per_seed: Vec<Option<Option<f64>>> = vec![None; k];
+    for r in 0..n_resamples as u64 {
+        if k == 0 {
+            break;
+        }
+        resampler.resample_into(r, &mut idx);
+        gather(&idx, y, &mut ys);
+        let mut seed_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_5EED_5EED_5EED);
+        seed_rng.set_stream(r);
+        let drawn: Vec<usize> = if k == 1 {
+            vec![0]
+        } else {
+            (0..k).map(|_| seed_rng.random_range(0..k)).collect()
+        };
+        per_seed.iter_mut().for_each(|d| *d = None);
+        let mut sum = 0.0;
+        let mut ok = true;
+        for &s in &drawn {
+            let d = *per_seed[s].get_or_insert_with(|| {
+                gather(&idx, &a[s], &mut pa);
+                gather(&idx, &b[s], &mut pb);
+                match (valid(statistic(&ys, &pa)), valid(statistic(&ys, &pb))) {
+                    (Some(x), Some(z)) => Some(x - z),
+                    _ => None,
+                }
+            });
+            match d {
+                Some(d) => sum += d,
+                None => ok = false,
+            }
+        }
+        if ok {
+            let d = sum / drawn.len() as f64;
+            diffs.push(d);
+            a_better += usize::from(d > 0.0);
+            above += usize::from(d >= 0.0);
+            below += usize::from(d <= 0.0);
+        }
+    }
+    let n_valid = diffs.len();
+    let (low, high) = percentile_interval(&mut diffs, level);
+    let estimates: Vec<Option<f64>> = a
+        .iter()
+        .zip(b)
+        .map(
+            |(pa, pb)| match (valid(statistic(y, pa)), valid(statistic(y, pb))) {
+                (Some(x), Some(z)) => Some(x - z),
+                _ => None,
+            },
+        )
+        .collect();
+    let estimate = if k > 0 && estimates.iter().all(Option::is_some) {
+        estimates.iter().flatten().sum::<f64>() / k as f64
+    } else {
+        f64::NAN
+    };
+    let share = |c: usize| c as f64 / n_valid as f64;
+    Ok(SeedPairedInterval {
+        interval: PairedInterval {
+            estimate,
+            low,
+            high,
+            level,
+            n_valid,
+            n_resamples,
+            prob_a_better: if n_valid == 0 { f64::NAN } else { share(a_better) },
+        },
+        p_value: if n_valid == 0 {
+            f64::NAN
+        } else {
+            (2.0 * share(above).min(share(below))).min(1.0)
+        },
+        seeds: k,
+    })
+}
+
 /// Interquartile mean (Agarwal et al. 2021, rliable): the mean of the values left after
 /// trimming ⌊0.25·n⌋ from each end of the sorted values — `scipy.stats.trim_mean(values,
 /// 0.25)`. NaN when empty.
@@ -402,6 +522,66 @@ mod tests {
             .map(|&l| (rng.random::<f64>() + if l { 0.4 } else { 0.0 }).min(1.0))
             .collect();
         (y, p)
+    }
+
+    #[test]
+    fn seed_paired_intervals_carry_seeds_and_samples() {
+        let (y, p) = data(300);
+        let clusters: Vec<u64> = (0..300u64).map(|i| i / 3).collect();
+        // One seed: the same resamples and interval as paired_diff_ci.
+        let noisy: Vec<f64> = p
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v * (1.0 + 0.3 * ((i * 7 % 11) as f64 / 11.0)))
+            .collect();
+        let one = paired_diff_ci_seeds(
+            &y,
+            &[p.clone()],
+            &[noisy.clone()],
+            Some(&clusters),
+            300,
+            5,
+            0.95,
+            roc_auc,
+        )
+        .unwrap();
+        let plain = paired_diff_ci(&y, &p, &noisy, Some(&clusters), 300, 5, 0.95, roc_auc).unwrap();
+        assert_eq!(one.interval, plain);
+        assert_eq!(one.seeds, 1);
+        // A model the same as its rival on every seed: no difference, p = 1.
+        let same = paired_diff_ci_seeds(
+            &y,
+            &[p.clone(), noisy.clone()],
+            &[p.clone(), noisy.clone()],
+            None,
+            200,
+            5,
+            0.95,
+            roc_auc,
+        )
+        .unwrap();
+        assert_eq!(same.interval.estimate, 0.0);
+        assert_eq!((same.interval.low, same.interval.high), (0.0, 0.0));
+        assert_eq!(same.p_value, 1.0);
+        // Better on every seed by a wide margin: the interval excludes 0 and p is tiny.
+        let perfect: Vec<f64> = y.iter().map(|&l| if l { 0.9 } else { 0.1 }).collect();
+        let better = paired_diff_ci_seeds(
+            &y,
+            &[perfect.clone(), perfect],
+            &[p.clone(), noisy],
+            Some(&clusters),
+            200,
+            5,
+            0.95,
+            roc_auc,
+        )
+        .unwrap();
+        assert!(better.interval.low > 0.0, "{better:?}");
+        assert!(better.p_value < 0.01, "{better:?}");
+        assert_eq!(better.seeds, 2);
+        // Mismatched seed counts name the argument.
+        let err = paired_diff_ci_seeds(&y, &[p.clone()], &[], None, 10, 5, 0.95, roc_auc).unwrap_err();
+        assert!(err.to_string().contains("b (seeds)"), "{err}");
     }
 
     #[test]

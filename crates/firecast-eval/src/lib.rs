@@ -23,7 +23,7 @@ pub mod dvc;
 mod error;
 pub mod metrics;
 mod numeric;
-mod serde_nan;
+pub mod serde_nan;
 pub mod special;
 pub mod tests;
 

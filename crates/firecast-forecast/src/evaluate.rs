@@ -311,6 +311,7 @@ pub fn evaluate(
         ));
     }
     let mut paired = Vec::new();
+    let mut comparisons = Vec::new();
     let mut predictions = Vec::new();
     for p in &protocols {
         let scores = scores_by_protocol.remove(&p.name).unwrap_or_default();
@@ -319,6 +320,14 @@ pub fn evaluate(
         {
             paired.push(t);
         }
+        comparisons.extend(crate::experiment::comparisons(
+            &p.name,
+            &results,
+            &scores,
+            &labels,
+            &clusters,
+            &params.evaluation,
+        ));
         predictions.push(ProtocolPredictions {
             protocol: p.name.clone(),
             sample_ids: rows.iter().map(|&s| windows.meta[s].sample_id).collect(),
@@ -346,6 +355,7 @@ pub fn evaluate(
             protocols,
             results,
             paired,
+            comparisons,
         },
         predictions,
     ))

@@ -107,6 +107,7 @@ pub struct PairedTest {
     pub mcnemar_exact: bool,
     pub delong_auroc_diff: f64,
     pub delong_p: f64,
+    #[serde(deserialize_with = "firecast_eval::serde_nan::nan_if_null")]
     pub auprc_diff: f64,
     pub auprc_diff_interval: (f64, f64),
     pub prob_model_better_auprc: f64,
@@ -127,6 +128,59 @@ pub struct ExperimentResult {
     pub protocols: Vec<ProtocolInfo>,
     pub results: Vec<ModelResult>,
     pub paired: Vec<PairedTest>,
+    /// FireCast's forecaster against every other model, and the best model against the best
+    /// baseline, over all seeds (empty in results written before 2026-11-28).
+    #[serde(default)]
+    pub comparisons: Vec<Comparison>,
+}
+
+/// One paired comparison of two models on the same test samples over all training seeds:
+/// the difference of their AUROC and AUPRC (mean over seed pairs) with percentile intervals
+/// from a bootstrap that resamples the samples by GRIDMET cell and the seed pairs, a
+/// two-sided bootstrap p-value of the AUROC difference, Holm-adjusted over the protocol's
+/// comparisons, and DeLong's test on each seed.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Comparison {
+    pub protocol: String,
+    /// Why the pair is compared: `firecast_vs_model` (FireCast's forecaster against every other
+    /// model), `best_vs_best_baseline`, or both.
+    pub questions: Vec<String>,
+    pub model: String,
+    pub other: String,
+    /// Seed pairs: seed i of one model with seed i of the other, or a deterministic model's one
+    /// run with each seed of the other.
+    pub seeds: usize,
+    #[serde(deserialize_with = "firecast_eval::serde_nan::nan_if_null")]
+    pub auroc_diff: f64,
+    pub auroc_diff_interval: (f64, f64),
+    #[serde(deserialize_with = "firecast_eval::serde_nan::nan_if_null")]
+    pub auprc_diff: f64,
+    pub auprc_diff_interval: (f64, f64),
+    /// Two-sided bootstrap p-value of "same AUROC".
+    #[serde(deserialize_with = "firecast_eval::serde_nan::nan_if_null")]
+    pub p_value: f64,
+    /// `p_value` Holm-adjusted over the protocol's comparisons.
+    #[serde(deserialize_with = "firecast_eval::serde_nan::nan_if_null")]
+    pub p_holm: f64,
+    /// DeLong's p-value of the AUROC difference on each seed pair (None where undefined).
+    pub delong_p: Vec<Option<f64>>,
+}
+
+/// The comparison family's significance level.
+pub const COMPARISON_ALPHA: f64 = 0.05;
+
+impl Comparison {
+    /// `better`, `worse` or `no difference`: the AUROC difference's interval on one side of 0
+    /// and the Holm-adjusted p below [`COMPARISON_ALPHA`].
+    pub fn verdict(&self) -> &'static str {
+        if self.p_holm < COMPARISON_ALPHA && self.auroc_diff_interval.0 > 0.0 {
+            "better"
+        } else if self.p_holm < COMPARISON_ALPHA && self.auroc_diff_interval.1 < 0.0 {
+            "worse"
+        } else {
+            "no difference"
+        }
+    }
 }
 
 /// A model's test scores: (label, kind, scores per seed, threshold per seed).
@@ -515,6 +569,9 @@ pub fn fit_units(
                 validation_auroc: validation.auroc,
                 test_auroc: report.auroc,
                 features: btr.features.clone(),
+                training_extent: crate::bundle::TrainingExtent::of(
+                    side.split.train.iter().map(|&s| &windows.meta[s]),
+                ),
             },
             &trained,
         )?;
@@ -570,6 +627,7 @@ pub fn assemble(
     let mut scores = scores.into_iter().peekable();
     let mut results = Vec::new();
     let mut paired = Vec::new();
+    let mut all_comparisons = Vec::new();
     let mut predictions = Vec::new();
     for side in sides {
         let pname = &side.name;
@@ -637,6 +695,14 @@ pub fn assemble(
             &side.test_clusters,
             &spec.evaluation,
         );
+        all_comparisons.extend(comparisons(
+            pname,
+            &results,
+            &test_scores,
+            &side.yte,
+            &side.test_clusters,
+            &spec.evaluation,
+        ));
         predictions.push(ProtocolPredictions {
             protocol: pname.clone(),
             sample_ids: side
@@ -675,6 +741,7 @@ pub fn assemble(
         protocols: sides.iter().map(|s| s.info.clone()).collect(),
         results,
         paired,
+        comparisons: all_comparisons,
     };
     Ok((result, predictions))
 }
@@ -955,6 +1022,146 @@ pub(crate) fn paired_test(
         auprc_diff_interval: (diff.low, diff.high),
         prob_model_better_auprc: diff.prob_a_better,
     })
+}
+
+/// FireCast's recommended forecaster in a protocol: of the `firecast` family, the one with
+/// the highest mean validation AUROC (chosen on validation data only; the first listed when
+/// none has a validation score).
+pub fn recommended_forecaster<'a>(protocol: &str, results: &'a [ModelResult]) -> Option<&'a ModelResult> {
+    let validation = |r: &ModelResult| {
+        let v: Vec<f64> = r
+            .runs
+            .iter()
+            .filter_map(|s| s.validation.as_ref().and_then(|v| v.auroc))
+            .collect();
+        if v.is_empty() {
+            f64::NEG_INFINITY
+        } else {
+            v.iter().sum::<f64>() / v.len() as f64
+        }
+    };
+    let mut best: Option<&ModelResult> = None;
+    for r in results
+        .iter()
+        .filter(|r| r.protocol == protocol && r.family == "firecast")
+    {
+        if best.is_none_or(|b| validation(r) > validation(b)) {
+            best = Some(r);
+        }
+    }
+    best
+}
+
+/// The protocol's paired comparisons over all seeds: FireCast's recommended forecaster
+/// against every other model (the majority rule included: its AUROC is 0.5), and the best
+/// model by test AUROC against the best of the paper's baselines and references; Holm's
+/// correction over all of them.
+pub(crate) fn comparisons(
+    protocol: &str,
+    results: &[ModelResult],
+    scores: &[ModelScores],
+    y: &[bool],
+    clusters: &[u64],
+    evaluation: &Evaluation,
+) -> Vec<Comparison> {
+    let here: Vec<&ModelResult> = results.iter().filter(|r| r.protocol == protocol).collect();
+    let mut pairs: Vec<(String, String, Vec<String>)> = Vec::new();
+    let mut ask = |model: &str, other: &str, question: &str| {
+        if let Some(p) = pairs.iter_mut().find(|p| p.0 == model && p.1 == other) {
+            p.2.push(question.to_string());
+        } else {
+            pairs.push((model.to_string(), other.to_string(), vec![question.to_string()]));
+        }
+    };
+    if let Some(focus) = recommended_forecaster(protocol, results) {
+        for r in here.iter().filter(|r| r.model != focus.model) {
+            ask(&focus.model, &r.model, "firecast_vs_model");
+        }
+    }
+    let auroc = |r: &ModelResult| r.test.get("auroc").copied().unwrap_or(f64::NAN);
+    let best = here
+        .iter()
+        .filter(|r| auroc(r).is_finite())
+        .max_by(|a, b| auroc(a).total_cmp(&auroc(b)));
+    if let Some(best) = best {
+        let baseline = here
+            .iter()
+            .filter(|r| {
+                r.model != best.model
+                    && matches!(r.family.as_str(), "paper_baseline" | "reference")
+                    && r.kind != "majority"
+            })
+            .filter(|r| auroc(r).is_finite())
+            .max_by(|a, b| auroc(a).total_cmp(&auroc(b)));
+        if let Some(baseline) = baseline {
+            ask(&best.model, &baseline.model, "best_vs_best_baseline");
+        }
+    }
+    let find = |name: &str| scores.iter().find(|s| s.0 == name).map(|s| &s.2);
+    let mut out: Vec<Comparison> = Vec::new();
+    for (model, other, questions) in pairs {
+        let (Some(a), Some(b)) = (find(&model), find(&other)) else {
+            continue;
+        };
+        // A deterministic model runs once: its one run meets each seed of the other.
+        let k = if a.len() == 1 || b.len() == 1 {
+            a.len().max(b.len())
+        } else {
+            a.len().min(b.len())
+        };
+        let pick =
+            |v: &[Vec<f64>]| -> Vec<Vec<f64>> { (0..k).map(|i| v[i.min(v.len() - 1)].clone()).collect() };
+        let (a, b) = (pick(a), pick(b));
+        let (a, b) = (a.as_slice(), b.as_slice());
+        let ci = |statistic: fn(&[bool], &[f64]) -> Option<f64>| {
+            firecast_eval::bootstrap::paired_diff_ci_seeds(
+                y,
+                a,
+                b,
+                Some(clusters),
+                evaluation.bootstrap,
+                evaluation.seed,
+                evaluation.level,
+                statistic,
+            )
+            .ok()
+        };
+        let (Some(roc), Some(pr)) = (
+            ci(firecast_eval::metrics::roc_auc),
+            ci(firecast_eval::metrics::average_precision),
+        ) else {
+            continue;
+        };
+        let delong_p = a
+            .iter()
+            .zip(b)
+            .map(|(pa, pb)| {
+                firecast_eval::tests::delong(y, pa, pb)
+                    .ok()
+                    .map(|d| d.p_value)
+                    .filter(|p| p.is_finite())
+            })
+            .collect();
+        out.push(Comparison {
+            protocol: protocol.to_string(),
+            questions,
+            model,
+            other,
+            seeds: k,
+            auroc_diff: roc.interval.estimate,
+            auroc_diff_interval: (roc.interval.low, roc.interval.high),
+            auprc_diff: pr.interval.estimate,
+            auprc_diff_interval: (pr.interval.low, pr.interval.high),
+            p_value: roc.p_value,
+            p_holm: f64::NAN,
+            delong_p,
+        });
+    }
+    let adjusted = firecast_eval::tests::holm(&out.iter().map(|c| c.p_value).collect::<Vec<_>>());
+    for (c, p) in out.iter_mut().zip(adjusted) {
+        c.p_holm = p;
+    }
+    out
 }
 
 /// Where a run's outputs go.

@@ -179,6 +179,7 @@ pub fn markdown(result: &ExperimentResult) -> String {
                 t.prob_model_better_auprc
             );
         }
+        comparisons_table(&mut out, result, &p.name);
         // Breakdowns.
         let _ = writeln!(out, "By year (first seed; AUROC, n):\n");
         for r in rows(result, &p.name) {
@@ -290,4 +291,105 @@ pub fn write_all(out: &Path, result: &ExperimentResult) -> Result<(), ForecastEr
         serde_json::to_vec_pretty(&dvc_metrics(result)).map_err(|e| ForecastError::Model(e.to_string()))?;
     write("metrics.json", &metrics)?;
     Ok(())
+}
+
+/// The protocol's paired comparisons over all seeds (FireCast's forecaster against every
+/// model, the best model against the best baseline), with a sentence that answers the question.
+fn comparisons_table(out: &mut String, result: &ExperimentResult, protocol: &str) {
+    let here: Vec<&crate::experiment::Comparison> = result
+        .comparisons
+        .iter()
+        .filter(|c| c.protocol == protocol)
+        .collect();
+    let Some(first) = here.first() else {
+        return;
+    };
+    let _ = writeln!(
+        out,
+        "Paired comparisons over all {} seeds (test samples resampled by GRIDMET cell and seed pairs with \
+         replacement, {} resamples; two-sided bootstrap p of the AUROC difference, Holm-adjusted over the {} \
+         comparisons of this protocol; DeLong's p on each seed; a verdict needs the interval on one side of 0 and \
+         Holm p < {}):\n",
+        first.seeds,
+        result.bootstrap,
+        here.len(),
+        crate::experiment::COMPARISON_ALPHA
+    );
+    let _ = writeln!(
+        out,
+        "| model | against | ΔAUROC | {:.0} % interval | ΔAUPRC | {:.0} % interval | p | p (Holm) | DeLong p per seed | verdict |",
+        result.level * 100.0,
+        result.level * 100.0
+    );
+    let _ = writeln!(out, "|---|---|---:|---|---:|---|---:|---:|---|---|");
+    let p_text = |p: f64| {
+        if p.is_finite() {
+            format!("{p:.2e}")
+        } else {
+            "—".into()
+        }
+    };
+    for c in &here {
+        let best = if c.questions.iter().any(|q| q == "best_vs_best_baseline") {
+            " (best vs best baseline)"
+        } else {
+            ""
+        };
+        let _ = writeln!(
+            out,
+            "| {}{best} | {} | {:+.3} | [{:+.3}, {:+.3}] | {:+.3} | [{:+.3}, {:+.3}] | {} | {} | {} | {} |",
+            c.model,
+            c.other,
+            c.auroc_diff,
+            c.auroc_diff_interval.0,
+            c.auroc_diff_interval.1,
+            c.auprc_diff,
+            c.auprc_diff_interval.0,
+            c.auprc_diff_interval.1,
+            p_text(c.p_value),
+            p_text(c.p_holm),
+            c.delong_p
+                .iter()
+                .map(|p| p.map_or_else(|| "—".to_string(), |p| format!("{p:.2e}")))
+                .collect::<Vec<_>>()
+                .join(", "),
+            c.verdict()
+        );
+    }
+    let focus: Vec<&&crate::experiment::Comparison> = here
+        .iter()
+        .filter(|c| c.questions.iter().any(|q| q == "firecast_vs_model"))
+        .collect();
+    if let Some(f) = focus.first() {
+        let named = |verdict: &str| -> Vec<String> {
+            focus
+                .iter()
+                .filter(|c| c.verdict() == verdict)
+                .map(|c| format!("`{}`", c.other))
+                .collect()
+        };
+        let (better, worse, same) = (named("better"), named("worse"), named("no difference"));
+        let list = |v: &[String]| {
+            if v.is_empty() {
+                "none".to_string()
+            } else {
+                v.join(", ")
+            }
+        };
+        let _ = writeln!(
+            out,
+            "\nFireCast's forecaster `{}` (chosen on validation AUROC among FireCast's models) beats {} of {} models \
+             ({}), loses to {} ({}) and cannot be told apart from {} ({}).\n",
+            f.model,
+            better.len(),
+            focus.len(),
+            list(&better),
+            worse.len(),
+            list(&worse),
+            same.len(),
+            list(&same)
+        );
+    } else {
+        let _ = writeln!(out);
+    }
 }
