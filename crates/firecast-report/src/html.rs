@@ -341,9 +341,17 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
     } else if at_risk.is_empty() {
         write!(
             h,
-            "<p>No asset in a band: fire reaches none of the {} watched within {} h of ignition (section 6).</p>",
+            "<p>No asset in a band: fire reaches none of the {} watched within {} h of ignition{} (section 6).</p>",
             r.assets.len(),
-            fmt_num(r.evacuation_bands.ready_within_h, 0)
+            fmt_num(r.evacuation_bands.ready_within_h.min(r.header.horizon_h), 0),
+            if r.header.horizon_h < r.evacuation_bands.ready_within_h {
+                format!(
+                    ", the period simulated (the READY band would reach out to {} h)",
+                    fmt_num(r.evacuation_bands.ready_within_h, 0)
+                )
+            } else {
+                String::new()
+            }
         )?;
     } else {
         let mut tb = Table::new(&["Asset", "Band", "Fire first arrives", "In half the runs by"]);
