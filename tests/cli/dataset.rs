@@ -227,7 +227,7 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
     );
     let csv = p.read("kaggle/Wildfire_Dataset.csv");
     assert!(csv.starts_with("latitude,longitude,datetime,Wildfire,pr,rmax,rmin,sph,srad,tmmn,tmmx,vs,bi,fm100,fm1000,erc,etr,pet,vpd\n"));
-    check_publication(&p, "kaggle", &first, &published, &meta);
+    check_publication(&p, "data/a", "kaggle", &first, &published, &meta);
     let imported = p.json(&[
         "dataset",
         "import-kaggle",
@@ -253,6 +253,44 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
     ]);
     assert_eq!(rebuilt["samples"], first["samples"], "{rebuilt}");
     assert_eq!(rebuilt["positives"], first["positives"], "{rebuilt}");
+
+    // A forecast-framed dataset publishes the same way, without the FireCastRL CSV.
+    let forecast = p.json(&[
+        "dataset",
+        "build",
+        "--windows",
+        "work/windows",
+        "--out",
+        "data/forecast",
+        "--name",
+        "cli-forecast",
+    ]);
+    let published_forecast = p.json(&[
+        "dataset",
+        "publish",
+        "--dataset",
+        "data/forecast",
+        "--out",
+        "published-forecast",
+        "--id",
+        "someone/firecast-cli-forecast",
+        "--title",
+        "FireCast CLI forecast test",
+        "--date-published",
+        "2026-11-28",
+    ]);
+    assert!(published_forecast["csv_rows"].is_null(), "{published_forecast}");
+    assert!(!p.path("published-forecast/Wildfire_Dataset.csv").exists());
+    let meta_forecast: serde_json::Value =
+        serde_json::from_str(&p.read("published-forecast/dataset-metadata.json")).unwrap();
+    check_publication(
+        &p,
+        "data/forecast",
+        "published-forecast",
+        &forecast,
+        &published_forecast,
+        &meta_forecast,
+    );
 
     // A slug Kaggle would refuse is caught before anything is written.
     let out = p
@@ -316,6 +354,7 @@ fn dataset_steps_build_a_deterministic_versioned_dataset_and_a_kaggle_folder() {
 /// the Parquet files, and a damaged file is named.
 fn check_publication(
     p: &Project,
+    dataset: &str,
     folder: &str,
     first: &serde_json::Value,
     published: &serde_json::Value,
@@ -387,7 +426,7 @@ fn check_publication(
     }
 
     // Read back: every file matches its SHA-256 and the tables equal the dataset's.
-    let verified = p.json(&["dataset", "verify-published", folder, "--dataset", "data/a"]);
+    let verified = p.json(&["dataset", "verify-published", folder, "--dataset", dataset]);
     assert_eq!(verified["samples"], first["samples"], "{verified}");
     assert_eq!(verified["splits"], first["splits"], "{verified}");
 
@@ -412,11 +451,17 @@ fn check_publication(
         assert!(out.status.success(), "{}", describe(&out));
         let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         let samples = first["samples"].as_u64().unwrap();
-        let n_days = 75;
+        let offsets = first["day_offsets"].as_array().unwrap();
+        let n_days = (offsets[1].as_i64().unwrap() - offsets[0].as_i64().unwrap() + 1) as u64;
         assert_eq!(report["samples"]["rows"], samples, "{report}");
         assert_eq!(report["days"]["rows"], samples * n_days, "{report}");
         assert_eq!(report["wildfire_csv"]["rows"], published["csv_rows"], "{report}");
         assert_eq!(report["splits"]["rows"], splits.len(), "{report}");
+        assert_eq!(
+            report["hf_configs"],
+            serde_json::json!(["days", "samples"]),
+            "{report}"
+        );
         assert_eq!(report["samples"]["by_split"], first["splits"], "{report}");
         for s in &splits {
             assert_eq!(
@@ -490,7 +535,25 @@ def norm(v):
         return float(v)
     return v
 
-out = {}
+# The Hugging Face card's front matter: every config's data file per split exists, and its
+# features (names, dtypes as `datasets` spells Arrow's) and row counts are the file's.
+import pyarrow.parquet as pq, yaml
+readme = open(os.path.join(folder, "README.md")).read()
+assert readme.startswith("---\n"), readme[:100]
+front = yaml.safe_load(readme.split("---\n", 2)[1])
+info = {c["config_name"]: c for c in front["dataset_info"]}
+spelled = {"float": "float32", "double": "float64", "date32[day]": "date32", "large_string": "string"}
+for config in front["configs"]:
+    name = config["config_name"]
+    features = [(f["name"], f["dtype"]) for f in info[name]["features"]]
+    rows = {s["name"]: s["num_examples"] for s in info[name]["splits"]}
+    for spec in config["data_files"]:
+        schema = pq.read_schema(os.path.join(folder, spec["path"]))
+        have = [(f.name, spelled.get(str(f.type), str(f.type))) for f in schema]
+        assert have == features, (spec, have, features)
+        assert pq.ParquetFile(os.path.join(folder, spec["path"])).metadata.num_rows == rows[spec["split"]]
+
+out = {"hf_configs": sorted(info)}
 for rs in meta["recordSet"]:
     rid = rs["@id"]
     records = [{k.split("/", 1)[1]: norm(v) for k, v in r.items()} for r in ds.records(rid)]

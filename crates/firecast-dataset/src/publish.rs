@@ -811,7 +811,10 @@ impl Publication {
                 row
             }).collect::<Vec<_>>(),
         })];
-        let split_regex = |t: &str| format!("^(?:.*/)?{t}-({})\\.parquet$", split_names.join("|"));
+        // The split from a file's path (`…/days-val.parquet` → `val`). It also matches the bare
+        // split name it yields: mlcroissant 1.1.1 applies a field's transform again after the
+        // join a `references` makes, and would warn on every row otherwise.
+        let split_regex = |t: &str| format!("^(?:.*/)?(?:{t}-)?({})(?:\\.parquet)?$", split_names.join("|"));
         for t in &self.tables {
             let set = format!("{}-files", t.name);
             let mut fields: Vec<Value> = t
