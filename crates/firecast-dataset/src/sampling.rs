@@ -235,6 +235,50 @@ pub struct NegativeConfig {
     /// Give up on a tier after this many candidates per requested sample.
     #[serde(default = "default_attempts")]
     pub max_attempts_per_sample: u64,
+    /// Draw every split's negatives from its own period and area (paper variant only): see
+    /// [`Strata`]. Absent: the authors' sampling, where near and yearly negatives fall wherever
+    /// their positive's offset puts them, so late periods get few negatives.
+    #[serde(default)]
+    pub strata: Option<Strata>,
+}
+
+/// The periods and areas the experiments will split by. Each positive belongs to one stratum
+/// (its period between consecutive `cuts`, and its block of `block_degrees` when given); its
+/// near and yearly negatives must fall in the same stratum, far negatives are drawn inside each
+/// stratum, and each stratum gets the tiers' counts in proportion to its positives, so every
+/// split made of whole strata has the prevalence of the design. A tier that cannot fill its
+/// share in a stratum (no earlier year inside a short test period, say) leaves the rest to
+/// near negatives, then to far ones; the report says how many moved.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Strata {
+    /// First days of later periods (`YYYY-MM-DD`, increasing), e.g. a temporal protocol's
+    /// `test_from`.
+    #[serde(default)]
+    pub cuts: Vec<String>,
+    /// Blocks of this many degrees, counted from 0° as the spatial-blocks split counts them.
+    #[serde(default)]
+    pub block_degrees: Option<f64>,
+}
+
+/// One stratum's positives and negatives, by tier.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StratumReport {
+    /// First and last day of the stratum's period.
+    pub first_day: String,
+    pub last_day: String,
+    /// Its block (south-west corner, degrees), when blocks are asked for.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub block: Option<(i64, i64)>,
+    pub positives: u64,
+    /// Negatives wanted: the tiers' totals in proportion to the stratum's positives.
+    pub requested: u64,
+    pub far: u64,
+    pub near: u64,
+    pub yearly: u64,
+    /// Of those, drawn by another tier than the one they were requested of.
+    pub moved_to_near: u64,
+    pub moved_to_far: u64,
 }
 
 fn default_seed() -> u64 {
@@ -286,6 +330,8 @@ pub struct Negatives {
     pub far: TierReport,
     pub near: TierReport,
     pub yearly: TierReport,
+    /// Per stratum, when [`NegativeConfig::strata`] is given.
+    pub strata: Vec<StratumReport>,
 }
 
 /// The paper's tier sizes and positive count.
@@ -296,16 +342,26 @@ pub const PAPER_POSITIVES: u64 = 50_720;
 struct Ctx<'a> {
     cfg: &'a NegativeConfig,
     mask: Option<&'a LandMask>,
+    /// Every positive (the fire checks look at all of them).
     positives: &'a [Sample],
-    pos_index: PointIndex,
+    pos_index: &'a PointIndex,
+    /// The positives near and yearly negatives are drawn around (a stratum's, or all).
+    origins: &'a [Sample],
     start_ms: i64,
     end_ms: i64,
+    /// The stratum's block, `[lat_min, lat_max) × [lon_min, lon_max)`, when blocks are asked for.
+    block: Option<[f64; 4]>,
 }
 
 impl Ctx<'_> {
     fn placeable(&self, lat: f64, lon: f64) -> Option<&'static str> {
         if !self.cfg.region.contains(lat, lon) {
             Some("outside_region")
+        } else if self
+            .block
+            .is_some_and(|[a, b, c, d]| !(a..b).contains(&lat) || !(c..d).contains(&lon))
+        {
+            Some("outside_stratum")
         } else if self.cfg.land_mask && self.mask.is_some_and(|m| !m.on_land(lat, lon)) {
             Some("off_land")
         } else {
@@ -413,9 +469,11 @@ pub fn sample_negatives(
         cfg,
         mask,
         positives,
-        pos_index,
+        pos_index: &pos_index,
+        origins: positives,
         start_ms: time::day_start_ms(start_day),
         end_ms: time::day_start_ms(end_day + 1) - 1,
+        block: None,
     };
     let p = positives.len() as u64;
     let scaled = |paper: u64| match cfg.counts {
@@ -432,20 +490,67 @@ pub fn sample_negatives(
         Variant::Paper => scaled(PAPER_COUNTS.0),
         Variant::Code => PAPER_COUNTS.0,
     });
-    let (far, mut far_report) = sample_far(&ctx, far_target, &mut rng_for(1));
-    let (near, mut near_report) = match cfg.variant {
-        Variant::Paper => {
-            let target = cfg.near_count.unwrap_or(scaled(PAPER_COUNTS.1));
-            sample_near_paper(&ctx, target, offsets, &mut rng_for(2))
+    let near_target = cfg.near_count.unwrap_or(scaled(PAPER_COUNTS.1));
+    let yearly_target = cfg.yearly_count.unwrap_or(scaled(PAPER_COUNTS.2));
+    let mut strata_reports = Vec::new();
+    let (far, near, yearly, mut far_report, mut near_report, mut yearly_report) = if let Some(strata) =
+        &cfg.strata
+    {
+        if cfg.variant != Variant::Paper {
+            return Err(bad(
+                "strata",
+                "needs `variant: paper` (the authors' code draws per positive, without counts to share out)"
+                    .into(),
+            ));
         }
-        Variant::Code => sample_near_code(&ctx, offsets, &mut rng_for(2)),
-    };
-    let (yearly, mut yearly_report) = match cfg.variant {
-        Variant::Paper => {
-            let target = cfg.yearly_count.unwrap_or(scaled(PAPER_COUNTS.2));
-            sample_yearly_paper(&ctx, target, &mut rng_for(3))
-        }
-        Variant::Code => sample_yearly_code(&ctx),
+        let drawn = sample_stratified(
+            &ctx,
+            strata,
+            [far_target, near_target, yearly_target],
+            offsets,
+            &rng_for,
+        )?;
+        strata_reports = drawn.strata;
+        (
+            drawn.sets[0].samples.clone(),
+            drawn.sets[1].samples.clone(),
+            drawn.sets[2].samples.clone(),
+            drawn.reports[0].clone(),
+            drawn.reports[1].clone(),
+            drawn.reports[2].clone(),
+        )
+    } else {
+        let mut sets = [
+            TierSet::new(Tier::Far),
+            TierSet::new(Tier::Near),
+            TierSet::new(Tier::Yearly),
+        ];
+        let far_report = sample_far(&ctx, far_target, &mut rng_for(1), &mut sets[0]);
+        let near_report = match cfg.variant {
+            Variant::Paper => sample_near_paper(&ctx, near_target, offsets, &mut rng_for(2), &mut sets[1]),
+            Variant::Code => {
+                let (near, report) = sample_near_code(&ctx, offsets, &mut rng_for(2));
+                sets[1].samples = near;
+                report
+            }
+        };
+        let yearly_report = match cfg.variant {
+            Variant::Paper => sample_yearly_paper(&ctx, yearly_target, &mut rng_for(3), &mut sets[2]),
+            Variant::Code => {
+                let (yearly, report) = sample_yearly_code(&ctx);
+                sets[2].samples = yearly;
+                report
+            }
+        };
+        let [f, n, y] = sets;
+        (
+            f.samples,
+            n.samples,
+            y.samples,
+            far_report,
+            near_report,
+            yearly_report,
+        )
     };
 
     // Exact duplicates are dropped within each tier only (docs/spec/data.md §4.5).
@@ -472,22 +577,204 @@ pub fn sample_negatives(
         far: far_report,
         near: near_report,
         yearly: yearly_report,
+        strata: strata_reports,
     })
 }
 
-fn sample_far(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng) -> (Vec<Sample>, TierReport) {
+/// What [`sample_stratified`] drew: the tiers' sets and reports (far, near, yearly) and one
+/// report per stratum.
+struct StratifiedDraw {
+    sets: [TierSet; 3],
+    reports: [TierReport; 3],
+    strata: Vec<StratumReport>,
+}
+
+/// Adds `from`'s counts to `into` (requested, accepted, candidates, rejections).
+fn merge(into: &mut TierReport, from: &TierReport) {
+    into.requested = Some(into.requested.unwrap_or(0) + from.requested.unwrap_or(0));
+    into.accepted += from.accepted;
+    into.candidates += from.candidates;
+    for (k, v) in &from.rejected {
+        *into.rejected.entry(k.clone()).or_default() += v;
+    }
+}
+
+/// The tiers drawn stratum by stratum (see [`Strata`]): each stratum's share of each tier's
+/// count in proportion to its positives, near and yearly negatives around its own positives
+/// inside its period and block, far negatives inside them; a tier's shortfall goes to near
+/// negatives, then to far ones. The tiers' de-duplication spans all strata.
+fn sample_stratified(
+    ctx: &Ctx<'_>,
+    strata: &Strata,
+    targets: [u64; 3],
+    offsets: (u32, u32),
+    rng_for: &dyn Fn(u64) -> ChaCha8Rng,
+) -> Result<StratifiedDraw, DatasetError> {
+    let mut cuts = Vec::with_capacity(strata.cuts.len());
+    for (i, c) in strata.cuts.iter().enumerate() {
+        let key = format!("strata.cuts[{i}]");
+        let day = time::parse_date(c).ok_or_else(|| DatasetError::Config {
+            key: key.clone(),
+            message: format!("`{c}` is not a YYYY-MM-DD date"),
+        })?;
+        // GRIDMET's day starts at 07:00 UTC: the splits cut event days, so the cut falls there.
+        let ms = time::day_start_ms(day) + 7 * 3_600_000;
+        if ms <= ctx.start_ms || ms > ctx.end_ms || cuts.last().is_some_and(|&prev| ms <= prev) {
+            return Err(DatasetError::Config {
+                key,
+                message: format!(
+                    "`{c}` must fall after period_start, by period_end, and after the cut before it"
+                ),
+            });
+        }
+        cuts.push(ms);
+    }
+    if let Some(bd) = strata.block_degrees
+        && !(bd > 0.0 && bd.is_finite())
+    {
+        return Err(DatasetError::Config {
+            key: "strata.block_degrees".into(),
+            message: format!("{bd} is not a positive number of degrees"),
+        });
+    }
+    let block_of = |lat: f64, lon: f64| {
+        strata
+            .block_degrees
+            .map(|bd| ((lat / bd).floor() as i64, (lon / bd).floor() as i64))
+    };
+    let mut groups: BTreeMap<(usize, Option<(i64, i64)>), Vec<Sample>> = BTreeMap::new();
+    for p in ctx.positives {
+        let period = cuts.partition_point(|&c| c <= p.time_ms);
+        groups
+            .entry((period, block_of(p.lat, p.lon)))
+            .or_default()
+            .push(*p);
+    }
+    let total = ctx.positives.len().max(1) as f64;
+    let mut sets = [
+        TierSet::new(Tier::Far),
+        TierSet::new(Tier::Near),
+        TierSet::new(Tier::Yearly),
+    ];
+    let mut reports: [TierReport; 3] = Default::default();
+    let mut out = Vec::new();
+    for (k, ((period, block), origins)) in groups.iter().enumerate() {
+        let start_ms = if *period == 0 {
+            ctx.start_ms
+        } else {
+            cuts[period - 1]
+        };
+        let end_ms = cuts.get(*period).map_or(ctx.end_ms, |&c| c - 1);
+        let sub = Ctx {
+            cfg: ctx.cfg,
+            mask: ctx.mask,
+            positives: ctx.positives,
+            pos_index: ctx.pos_index,
+            origins,
+            start_ms,
+            end_ms,
+            block: block.zip(strata.block_degrees).map(|((i, j), bd)| {
+                [
+                    i as f64 * bd,
+                    (i + 1) as f64 * bd,
+                    j as f64 * bd,
+                    (j + 1) as f64 * bd,
+                ]
+            }),
+        };
+        let share = origins.len() as f64 / total;
+        let want = targets.map(|t| (t as f64 * share).round() as u64);
+        let stream = |tier: u64| rng_for(100 + 8 * k as u64 + tier);
+        let len = |sets: &[TierSet; 3], i: usize| sets[i].samples.len() as u64;
+        let r = sample_far(&sub, len(&sets, 0) + want[0], &mut stream(0), &mut sets[0]);
+        let mut got = [r.accepted, 0, 0];
+        merge(&mut reports[0], &r);
+        let r = sample_near_paper(
+            &sub,
+            len(&sets, 1) + want[1],
+            offsets,
+            &mut stream(1),
+            &mut sets[1],
+        );
+        got[1] = r.accepted;
+        merge(&mut reports[1], &r);
+        let r = sample_yearly_paper(&sub, len(&sets, 2) + want[2], &mut stream(2), &mut sets[2]);
+        got[2] = r.accepted;
+        merge(&mut reports[2], &r);
+        // What a tier could not give here, near negatives then far ones make up.
+        let requested: u64 = want.iter().sum();
+        let short = |got: &[u64; 3]| requested.saturating_sub(got.iter().sum());
+        let mut moved = [0u64; 2];
+        if short(&got) > 0 {
+            let r = sample_near_paper(
+                &sub,
+                len(&sets, 1) + short(&got),
+                offsets,
+                &mut stream(3),
+                &mut sets[1],
+            );
+            moved[0] = r.accepted;
+            got[1] += r.accepted;
+            merge(&mut reports[1], &r);
+        }
+        if short(&got) > 0 {
+            let r = sample_far(&sub, len(&sets, 0) + short(&got), &mut stream(4), &mut sets[0]);
+            moved[1] = r.accepted;
+            got[0] += r.accepted;
+            merge(&mut reports[0], &r);
+        }
+        let day = |ms: i64| time::format_date(time::gridmet_day(ms, time::DayBoundary::Mst));
+        out.push(StratumReport {
+            first_day: day(start_ms),
+            last_day: day(end_ms),
+            block: block
+                .zip(strata.block_degrees)
+                .map(|((i, j), bd)| ((i as f64 * bd) as i64, (j as f64 * bd) as i64)),
+            positives: origins.len() as u64,
+            requested,
+            far: got[0],
+            near: got[1],
+            yearly: got[2],
+            moved_to_near: moved[0],
+            moved_to_far: moved[1],
+        });
+    }
+    Ok(StratifiedDraw {
+        sets,
+        reports,
+        strata: out,
+    })
+}
+
+/// Adds far negatives to `set` until it holds `target` (or the attempts run out).
+fn sample_far(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng, set: &mut TierSet) -> TierReport {
     let cfg = ctx.cfg;
     let mut report = TierReport {
-        requested: Some(target),
+        requested: Some(target.saturating_sub(set.samples.len() as u64)),
         ..Default::default()
     };
-    let mut set = TierSet::new(Tier::Far);
-    let max = target.saturating_mul(cfg.max_attempts_per_sample);
+    let before = set.samples.len();
+    let max = report
+        .requested
+        .unwrap_or(0)
+        .saturating_mul(cfg.max_attempts_per_sample);
+    // Uniform in degrees over the box (or the stratum's block in it), as the authors drew them.
+    let (mut lat0, mut lat1, mut lon0, mut lon1) = (
+        cfg.region.lat_min,
+        cfg.region.lat_max,
+        cfg.region.lon_min,
+        cfg.region.lon_max,
+    );
+    if let Some([a, b, c, d]) = ctx.block {
+        (lat0, lat1, lon0, lon1) = (lat0.max(a), lat1.min(b), lon0.max(c), lon1.min(d));
+    }
+    if lat0 > lat1 || lon0 > lon1 {
+        return report;
+    }
     while (set.samples.len() as u64) < target && report.candidates < max {
         report.candidates += 1;
-        // Uniform in degrees over the box, as the authors drew them.
-        let lat = rng.random_range(cfg.region.lat_min..=cfg.region.lat_max);
-        let lon = rng.random_range(cfg.region.lon_min..=cfg.region.lon_max);
+        let lat = rng.random_range(lat0..=lat1);
+        let lon = rng.random_range(lon0..=lon1);
         let t = rng.random_range(ctx.start_ms..=ctx.end_ms);
         if let Some(reason) = ctx.placeable(lat, lon) {
             bump(&mut report.rejected, reason);
@@ -499,8 +786,8 @@ fn sample_far(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng) -> (Vec<Sample>,
             set.accept(lat, lon, t, None, t);
         }
     }
-    report.accepted = set.samples.len() as u64;
-    (set.samples, report)
+    report.accepted = (set.samples.len() - before) as u64;
+    report
 }
 
 fn random_offset_place(ctx: &Ctx<'_>, origin: &Sample, rng: &mut ChaCha8Rng) -> (f64, f64) {
@@ -516,22 +803,27 @@ fn signed_offset_ms(offsets: (u32, u32), rng: &mut ChaCha8Rng) -> i64 {
     sign * days * DAY_MS
 }
 
+/// Adds near negatives to `set` until it holds `target` (or the attempts run out).
 fn sample_near_paper(
     ctx: &Ctx<'_>,
     target: u64,
     offsets: (u32, u32),
     rng: &mut ChaCha8Rng,
-) -> (Vec<Sample>, TierReport) {
+    set: &mut TierSet,
+) -> TierReport {
     let cfg = ctx.cfg;
     let mut report = TierReport {
-        requested: Some(target),
+        requested: Some(target.saturating_sub(set.samples.len() as u64)),
         ..Default::default()
     };
-    let mut set = TierSet::new(Tier::Near);
-    let max = target.saturating_mul(cfg.max_attempts_per_sample);
-    while !ctx.positives.is_empty() && (set.samples.len() as u64) < target && report.candidates < max {
+    let before = set.samples.len();
+    let max = report
+        .requested
+        .unwrap_or(0)
+        .saturating_mul(cfg.max_attempts_per_sample);
+    while !ctx.origins.is_empty() && (set.samples.len() as u64) < target && report.candidates < max {
         report.candidates += 1;
-        let origin = &ctx.positives[rng.random_range(0..ctx.positives.len())];
+        let origin = &ctx.origins[rng.random_range(0..ctx.origins.len())];
         let (lat, lon) = random_offset_place(ctx, origin, rng);
         let t = origin.time_ms + signed_offset_ms(offsets, rng);
         if let Some(reason) = ctx.placeable(lat, lon) {
@@ -547,8 +839,8 @@ fn sample_near_paper(
             set.accept(lat, lon, t, origin.source_row, t);
         }
     }
-    report.accepted = set.samples.len() as u64;
-    (set.samples, report)
+    report.accepted = (set.samples.len() - before) as u64;
+    report
 }
 
 fn sample_near_code(ctx: &Ctx<'_>, offsets: (u32, u32), rng: &mut ChaCha8Rng) -> (Vec<Sample>, TierReport) {
@@ -585,14 +877,15 @@ fn sample_near_code(ctx: &Ctx<'_>, offsets: (u32, u32), rng: &mut ChaCha8Rng) ->
 
 const YEAR_MS: i64 = 365 * DAY_MS;
 
-fn sample_yearly_paper(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng) -> (Vec<Sample>, TierReport) {
+/// Adds yearly negatives to `set` until it holds `target` (or no origin has a year left).
+fn sample_yearly_paper(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng, set: &mut TierSet) -> TierReport {
     let cfg = ctx.cfg;
     let mut report = TierReport {
-        requested: Some(target),
+        requested: Some(target.saturating_sub(set.samples.len() as u64)),
         ..Default::default()
     };
-    let mut set = TierSet::new(Tier::Yearly);
-    let mut order: Vec<usize> = (0..ctx.positives.len()).collect();
+    let before = set.samples.len();
+    let mut order: Vec<usize> = (0..ctx.origins.len()).collect();
     crate::shuffle(&mut order, rng);
     // One year back first for every positive, then two years, and so on, until the count
     // is reached or no positive has an earlier year left in the period.
@@ -603,7 +896,7 @@ fn sample_yearly_paper(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng) -> (Vec
             if set.samples.len() as u64 >= target {
                 break;
             }
-            let origin = &ctx.positives[k];
+            let origin = &ctx.origins[k];
             let t = origin.time_ms - years_back * YEAR_MS;
             if t < ctx.start_ms {
                 continue;
@@ -623,8 +916,8 @@ fn sample_yearly_paper(ctx: &Ctx<'_>, target: u64, rng: &mut ChaCha8Rng) -> (Vec
         }
         years_back += 1;
     }
-    report.accepted = set.samples.len() as u64;
-    (set.samples, report)
+    report.accepted = (set.samples.len() - before) as u64;
+    report
 }
 
 fn sample_yearly_code(ctx: &Ctx<'_>) -> (Vec<Sample>, TierReport) {

@@ -111,6 +111,9 @@ pub struct NegativesReport {
     pub far: TierReport,
     pub near: TierReport,
     pub yearly: TierReport,
+    /// Per stratum (period and block), when `strata` was given.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub strata: Vec<crate::sampling::StratumReport>,
     pub samples: u64,
     pub config: NegativeConfig,
 }
@@ -150,6 +153,7 @@ pub fn run_negatives(
         far: neg.far,
         near: neg.near,
         yearly: neg.yearly,
+        strata: neg.strata,
         config: cfg.clone(),
     })
 }
@@ -474,6 +478,27 @@ impl StageKind for NegativesStage {
             "{} positives, {} far, {} near, {} yearly",
             report.positives, report.far.accepted, report.near.accepted, report.yearly.accepted
         ));
+        for s in &report.strata {
+            let negatives = s.far + s.near + s.yearly;
+            ctx.log(format!(
+                "  {} to {}{}: {} positives, {} negatives ({} far, {} near, {} yearly; {} asked){}, prevalence {:.2}",
+                s.first_day,
+                s.last_day,
+                s.block.map_or_else(String::new, |(lat, lon)| format!(", block {lat}° {lon}°")),
+                s.positives,
+                negatives,
+                s.far,
+                s.near,
+                s.yearly,
+                s.requested,
+                if s.moved_to_near + s.moved_to_far > 0 {
+                    format!(", {} moved to near and {} to far", s.moved_to_near, s.moved_to_far)
+                } else {
+                    String::new()
+                },
+                s.positives as f64 / (s.positives + negatives).max(1) as f64
+            ));
+        }
         write_json(ctx.output("report")?, &report)
     }
 }

@@ -230,3 +230,132 @@ fn the_same_seed_gives_the_same_samples_and_another_seed_does_not() {
     let other = NegativeConfig { seed: 7, ..cfg };
     assert_ne!(a, sample_negatives(&positives, &other, None).unwrap().samples);
 }
+
+/// 60 positives 3° apart, one every 30 days from 2015-06-01 (to 2020-04).
+fn spread_positives() -> Vec<Sample> {
+    (0..60)
+        .map(|k| {
+            let lat = 30.0 + 3.0 * (k % 6) as f64;
+            let lon = -120.0 + 3.0 * (k / 6) as f64;
+            positive(
+                lat,
+                lon,
+                utc(2015, 6, 1, 12) + k as i64 * 30 * 86_400_000,
+                k as u64,
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn strata_give_every_period_and_block_its_own_negatives_at_the_designed_ratio() {
+    let positives = spread_positives();
+    let cut = utc(2019, 9, 1, 7);
+    let base = NegativeConfig {
+        period_start: "2015-01-01".into(),
+        period_end: "2020-06-30".into(),
+        ..Default::default()
+    };
+    let late = |samples: &[Sample], tier: Option<Tier>| {
+        samples
+            .iter()
+            .filter(|s| s.time_ms >= cut && tier.is_none_or(|t| s.tier == t))
+            .count()
+    };
+    // The authors' sampling: near and yearly negatives go back in time, so the last months
+    // hold fewer negatives per positive than the design's 76,080 : 50,720.
+    let plain = sample_negatives(&positives, &base, None).unwrap().samples;
+    let late_pos = late(&plain, Some(Tier::Positive));
+    assert_eq!(late_pos, 8);
+    let plain_ratio = (late(&plain, None) - late_pos) as f64 / late_pos as f64;
+
+    let cfg = NegativeConfig {
+        strata: Some(firecast_dataset::sampling::Strata {
+            cuts: vec!["2019-09-01".into()],
+            block_degrees: None,
+        }),
+        ..base.clone()
+    };
+    let out = sample_negatives(&positives, &cfg, None).unwrap();
+    assert_eq!(out.strata.len(), 2, "{:?}", out.strata);
+    // Each period gets 5,000 + 35,000 + 36,000 per 50,720 positives of negatives (rounded per
+    // tier), whatever its tiers could give: the late period has no earlier year inside it.
+    for s in &out.strata {
+        let design = [5_000.0, 35_000.0, 36_000.0]
+            .iter()
+            .map(|t: &f64| ((t * 60.0 / 50_720.0).round() * s.positives as f64 / 60.0).round())
+            .sum::<f64>() as u64;
+        assert_eq!(s.requested, design, "{s:?}");
+        assert_eq!(s.far + s.near + s.yearly, s.requested, "{s:?}");
+    }
+    let last = &out.strata[1];
+    assert_eq!(
+        (last.first_day.as_str(), last.last_day.as_str()),
+        ("2019-09-01", "2020-06-30")
+    );
+    assert_eq!(last.positives, 8);
+    assert_eq!(last.yearly, 0);
+    assert!(last.moved_to_near + last.moved_to_far > 0, "{last:?}");
+    let strat_ratio = (late(&out.samples, None) - 8) as f64 / 8.0;
+    assert!(
+        (strat_ratio - 76_080.0 / 50_720.0).abs() < 0.4 && strat_ratio > plain_ratio,
+        "late period: {strat_ratio:.2} negatives per positive stratified, {plain_ratio:.2} plain"
+    );
+    // Every near and yearly negative lies in its positive's period.
+    for s in out
+        .samples
+        .iter()
+        .filter(|s| matches!(s.tier, Tier::Near | Tier::Yearly))
+    {
+        let origin = &positives[s.source_row.unwrap() as usize];
+        assert_eq!(s.time_ms >= cut, origin.time_ms >= cut, "{s:?} from {origin:?}");
+    }
+    // The same seed, the same samples.
+    assert_eq!(
+        out.samples,
+        sample_negatives(&positives, &cfg, None).unwrap().samples
+    );
+
+    // Blocks: every negative falls in the block of the positives it was drawn for.
+    let blocks = NegativeConfig {
+        strata: Some(firecast_dataset::sampling::Strata {
+            cuts: vec![],
+            block_degrees: Some(6.0),
+        }),
+        ..base.clone()
+    };
+    let out = sample_negatives(&positives, &blocks, None).unwrap();
+    let block = |lat: f64, lon: f64| ((lat / 6.0).floor() as i64, (lon / 6.0).floor() as i64);
+    for s in out
+        .samples
+        .iter()
+        .filter(|s| matches!(s.tier, Tier::Near | Tier::Yearly))
+    {
+        let origin = &positives[s.source_row.unwrap() as usize];
+        assert_eq!(block(s.lat, s.lon), block(origin.lat, origin.lon));
+    }
+    let with_positives: std::collections::BTreeSet<(i64, i64)> =
+        positives.iter().map(|p| block(p.lat, p.lon)).collect();
+    for s in out.samples.iter().filter(|s| s.tier == Tier::Far) {
+        assert!(with_positives.contains(&block(s.lat, s.lon)), "{s:?}");
+    }
+    assert_eq!(out.strata.len(), with_positives.len());
+
+    // Bad strata name their key; the authors' code variant has no counts to share out.
+    let bad = |strata: firecast_dataset::sampling::Strata, variant: Variant| {
+        let cfg = NegativeConfig {
+            strata: Some(strata),
+            variant,
+            ..base.clone()
+        };
+        sample_negatives(&positives, &cfg, None).unwrap_err().to_string()
+    };
+    let cuts = |c: &[&str]| firecast_dataset::sampling::Strata {
+        cuts: c.iter().map(|s| s.to_string()).collect(),
+        block_degrees: None,
+    };
+    assert!(bad(cuts(&["2019-13-01"]), Variant::Paper).contains("strata.cuts[0]"));
+    assert!(bad(cuts(&["2019-09-01", "2018-01-01"]), Variant::Paper).contains("strata.cuts[1]"));
+    assert!(bad(cuts(&["2030-01-01"]), Variant::Paper).contains("strata.cuts[0]"));
+    assert!(bad(cuts(&["2019-09-01"]), Variant::Code).contains("strata"));
+}
