@@ -933,7 +933,12 @@ impl Publication {
         let q = |s: &str| serde_json::to_string(s).unwrap_or_default();
         let mut y = String::new();
         let _ = writeln!(y, "---");
-        let _ = writeln!(y, "license: {}", self.license().hf);
+        let license = self.license();
+        let _ = writeln!(y, "license: {}", license.hf);
+        if license.hf == "other" && license.kaggle != "other" {
+            // Hugging Face asks a licence it does not list to be named.
+            let _ = writeln!(y, "license_name: {}", license.kaggle.to_ascii_lowercase());
+        }
         let _ = writeln!(y, "pretty_name: {}", q(&self.title));
         let _ = writeln!(y, "tags:");
         for k in &self.keywords {

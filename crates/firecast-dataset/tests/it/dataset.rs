@@ -195,7 +195,7 @@ proptest! {
 }
 
 /// Writes a small dataset into `dir` (its Parquet tables, card, map and `dataset.json`).
-fn write_small_dataset(dir: &std::path::Path) {
+pub(crate) fn write_small_dataset(dir: &std::path::Path) {
     let events: Vec<_> = (0..30)
         .map(|k| {
             (

@@ -3,6 +3,7 @@
 
 mod dataset;
 mod kaggle;
+mod publish;
 mod sampling;
 mod truth;
 mod windows;
