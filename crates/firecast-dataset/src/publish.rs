@@ -1353,8 +1353,15 @@ impl<T: Serialize> ErasedJson for T {
     }
 }
 
-/// The files `croissant.json` lists, with their SHA-256, and its split names.
-fn croissant_index(folder: &Path) -> Result<(Vec<(String, String)>, Vec<String>), DatasetError> {
+/// What a published folder's `croissant.json` says about its files and splits.
+struct CroissantIndex {
+    /// Every `cr:FileObject`: its path in the folder and its SHA-256.
+    files: Vec<(String, String)>,
+    /// The names in the `splits` record set.
+    splits: Vec<String>,
+}
+
+fn croissant_index(folder: &Path) -> Result<CroissantIndex, DatasetError> {
     let path = folder.join(CROISSANT_FILE);
     let text = std::fs::read_to_string(&path).map_err(DatasetError::io("reading", &path))?;
     let doc: Value = serde_json::from_str(&text).map_err(|e| DatasetError::InputLine {
@@ -1395,14 +1402,14 @@ fn croissant_index(folder: &Path) -> Result<(Vec<(String, String)>, Vec<String>)
         .iter()
         .filter_map(|row| row["splits/name"].as_str().map(String::from))
         .collect();
-    Ok((files, splits))
+    Ok(CroissantIndex { files, splits })
 }
 
 /// Checks every file `croissant.json` lists against its SHA-256: a missing or changed file
 /// is refused with its own path named.
 pub fn verify_files(folder: &Path) -> Result<usize, DatasetError> {
     use rayon::prelude::*;
-    let (files, _) = croissant_index(folder)?;
+    let files = croissant_index(folder)?.files;
     files
         .par_iter()
         .map(|(name, expected)| {
@@ -1437,7 +1444,7 @@ pub fn verify_files(folder: &Path) -> Result<usize, DatasetError> {
 /// after checking every file's SHA-256.
 pub fn read_published(folder: &Path) -> Result<StoredTable, DatasetError> {
     verify_files(folder)?;
-    let (_, split_names) = croissant_index(folder)?;
+    let split_names = croissant_index(folder)?.splits;
     let mut all: Option<StoredTable> = None;
     for s in &split_names {
         let part = crate::table::read_window_files(
@@ -1597,6 +1604,7 @@ pub fn verify(folder: &Path, dataset_dir: Option<&Path>) -> Result<VerifyReport,
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used)]
     use super::*;
 
     #[test]
