@@ -336,15 +336,139 @@ pub fn surface_behavior_grids(
     land: &LandfireLandscape,
     params: &BehaviorParams,
 ) -> Result<BehaviorGrids, crate::RothermelError> {
-    behavior_grids_with(land, params, SurfaceFuelBed::head_with_limit)
+    behavior_grids_with(land, params, SurfaceFuelBed::head_with_limit, true)
+}
+
+/// Terms of a cell's fire that depend on few values, computed once for each value a thread meets
+/// (direct-mapped: a slot holds the last value hashed to it). Every term is the function of its
+/// key the grid computes otherwise, so the grids are the same bits (a test compares them with and
+/// without the memo): the midflame wind and the wind factor φ_w of a fuel code under a canopy
+/// (LANDFIRE's cover and height take a few values: 374 combinations on the Worcester clip, for
+/// FlamMap's logarithm and square root and Rothermel's power), the upslope direction, the wind's
+/// direction from it and that direction's sine and cosine of an aspect (361 values), and Van
+/// Wagner's critical intensity (a power) of a canopy base height.
+struct CellMemo {
+    wind: Vec<Option<WindTerms>>,
+    aspect: Vec<Option<AspectTerms>>,
+    critical: Vec<Option<(u64, f64)>>,
+}
+
+#[derive(Clone, Copy)]
+struct WindTerms {
+    code: u16,
+    cover_bits: u64,
+    canopy_ft_bits: u64,
+    midflame_mph: f64,
+    wind_factor: f64,
+}
+
+#[derive(Clone, Copy)]
+struct AspectTerms {
+    aspect_bits: u32,
+    upslope_deg: f64,
+    wind_dir_from_upslope_deg: f64,
+    sin_cos: (f64, f64),
+}
+
+const MEMO_BITS: u32 = 10;
+
+/// Slot of a key in a memo of 2^MEMO_BITS slots.
+#[inline]
+fn memo_slot(key: u64) -> usize {
+    (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - MEMO_BITS)) as usize
+}
+
+impl CellMemo {
+    fn new() -> Self {
+        Self {
+            wind: vec![None; 1 << MEMO_BITS],
+            aspect: vec![None; 1 << MEMO_BITS],
+            critical: vec![None; 1 << MEMO_BITS],
+        }
+    }
+
+    /// (midflame wind, φ_w) of `bed` (code `code`, depth `depth`) under the canopy (`cover`,
+    /// `canopy_ft`) at a 20-ft wind `wind_20ft_mph`.
+    #[inline]
+    fn wind(
+        &mut self,
+        code: u16,
+        bed: &SurfaceFuelBed,
+        depth: f64,
+        cover: f64,
+        canopy_ft: f64,
+        wind_20ft_mph: f64,
+    ) -> (f64, f64) {
+        let (cover_bits, canopy_ft_bits) = (cover.to_bits(), canopy_ft.to_bits());
+        let slot = memo_slot(cover_bits ^ canopy_ft_bits.rotate_left(23) ^ (u64::from(code) << 48));
+        if let Some(t) = self.wind[slot]
+            && (t.code, t.cover_bits, t.canopy_ft_bits) == (code, cover_bits, canopy_ft_bits)
+        {
+            return (t.midflame_mph, t.wind_factor);
+        }
+        // As the grid computes it without the memo.
+        let midflame_mph = if wind_20ft_mph > 0.0 {
+            wind_20ft_mph * wind_adjustment_factor(depth, canopy_ft, cover)
+        } else {
+            0.0
+        };
+        let wind_factor = bed.midflame_wind_factor(midflame_mph);
+        self.wind[slot] = Some(WindTerms {
+            code,
+            cover_bits,
+            canopy_ft_bits,
+            midflame_mph,
+            wind_factor,
+        });
+        (midflame_mph, wind_factor)
+    }
+
+    /// (upslope, wind direction from upslope, its sine and cosine) of an aspect.
+    #[inline]
+    fn aspect(&mut self, aspect: f32, wind_toward: f64) -> AspectTerms {
+        let aspect_bits = aspect.to_bits();
+        let slot = memo_slot(u64::from(aspect_bits));
+        if let Some(t) = self.aspect[slot]
+            && t.aspect_bits == aspect_bits
+        {
+            return t;
+        }
+        let upslope_deg = wrap_degrees(f64::from(aspect.max(0.0)) + 180.0);
+        let wind_dir_from_upslope_deg = wrap_degrees(wind_toward - upslope_deg);
+        let t = AspectTerms {
+            aspect_bits,
+            upslope_deg,
+            wind_dir_from_upslope_deg,
+            sin_cos: wind_dir_from_upslope_deg.to_radians().sin_cos(),
+        };
+        self.aspect[slot] = Some(t);
+        t
+    }
+
+    /// Van Wagner's critical surface intensity, kW/m, of a canopy base height (m).
+    #[inline]
+    fn critical_intensity(&mut self, cbh: f64, foliar_moisture_pct: f64) -> f64 {
+        let bits = cbh.to_bits();
+        let slot = memo_slot(bits);
+        if let Some((key, value)) = self.critical[slot]
+            && key == bits
+        {
+            return value;
+        }
+        let value = crate::crown::critical_surface_intensity_kw_m(cbh, foliar_moisture_pct);
+        self.critical[slot] = Some((bits, value));
+        value
+    }
 }
 
 /// [`surface_behavior_grids`] with the head of the fire at a cell given by `head` (the full
-/// kernel, or its head-only path).
+/// kernel, or its head-only path), through the per-thread [`CellMemo`] where `memo` (then the
+/// surface head is [`SurfaceFuelBed::head_with_wind_factor`], the bits `head_with_limit` gives).
 fn behavior_grids_with<H>(
     land: &LandfireLandscape,
     params: &BehaviorParams,
     head: H,
+    memo: bool,
 ) -> Result<BehaviorGrids, crate::RothermelError>
 where
     H: Fn(&SurfaceFuelBed, &SpreadInputs, WindLimit) -> SurfaceFireHead + Sync,
@@ -376,7 +500,7 @@ where
     let fm10 = FuelModel::by_number(10).expect("fuel model 10 is in the table");
     let fm10 = SurfaceFuelBed::new(fm10, &moisture)?;
     let layer = |layer: &Option<Vec<f32>>, i: usize| layer.as_ref().map_or(f64::NAN, |c| f64::from(c[i]));
-    let cell = |i: usize| -> [f32; 6] {
+    let cell = |cache: &mut CellMemo, i: usize| -> [f32; 6] {
         let none = [nodata; 6];
         let (Some(code), slope, aspect) = (land.fuel[i], land.slope_percent[i], land.aspect_deg[i]) else {
             return none;
@@ -393,20 +517,34 @@ where
         }
         // LANDFIRE's flat aspect −1 enters an `.lcp` as 0 (north-facing), so FlamMap's upslope
         // there is south; it reports that direction even where the slope rounds to 0.
-        let upslope = wrap_degrees(f64::from(aspect.max(0.0)) + 180.0);
         let (cover, canopy_ft) = sheltering_canopy(land, i);
-        // Without wind the midflame wind is 0 whatever the adjustment factor (always finite).
-        let midflame = if params.wind_20ft_mph > 0.0 {
-            params.wind_20ft_mph * wind_adjustment_factor(*depth, canopy_ft, cover)
+        let (upslope, inputs, fire, midflame);
+        if memo {
+            let a = cache.aspect(aspect, wind_toward);
+            let (mid, wind_factor) = cache.wind(code, bed, *depth, cover, canopy_ft, params.wind_20ft_mph);
+            (upslope, midflame) = (a.upslope_deg, mid);
+            inputs = SpreadInputs {
+                midflame_wind_mph: midflame,
+                slope_percent: slope,
+                wind_dir_from_upslope_deg: a.wind_dir_from_upslope_deg,
+            };
+            fire =
+                bed.head_with_wind_factor(wind_factor, a.wind_dir_from_upslope_deg, a.sin_cos, slope, limit);
         } else {
-            0.0
-        };
-        let inputs = SpreadInputs {
-            midflame_wind_mph: midflame,
-            slope_percent: slope,
-            wind_dir_from_upslope_deg: wrap_degrees(wind_toward - upslope),
-        };
-        let fire = head(bed, &inputs, limit);
+            upslope = wrap_degrees(f64::from(aspect.max(0.0)) + 180.0);
+            // Without wind the midflame wind is 0 whatever the adjustment factor (always finite).
+            midflame = if params.wind_20ft_mph > 0.0 {
+                params.wind_20ft_mph * wind_adjustment_factor(*depth, canopy_ft, cover)
+            } else {
+                0.0
+            };
+            inputs = SpreadInputs {
+                midflame_wind_mph: midflame,
+                slope_percent: slope,
+                wind_dir_from_upslope_deg: wrap_degrees(wind_toward - upslope),
+            };
+            fire = head(bed, &inputs, limit);
+        }
         if fire.head_ros_ftmin > 0.0 {
             let dir = wrap_degrees(upslope + fire.dir_max_spread_from_upslope_deg);
             let canopy = Canopy {
@@ -426,7 +564,7 @@ where
             // `crown_fire` gives no crown fire below Van Wagner's critical surface intensity (with
             // FlamMap's guard on a zero base height); that test first, so Rothermel's crown rate
             // (a second kernel evaluation) is computed only where the canopy can ignite.
-            let may_ignite = || {
+            let mut may_ignite = || {
                 let cbh = if canopy.base_height_m == 0.0 {
                     0.01
                 } else {
@@ -435,7 +573,11 @@ where
                 let fli_kw = fire.fireline_intensity_btu_ft_s * crate::crown::KW_M_PER_BTU_FT_S;
                 fli_kw > 0.0
                     && fli_kw
-                        >= crate::crown::critical_surface_intensity_kw_m(cbh, params.foliar_moisture_pct)
+                        >= if memo {
+                            cache.critical_intensity(cbh, params.foliar_moisture_pct)
+                        } else {
+                            crate::crown::critical_surface_intensity_kw_m(cbh, params.foliar_moisture_pct)
+                        }
             };
             if params.crown != CrownMethod::None && canopy_known && canopy.has_canopy() && may_ignite() {
                 let crown_wind = params.wind_20ft_mph * crate::crown::CROWN_WIND_REDUCTION;
@@ -504,8 +646,8 @@ where
     )
         .into_par_iter()
         .enumerate()
-        .for_each(|(i, (a, b, c, d, e, f))| {
-            [*a, *b, *c, *d, *e, *f] = cell(i);
+        .for_each_init(CellMemo::new, |cache, (i, (a, b, c, d, e, f))| {
+            [*a, *b, *c, *d, *e, *f] = cell(cache, i);
         });
     let [ros, flame, intensity, dir, fire_type, midflame] = columns;
     Ok(BehaviorGrids {
@@ -969,7 +1111,7 @@ mod tests {
                     continue;
                 }
                 let head = surface_behavior_grids(land, params).expect("grids");
-                let ellipse = behavior_grids_with(land, params, full).expect("grids");
+                let ellipse = behavior_grids_with(land, params, full, false).expect("grids");
                 assert!(bits(&head) == bits(&ellipse), "config {k} on {name}: {params:?}");
                 crown_cells += head.fire_type.iter().filter(|&&t| t >= 2.0).count();
             }

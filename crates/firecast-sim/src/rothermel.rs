@@ -653,6 +653,46 @@ impl SurfaceFuelBed {
             };
         }
         let v = self.head_vector(r0, inputs);
+        self.head_of(r0, &v, limit)
+    }
+
+    /// The wind factor φ_w of a midflame wind in mi/h, as [`head_with_limit`](Self::head_with_limit)
+    /// computes it: the same bits, for callers that meet the same fuel bed and midflame wind in many
+    /// cells and compute it once ([`head_with_wind_factor`](Self::head_with_wind_factor)).
+    pub fn midflame_wind_factor(&self, midflame_wind_mph: f64) -> f64 {
+        self.wind_factor(midflame_wind_mph * FT_PER_MIN_PER_MPH)
+    }
+
+    /// [`head_with_limit`](Self::head_with_limit) from terms computed once for many cells, the same
+    /// bits: `wind_factor` is [`midflame_wind_factor`](Self::midflame_wind_factor) of the
+    /// midflame wind, `wind_dir_sin_cos` the sine and cosine of
+    /// `wind_dir_from_upslope_deg.to_radians()`.
+    pub fn head_with_wind_factor(
+        &self,
+        wind_factor: f64,
+        wind_dir_from_upslope_deg: f64,
+        wind_dir_sin_cos: (f64, f64),
+        slope_percent: f64,
+        limit: WindLimit,
+    ) -> SurfaceFireHead {
+        let r0 = self.no_wind_no_slope_ros_ftmin();
+        if r0 <= 0.0 {
+            return SurfaceFireHead {
+                head_ros_ftmin: 0.0,
+                dir_max_spread_from_upslope_deg: 0.0,
+                fireline_intensity_btu_ft_s: 0.0,
+                flame_length_ft: 0.0,
+            };
+        }
+        let v = self.head_vector_with(r0, wind_factor, slope_percent, wind_dir_from_upslope_deg, || {
+            wind_dir_sin_cos
+        });
+        self.head_of(r0, &v, limit)
+    }
+
+    /// The head's fields from its vector (the wind limit applied as `limit` says).
+    #[inline]
+    fn head_of(&self, r0: f64, v: &HeadVector, limit: WindLimit) -> SurfaceFireHead {
         let head_ros = match limit {
             WindLimit::Off => v.head_ros_ftmin,
             WindLimit::Rothermel => self.limit_head(r0, v.head_ros_ftmin, limit).0,
@@ -671,7 +711,24 @@ impl SurfaceFuelBed {
     #[inline]
     fn head_vector(&self, r0: f64, inputs: &SpreadInputs) -> HeadVector {
         let phi_w = self.wind_factor(inputs.midflame_wind_mph * FT_PER_MIN_PER_MPH);
-        let phi_s = self.slope_factor(inputs.slope_percent);
+        let dir = inputs.wind_dir_from_upslope_deg;
+        self.head_vector_with(r0, phi_w, inputs.slope_percent, dir, || {
+            dir.to_radians().sin_cos()
+        })
+    }
+
+    /// [`head_vector`](Self::head_vector) from the wind factor, the slope, the wind's direction
+    /// from upslope and (called only where the wind blows) its sine and cosine.
+    #[inline]
+    fn head_vector_with(
+        &self,
+        r0: f64,
+        phi_w: f64,
+        slope_percent: f64,
+        wind_dir_from_upslope_deg: f64,
+        sin_cos: impl FnOnce() -> (f64, f64),
+    ) -> HeadVector {
+        let phi_s = self.slope_factor(slope_percent);
 
         // behave's `calculateWindSpeedLimit` (surfaceFire.cpp), run whatever the wind-limit
         // setting: φ_s is capped at 0.9·I_R, a dimensionless factor against a speed in ft/min. Not
@@ -681,7 +738,7 @@ impl SurfaceFuelBed {
 
         // Vector sum in a frame whose x axis points upslope, y axis 90° clockwise from it.
         let wind_rate = r0 * phi_w;
-        if wind_rate == 0.0 && inputs.wind_dir_from_upslope_deg.is_finite() {
+        if wind_rate == 0.0 && wind_dir_from_upslope_deg.is_finite() {
             // No wind: the sum below is x = r0·φ_s + (±0) = r0·φ_s ≥ 0 and y = ±0, so its length
             // is x (hypot(x, ±0) = |x|) and its azimuth atan2(±0, x) = ±0, which behave reports
             // as 0: the same bits without the sine, cosine, hypot and atan2.
@@ -692,7 +749,7 @@ impl SurfaceFuelBed {
                 dir_deg: 0.0,
             };
         }
-        let (sin_w, cos_w) = inputs.wind_dir_from_upslope_deg.to_radians().sin_cos();
+        let (sin_w, cos_w) = sin_cos();
         let x = r0 * phi_s + wind_rate * cos_w;
         let y = wind_rate * sin_w;
         let vector_rate = x.hypot(y);

@@ -1010,6 +1010,66 @@ mod tests {
         );
     }
 
+    fn windy_params() -> BehaviorParams {
+        serde_json::from_value(serde_json::json!({
+            "moisture": {"dead_1h": 6, "dead_10h": 8, "dead_100h": 10, "live_herbaceous": 75, "live_woody": 60},
+            "foliar_moisture_pct": 120,
+            "wind_20ft_mph": 15.0,
+            "wind_from_deg": 225.0
+        }))
+        .expect("params")
+    }
+
+    /// The bench's fire (the lazy engine: a growing window, each cell's 1/rate table) equals the
+    /// engine over every cell's ellipse (`MttGrid`) bit for bit on the Worcester clip, for the
+    /// bench's 8 hours and a longer fire whose window grows.
+    #[test]
+    fn lazy_landfire_fire_equals_the_whole_grids_bit_for_bit() {
+        let land = worcester();
+        let params = windy_params();
+        let grid = LandfireEllipses::new(&land, &params).grid().expect("grid");
+        let (w, h) = (land.grid.width, land.grid.height);
+        for (ignition, hours) in [
+            ((362, h - 1 - 457), 8.0),
+            ((362, h - 1 - 457), 40.0),
+            ((100, 500), 24.0),
+        ] {
+            let lazy = landfire_arrival_lazy_h(&land, &params, &[ignition], 8, hours).expect("runs");
+            let whole = grid.arrival_times_h(&[ignition], 8, hours).expect("runs");
+            assert!(
+                lazy.reached_h.len() > 50,
+                "{ignition:?} {hours}: {}",
+                lazy.reached_h.len()
+            );
+            assert_eq!(
+                lazy.arrival_h(w * h)
+                    .iter()
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>(),
+                whole.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                "{ignition:?} {hours}"
+            );
+        }
+    }
+
+    /// For profiling the bench's fire alone: `cargo test --release … --lib -- --ignored
+    /// bench::tests::spread_timing --nocapture`.
+    #[test]
+    #[ignore]
+    fn spread_timing() {
+        let land = worcester();
+        let params = windy_params();
+        let h = land.grid.height;
+        let mut best = f64::INFINITY;
+        for _ in 0..2000 {
+            let started = Instant::now();
+            let run = landfire_arrival_lazy_h(&land, &params, &[(362, h - 1 - 457)], 8, 8.0).expect("runs");
+            best = best.min(started.elapsed().as_secs_f64());
+            assert_eq!(run.reached_h.len(), 273);
+        }
+        println!("best {:.3} ms", best * 1e3);
+    }
+
     #[test]
     fn mtt_grid_rows_run_south_to_north() {
         // A window's MTT grid: the landscape's north row is the grid's last.

@@ -332,8 +332,12 @@ pub fn arrival_times_lazy_h(
     }
     let mut lazy = LazyEllipses {
         ellipse,
-        slot: vec![0; n],
-        cells: Vec::new(),
+        // Sized to the engine's window by `prepare`.
+        slot: Vec::new(),
+        heads: Vec::new(),
+        inverse: Vec::new(),
+        ux: Vec::new(),
+        uy: Vec::new(),
     };
     let grid = GridShape {
         width,
@@ -343,7 +347,7 @@ pub fn arrival_times_lazy_h(
     let reached = dijkstra(&mut lazy, grid, ignitions, stencil_radius, max_time_h)?;
     Ok(LazyRun {
         reached_h: reached,
-        ellipses_evaluated: lazy.cells.len(),
+        ellipses_evaluated: lazy.heads.len(),
     })
 }
 
@@ -354,12 +358,18 @@ struct GridShape {
     cell_size_ft: f64,
 }
 
-/// The rates the engine reads: an [`MttGrid`]'s, or [`LazyEllipses`].
+/// The rates the engine reads: an [`MttGrid`]'s, or [`LazyEllipses`]. A cell is named by its
+/// index `i` in the grid and its index `l` in the engine's [`Window`].
 trait Rates {
-    /// 1 / the rate of spread in cell `i` along stencil move `m`, min/ft; `None` where the fire
-    /// does not spread that way (no rate, or not a number).
-    fn inverse_rate(&mut self, i: usize, m: &Move) -> Option<f64>;
-    fn burnable(&mut self, i: usize) -> bool;
+    /// The stencil's moves (move `k` of the later calls is `moves[k]`) and the first window,
+    /// before the search starts.
+    fn prepare(&mut self, moves: &[Move], window: &Window);
+    /// 1 / the rate of spread in cell `i` along stencil move `k`, `m`, min/ft; `None` where the
+    /// fire does not spread that way (no rate, or not a number).
+    fn inverse_rate(&mut self, i: usize, l: usize, k: usize, m: &Move) -> Option<f64>;
+    fn burnable(&mut self, i: usize, l: usize) -> bool;
+    /// The engine's window grew from `old` to `new`: per-cell state kept by window index moves.
+    fn rewindow(&mut self, old: &Window, new: &Window);
 }
 
 /// 1/r, or `None` where r is not a positive number.
@@ -373,34 +383,49 @@ fn inverse_of(r: f64) -> Option<f64> {
 }
 
 impl Rates for &MttGrid {
+    fn prepare(&mut self, _moves: &[Move], _window: &Window) {}
+
     #[inline]
-    fn inverse_rate(&mut self, i: usize, m: &Move) -> Option<f64> {
+    fn inverse_rate(&mut self, i: usize, _l: usize, _k: usize, m: &Move) -> Option<f64> {
         inverse_of(MttGrid::ros_toward_ftmin(self, i, m.ux, m.uy))
     }
 
-    fn burnable(&mut self, i: usize) -> bool {
+    fn burnable(&mut self, i: usize, _l: usize) -> bool {
         MttGrid::burnable(self, i)
     }
+
+    fn rewindow(&mut self, _old: &Window, _new: &Window) {}
 }
 
-/// Ellipses computed on first use, stored as [`MttGrid::from_ellipses`] stores them (head
-/// rate, eccentricity, sine and cosine of the head's azimuth) in the order they were first
-/// needed; `slot[i]` is 1 + the place of cell `i`'s (0: not yet evaluated). The slot table is
-/// zero-filled, so a small fire on a large grid touches only the memory around it.
+/// Ellipses computed on first use, each kept as its 1/rate along every move of the stencil
+/// (computed by [`MttGrid::ros_toward_ftmin`]'s formula, so the same bits; NaN where the fire
+/// does not spread that way), in the order they were first needed; `slot[l]` is 1 + the place
+/// of window cell `l`'s (0: not yet evaluated). The engine reads a cell's 1/rate along a move
+/// many times (once for each source whose move crosses it), here one load each.
 struct LazyEllipses<F> {
     ellipse: F,
     slot: Vec<u32>,
-    cells: Vec<[f64; 4]>,
+    /// Head rate of each evaluated cell (0: it does not burn).
+    heads: Vec<f64>,
+    /// 1/rate along every move, `moves` values for each evaluated cell.
+    inverse: Vec<f64>,
+    ux: Vec<f64>,
+    uy: Vec<f64>,
 }
 
 impl<F: FnMut(usize) -> Ellipse> LazyEllipses<F> {
-    /// Cell `i`'s ellipse, evaluated the first time.
+    /// Cell `i`'s place (window index `l`), its ellipse evaluated the first time.
     #[inline]
-    fn get(&mut self, i: usize) -> [f64; 4] {
-        let slot = self.slot[i] as usize;
+    fn get(&mut self, i: usize, l: usize) -> usize {
+        let slot = self.slot[l] as usize;
         if slot > 0 {
-            return self.cells[slot - 1];
+            return slot - 1;
         }
+        self.evaluate(i, l)
+    }
+
+    #[inline(never)]
+    fn evaluate(&mut self, i: usize, l: usize) -> usize {
         let e = (self.ellipse)(i);
         let head = if e.head_ftmin.is_finite() && e.head_ftmin > 0.0 {
             e.head_ftmin
@@ -408,23 +433,95 @@ impl<F: FnMut(usize) -> Ellipse> LazyEllipses<F> {
             0.0
         };
         let (s, c) = e.head_azimuth_deg.to_radians().sin_cos();
-        let cell = [head, e.eccentricity, s, c];
-        self.cells.push(cell);
-        self.slot[i] = self.cells.len() as u32;
-        cell
+        let ecc = e.eccentricity;
+        // MttGrid::ros_toward_ftmin's head·(1 − e)/(1 − e·(ux·s + uy·c)), the product first as
+        // there.
+        let numerator = head * (1.0 - ecc);
+        let base = self.inverse.len();
+        self.inverse.resize(base + self.ux.len(), 0.0);
+        for ((out, &ux), &uy) in self.inverse[base..].iter_mut().zip(&self.ux).zip(&self.uy) {
+            let r = numerator / (1.0 - ecc * (ux * s + uy * c));
+            *out = if r.is_nan() || r <= 0.0 { f64::NAN } else { 1.0 / r };
+        }
+        self.heads.push(head);
+        self.slot[l] = self.heads.len() as u32;
+        self.heads.len() - 1
     }
 }
 
 impl<F: FnMut(usize) -> Ellipse> Rates for LazyEllipses<F> {
-    #[inline]
-    fn inverse_rate(&mut self, i: usize, m: &Move) -> Option<f64> {
-        // As MttGrid::ros_toward_ftmin computes it, so the sums are the same.
-        let [head, e, s, c] = self.get(i);
-        inverse_of(head * (1.0 - e) / (1.0 - e * (m.ux * s + m.uy * c)))
+    fn prepare(&mut self, moves: &[Move], window: &Window) {
+        self.slot = vec![0; window.cells()];
+        // Room for a few hundred cells' tables (pages are touched only as they fill).
+        self.inverse = Vec::with_capacity(512 * moves.len());
+        self.ux = moves.iter().map(|m| m.ux).collect();
+        self.uy = moves.iter().map(|m| m.uy).collect();
     }
 
-    fn burnable(&mut self, i: usize) -> bool {
-        self.get(i)[0] > 0.0
+    #[inline]
+    fn inverse_rate(&mut self, i: usize, l: usize, k: usize, _m: &Move) -> Option<f64> {
+        let slot = self.get(i, l);
+        let v = self.inverse[slot * self.ux.len() + k];
+        if v.is_nan() { None } else { Some(v) }
+    }
+
+    fn burnable(&mut self, i: usize, l: usize) -> bool {
+        let slot = self.get(i, l);
+        self.heads[slot] > 0.0
+    }
+
+    fn rewindow(&mut self, old: &Window, new: &Window) {
+        self.slot = old.moved(&self.slot, new);
+    }
+}
+
+/// The part of the grid the engine keeps state for: columns `x0..x0 + width`, rows
+/// `y0..y0 + height`. It starts around the ignitions and grows (at least doubling) when a cell
+/// the fire reaches has moves that leave it, so a small fire on a large grid zeroes and touches
+/// only the memory around it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Window {
+    x0: usize,
+    y0: usize,
+    width: usize,
+    height: usize,
+}
+
+impl Window {
+    /// Cells (x0, y0) to (x1, y1) inclusive and `pad` more on each side, inside the grid.
+    fn around(x0: usize, y0: usize, x1: usize, y1: usize, pad: usize, grid: &GridShape) -> Self {
+        let (ax, ay) = (x0.saturating_sub(pad), y0.saturating_sub(pad));
+        let (bx, by) = ((x1 + pad).min(grid.width - 1), (y1 + pad).min(grid.height - 1));
+        Self {
+            x0: ax,
+            y0: ay,
+            width: bx + 1 - ax,
+            height: by + 1 - ay,
+        }
+    }
+
+    fn cells(&self) -> usize {
+        self.width * self.height
+    }
+
+    #[inline]
+    fn local(&self, x: usize, y: usize) -> usize {
+        (y - self.y0) * self.width + (x - self.x0)
+    }
+
+    /// Whether the cells (x0, y0) to (x1, y1) inclusive are inside.
+    fn holds(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> bool {
+        x0 >= self.x0 && y0 >= self.y0 && x1 < self.x0 + self.width && y1 < self.y0 + self.height
+    }
+
+    /// Per-cell values of this window placed in `new` (which holds it), zero elsewhere.
+    fn moved<T: Copy + Default>(&self, values: &[T], new: &Window) -> Vec<T> {
+        let mut out = vec![T::default(); new.cells()];
+        for row in 0..self.height {
+            let at = new.local(self.x0, self.y0 + row);
+            out[at..at + self.width].copy_from_slice(&values[row * self.width..(row + 1) * self.width]);
+        }
+        out
     }
 }
 
@@ -436,8 +533,9 @@ impl<F: FnMut(usize) -> Ellipse> Rates for LazyEllipses<F> {
 /// sum). A move is dropped as soon as its partial cost shows that its end cell's time cannot
 /// improve or will exceed `max_time_h` (every later piece only adds; the test keeps a margin of
 /// 10⁻⁹ over the rounding of the time's own formula), which changes no arrival time up to
-/// `max_time_h`. Per-cell state is zero-filled, so a small fire on a large grid touches only
-/// the memory around it.
+/// `max_time_h`. Per-cell state is kept for a [`Window`] of the grid that grows with the fire,
+/// so a small fire on a large grid touches only the memory around it; the queue holds grid
+/// indices, so ties break as on the whole grid.
 fn dijkstra<R: Rates>(
     rates: &mut R,
     grid: GridShape,
@@ -455,32 +553,6 @@ fn dijkstra<R: Rates>(
         return Err(MttError::MaxTime(max_time_h));
     }
     let (w, h) = (grid.width, grid.height);
-    let moves = stencil(stencil_radius as i32);
-    // The cells each move crosses, as index offsets with the pieces in each, all moves' in one
-    // list (`spans[k]` is move k's part).
-    let mut crossed: Vec<(isize, u32)> = Vec::new();
-    let mut spans = Vec::with_capacity(moves.len());
-    for m in &moves {
-        let start = crossed.len();
-        crossed.extend(
-            m.crossed_cells()
-                .into_iter()
-                .map(|(ox, oy, n)| (oy as isize * w as isize + ox as isize, n)),
-        );
-        spans.push(start..crossed.len());
-    }
-    // A move's time is ti + cost·(length·cell)/pieces; the reciprocal of that factor serves
-    // the early-drop test only (the time itself keeps its formula).
-    let inverse_scale: Vec<f64> = moves
-        .iter()
-        .map(|m| f64::from(m.pieces) / (m.len_cells * grid.cell_size_ft))
-        .collect();
-    let max_min = max_time_h * 60.0;
-    let margin = |limit: f64| limit * (1.0 + 1e-9) + 1e-9;
-    // Arrival times in minutes, read only where the state is not UNREACHED.
-    let mut t = vec![0.0f64; w * h];
-    let mut state = vec![UNREACHED; w * h];
-    let mut heap = BinaryHeap::new();
     for &(x, y) in ignitions {
         if x >= w || y >= h {
             return Err(MttError::IgnitionOutside {
@@ -490,54 +562,158 @@ fn dijkstra<R: Rates>(
                 height: h,
             });
         }
-        let i = y * w + x;
-        if rates.burnable(i) {
-            t[i] = 0.0;
-            state[i] = TENTATIVE;
+    }
+    let r = stencil_radius as usize;
+    // The moves by angle, so that consecutive moves cross mostly the same cells and read
+    // neighbouring entries of a cell's 1/rate table ([`LazyEllipses`]). The order of a cell's
+    // moves changes no arrival time: each move ends at a different cell, whose time the others do
+    // not read, and the queue orders its entries by (time, index) alone.
+    let mut moves = stencil(stencil_radius as i32);
+    moves.sort_by_cached_key(|m| {
+        let angle = f64::from(m.dy).atan2(f64::from(m.dx));
+        // total_cmp's order as an integer key.
+        let bits = angle.to_bits() as i64;
+        bits ^ (((bits >> 63) as u64) >> 1) as i64
+    });
+    // The cells each move crosses, as (dx, dy) offsets with the pieces in each, all moves' in one
+    // list (`spans[k]` is move k's part); as index offsets in the grid and in the window.
+    let mut crossed_xy: Vec<(i32, i32, u32)> = Vec::new();
+    let mut spans = Vec::with_capacity(moves.len());
+    for m in &moves {
+        let start = crossed_xy.len();
+        crossed_xy.extend(m.crossed_cells());
+        spans.push(start..crossed_xy.len());
+    }
+    // A move's pieces change cells at least every second piece along its longer axis, so a
+    // cell holds one or two of them (the loop below adds 1/rate once or twice).
+    assert!(
+        crossed_xy.iter().all(|c| (1..=2).contains(&c.2)),
+        "one or two pieces a cell"
+    );
+    let offsets = |width: usize| -> Vec<(isize, isize, u32)> {
+        crossed_xy
+            .iter()
+            .map(|&(ox, oy, n)| {
+                (
+                    oy as isize * w as isize + ox as isize,
+                    oy as isize * width as isize + ox as isize,
+                    n,
+                )
+            })
+            .collect()
+    };
+    // A move's time is ti + cost·(length·cell)/pieces; the reciprocal of that factor serves
+    // the early-drop test only (the time itself keeps its formula).
+    let inverse_scale: Vec<f64> = moves
+        .iter()
+        .map(|m| f64::from(m.pieces) / (m.len_cells * grid.cell_size_ft))
+        .collect();
+    let max_min = max_time_h * 60.0;
+    let margin = |limit: f64| limit * (1.0 + 1e-9) + 1e-9;
+    // The window: the ignitions' moves and 32 cells more each way to start with.
+    let mut win = match ignitions
+        .iter()
+        .copied()
+        .reduce(|a, b| (a.0.min(b.0), a.1.min(b.1)))
+    {
+        Some((ax, ay)) => {
+            let (bx, by) = ignitions
+                .iter()
+                .copied()
+                .reduce(|a, b| (a.0.max(b.0), a.1.max(b.1)))
+                .unwrap_or((ax, ay));
+            Window::around(ax, ay, bx, by, r + 32, &grid)
+        }
+        None => Window {
+            x0: 0,
+            y0: 0,
+            width: 1,
+            height: 1,
+        },
+    };
+    rates.prepare(&moves, &win);
+    let mut crossed = offsets(win.width);
+    // Arrival times in minutes, read only where the state is not UNREACHED; by window index.
+    let mut t = vec![0.0f64; win.cells()];
+    let mut state = vec![UNREACHED; win.cells()];
+    let mut heap = BinaryHeap::new();
+    for &(x, y) in ignitions {
+        let (i, l) = (y * w + x, win.local(x, y));
+        if rates.burnable(i, l) {
+            t[l] = 0.0;
+            state[l] = TENTATIVE;
             heap.push(Entry { t: 0.0, i });
         }
     }
     let mut reached = Vec::new();
     while let Some(Entry { t: ti, i }) = heap.pop() {
-        if state[i] == DONE || ti > t[i] {
+        let (x, y) = (i % w, i / w);
+        let il = win.local(x, y);
+        if state[il] == DONE || ti > t[il] {
             continue;
         }
-        state[i] = DONE;
+        state[il] = DONE;
         if ti > max_min {
             break;
         }
         reached.push((i, ti / 60.0));
-        let (x, y) = ((i % w) as i32, (i / w) as i32);
-        'moves: for ((m, span), &inverse_scale) in moves.iter().zip(&spans).zip(&inverse_scale) {
+        // Every cell the moves from here reach or cross lies within r of it.
+        let (bx0, by0) = (x.saturating_sub(r), y.saturating_sub(r));
+        let (bx1, by1) = ((x + r).min(w - 1), (y + r).min(h - 1));
+        if !win.holds(bx0, by0, bx1, by1) {
+            let grown = Window::around(
+                bx0.min(win.x0),
+                by0.min(win.y0),
+                bx1.max(win.x0 + win.width - 1),
+                by1.max(win.y0 + win.height - 1),
+                win.width.max(win.height) / 2 + r,
+                &grid,
+            );
+            t = win.moved(&t, &grown);
+            state = win.moved(&state, &grown);
+            rates.rewindow(&win, &grown);
+            win = grown;
+            crossed = offsets(win.width);
+        }
+        let il = win.local(x, y);
+        let (x, y) = (x as i32, y as i32);
+        'moves: for (k, ((m, span), &inverse_scale)) in
+            moves.iter().zip(&spans).zip(&inverse_scale).enumerate()
+        {
             let (nx, ny) = (x + m.dx, y + m.dy);
             if nx < 0 || ny < 0 || nx >= w as i32 || ny >= h as i32 {
                 continue;
             }
             let j = ny as usize * w + nx as usize;
-            let bound = match state[j] {
+            let jl = win.local(nx as usize, ny as usize);
+            let bound = match state[jl] {
                 DONE => continue,
                 UNREACHED => f64::INFINITY,
-                _ => t[j],
+                _ => t[jl],
             };
             // Past this cost the move cannot give j an earlier time, or gives one past the limit
             // (the margin covers the few roundings between this and the time's formula).
             let cost_limit = (margin(bound.min(max_min)) - ti) * inverse_scale;
             let mut cost = 0.0;
-            for &(offset, pieces) in &crossed[span.clone()] {
-                let Some(inverse) = rates.inverse_rate(i.wrapping_add_signed(offset), m) else {
+            for &(offset, local, pieces) in &crossed[span.clone()] {
+                let Some(inverse) =
+                    rates.inverse_rate(i.wrapping_add_signed(offset), il.wrapping_add_signed(local), k, m)
+                else {
                     continue 'moves;
                 };
-                for _ in 0..pieces {
-                    cost += inverse;
-                }
+                // `for _ in 0..pieces { cost += inverse }` for one or two pieces, without a
+                // branch on their number.
+                let once = cost + inverse;
+                let twice = once + inverse;
+                cost = if pieces == 2 { twice } else { once };
                 if cost > cost_limit {
                     continue 'moves;
                 }
             }
             let tj = ti + cost * m.len_cells * grid.cell_size_ft / f64::from(m.pieces);
             if tj < bound {
-                t[j] = tj;
-                state[j] = TENTATIVE;
+                t[jl] = tj;
+                state[jl] = TENTATIVE;
                 heap.push(Entry { t: tj, i: j });
             }
         }
@@ -737,6 +913,12 @@ mod tests {
         for m in stencil(8) {
             let cells = m.crossed_cells();
             assert_eq!(cells.iter().map(|c| c.2).sum::<u32>(), m.pieces);
+            assert!(
+                cells.iter().all(|c| (1..=2).contains(&c.2)),
+                "move {} {}",
+                m.dx,
+                m.dy
+            );
             for x in 0..40i32 {
                 for y in 0..40i32 {
                     if !(0..40).contains(&(x + m.dx)) || !(0..40).contains(&(y + m.dy)) {
@@ -765,6 +947,9 @@ mod tests {
             (3, 23, 31, 4, 10.0),
             (4, 30, 30, 1, 5.0),
             (5, 45, 20, 2, 1.5),
+            // Grids larger than the engine's first window, which grows several times.
+            (6, 160, 130, 8, 40.0),
+            (7, 210, 70, 3, 40.0),
         ] {
             let ellipses = varied(w, h, seed);
             let grid = MttGrid::from_ellipses(
