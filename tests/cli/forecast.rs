@@ -276,6 +276,77 @@ fn experiment_runs_every_model_under_both_protocols_and_answers_predictions() {
     assert!(md.contains("Paired comparisons over all 2 seeds"), "{md}");
     assert!(md.contains("FireCast's forecaster `firecast`"), "{md}");
 
+    // Every cell-day of a summer, scored at the true prevalence beside the generator's truth.
+    let cells = |protocol: &str| {
+        format!(
+            r#"
+stages:
+  cells:
+    uses: forecast.cell_days
+    params: {{protocol: {protocol}, from: "2019-06-01", to: "2019-09-30", every_days: 5}}
+    inputs:
+      experiment: experiments/runs/cli-exp
+      dataset: data/a
+      gridmet: src-a/gridmet
+      ignitions: w-a/ign.parquet
+      truth: src-a/truth
+    outputs:
+      report: build/cells-{protocol}
+"#
+        )
+    };
+    p.write("pipelines/cells.yaml", &cells("leak_free"));
+    let ran = p.run_pipeline("pipelines/cells.yaml", &[]);
+    assert_eq!(ran["cells"], "ran", "{ran:?}");
+    let r: serde_json::Value = serde_json::from_str(&p.read("build/cells-leak_free/cell_days.json")).unwrap();
+    let (prevalence, prior) = (r["prevalence"].as_f64().unwrap(), r["prior"].as_f64().unwrap());
+    assert!(r["cell_days"].as_u64().unwrap() > 20_000, "{r}");
+    assert!(r["ignitions"].as_u64().unwrap() > 0, "{r}");
+    assert!(prevalence < 0.01 && prior > 0.0 && prior < 0.01, "{r}");
+    assert!(r["sampling_prevalence"].as_f64().unwrap() > 0.2, "{r}");
+    let oracle = &r["oracle"];
+    assert!(oracle["auprc"].as_f64().unwrap() > prevalence, "{oracle}");
+    let rows = r["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 7, "every model of the protocol");
+    for row in rows {
+        assert!(row["auprc_share_of_oracle"].is_number(), "{row}");
+        // Corrected to the prior, the forecasts are small on average (0.2 or more before).
+        let (brier, mean) = (
+            row["brier"].as_f64().unwrap(),
+            row["mean_probability"].as_f64().unwrap(),
+        );
+        assert!(
+            brier.is_finite() && brier < 0.5 && mean < 0.1,
+            "prior-corrected: {row}"
+        );
+        if row["kind"] == "majority" {
+            // The base rate it learnt, corrected, is the prior.
+            assert_eq!(row["auroc"], 0.5);
+            let mean = row["mean_probability"].as_f64().unwrap();
+            assert!((mean / prior - 1.0).abs() < 0.3, "{mean} vs prior {prior}");
+        }
+    }
+    let table = p.read("build/cells-leak_free/cell_days.md");
+    assert!(
+        table.contains("| oracle |") && table.contains("prior-corrected")
+            || table.contains("prior correction"),
+        "{table}"
+    );
+    assert!(p.path("build/cells-leak_free/reliability.png").is_file());
+    // A protocol the experiment does not have is named.
+    p.write("pipelines/cells.yaml", &cells("nope"));
+    let out = p
+        .firecast()
+        .args(["pipeline", "run", "pipelines/cells.yaml"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(
+        describe(&out).contains("`nope` is not one of the experiment's protocols"),
+        "{}",
+        describe(&out)
+    );
+
     // Unchanged experiment and dataset: nothing re-runs. Forced: the same numbers (CPU, seeds).
     let again = p.ok(&["experiment", "run", "experiments/cli.yaml"]);
     assert!(

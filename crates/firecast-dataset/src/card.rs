@@ -286,6 +286,24 @@ pub fn render_card(ds: &BuiltDataset, ctx: &CardContext<'_>) -> String {
         ds.groups,
         cfg.split.val_fraction * 100.0
     );
+    // Prevalence per split: every split should hold the design's share of positives.
+    let _ = writeln!(md, "## Prevalence per split\n");
+    let _ = writeln!(md, "| split | samples | positive | prevalence |");
+    let _ = writeln!(md, "|---|---:|---:|---:|");
+    let mut per_split: std::collections::BTreeMap<&str, (u64, u64)> = std::collections::BTreeMap::new();
+    for c in ctx.tiers {
+        let e = per_split.entry(c.split.as_str()).or_default();
+        e.0 += c.samples;
+        e.1 += c.positives;
+    }
+    for (split, (n, pos)) in &per_split {
+        let _ = writeln!(
+            md,
+            "| {split} | {n} | {pos} | {:.3} |",
+            *pos as f64 / (*n).max(1) as f64
+        );
+    }
+    let _ = writeln!(md);
     let _ = writeln!(md, "## Samples per tier\n");
     let _ = writeln!(
         md,

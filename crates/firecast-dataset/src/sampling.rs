@@ -642,7 +642,9 @@ fn sample_stratified(
             .block_degrees
             .map(|bd| ((lat / bd).floor() as i64, (lon / bd).floor() as i64))
     };
-    let mut groups: BTreeMap<(usize, Option<(i64, i64)>), Vec<Sample>> = BTreeMap::new();
+    // A stratum: its period's index and its block (south-west corner in block units).
+    type Stratum = (usize, Option<(i64, i64)>);
+    let mut groups: BTreeMap<Stratum, Vec<Sample>> = BTreeMap::new();
     for p in ctx.positives {
         let period = cuts.partition_point(|&c| c <= p.time_ms);
         groups

@@ -24,6 +24,7 @@ use std::path::{Path, PathBuf};
 
 pub mod bench;
 pub mod bundle;
+pub mod cell_days;
 pub mod data;
 pub mod evaluate;
 pub mod experiment;

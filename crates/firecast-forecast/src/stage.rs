@@ -21,7 +21,134 @@ pub fn register(kinds: &mut firecast_pipeline::StageKinds) {
     kinds
         .register(ExperimentStage)
         .register(EvaluateStage)
-        .register(PredictStage);
+        .register(PredictStage)
+        .register(CellDaysStage);
+}
+
+/// `forecast.cell_days`: an experiment's saved models over all cell-days of a period.
+#[derive(Debug, Default)]
+pub struct CellDaysStage;
+
+impl StageKind for CellDaysStage {
+    fn name(&self) -> &'static str {
+        "forecast.cell_days"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn summary(&self) -> &'static str {
+        "saved models -> every GRIDMET cell-day of a period at the true prevalence: AUPRC, Brier and reliability after the prior correction, beside the oracle"
+    }
+    fn ports(&self) -> Ports {
+        const IN: &[Port] = &[
+            port(
+                "experiment",
+                true,
+                "a forecast.experiment report folder (results.json and models/)",
+            ),
+            port(
+                "dataset",
+                true,
+                "the dataset the experiment was trained on (its prevalence is the sampling prior)",
+            ),
+            port(
+                "gridmet",
+                true,
+                "GRIDMET folder covering the period and the models' input days",
+            ),
+            port(
+                "ignitions",
+                true,
+                "data.ignitions' positives (Parquet): the cell-days with an ignition",
+            ),
+            port(
+                "truth",
+                false,
+                "the synthetic generator's truth folder: the oracle beside the models",
+            ),
+        ];
+        const OUT: &[Port] = &[port(
+            "report",
+            true,
+            "folder: cell_days.json, cell_days.md (the table), reliability.png",
+        )];
+        Ports {
+            inputs: IN,
+            outputs: OUT,
+            open: false,
+        }
+    }
+    fn resolve_params(&self, raw: &serde_json::Value) -> Result<serde_json::Value, ParamsError> {
+        let (p, v) = typed_params::<crate::cell_days::CellDayParams>(raw)?;
+        for (key, value) in [("from", &p.from), ("to", &p.to)] {
+            if firecast_dataset::time::parse_date(value).is_none() {
+                return Err(ParamsError {
+                    path: key.into(),
+                    message: format!("`{value}` is not a YYYY-MM-DD date"),
+                });
+            }
+        }
+        for (key, ok) in [
+            ("every_days", p.every_days >= 1),
+            ("reliability_bins", p.reliability_bins >= 2),
+        ] {
+            if !ok {
+                return Err(ParamsError {
+                    path: key.into(),
+                    message: "is too small (every_days ≥ 1, reliability_bins ≥ 2)".into(),
+                });
+            }
+        }
+        Ok(v)
+    }
+    fn run(&self, ctx: &mut StageContext<'_>) -> Result<(), StageError> {
+        firecast_learn::exclusive(|| {
+            let params: crate::cell_days::CellDayParams = ctx.params()?;
+            let (experiment, dataset, gridmet, ignitions) = (
+                ctx.input("experiment")?.to_path_buf(),
+                ctx.input("dataset")?.to_path_buf(),
+                ctx.input("gridmet")?.to_path_buf(),
+                ctx.input("ignitions")?.to_path_buf(),
+            );
+            let truth = ctx.input("truth").ok().map(std::path::Path::to_path_buf);
+            let out = ctx.output("report")?.to_path_buf();
+            std::fs::create_dir_all(&out)?;
+            let inputs = crate::cell_days::CellDayInputs {
+                experiment: &experiment,
+                dataset: &dataset,
+                gridmet: &gridmet,
+                truth: truth.as_deref(),
+                ignitions: &ignitions,
+            };
+            let mut lines = Vec::new();
+            let steps = std::cell::RefCell::new(Vec::new());
+            let result =
+                crate::cell_days::score(&inputs, &params, Some(&out.join("reliability.png")), &|line| {
+                    steps.borrow_mut().push(line.to_string());
+                })?;
+            for line in steps.into_inner() {
+                ctx.log(line);
+            }
+            crate::cell_days::write(&out, &result)?;
+            for row in result.oracle.iter().chain(&result.rows) {
+                ctx.metric(&format!("cell_days/{}/auprc", row.model), 0, row.auprc);
+                ctx.metric(&format!("cell_days/{}/brier", row.model), 0, row.brier);
+                lines.push(format!(
+                    "{}: AUPRC {:.4}, Brier {:.3e}, ECE {:.2e}",
+                    row.model, row.auprc, row.brier, row.ece
+                ));
+            }
+            ctx.log(format!(
+                "{} cell-days, {} ignitions (prevalence {:.2e}), prior {:.2e}; {}",
+                result.cell_days,
+                result.ignitions,
+                result.prevalence,
+                result.prior,
+                lines.join("; ")
+            ));
+            Ok(())
+        })
+    }
 }
 
 #[derive(Debug, Default)]
