@@ -61,6 +61,39 @@ pub enum ForecastCommand {
     /// Ignition probability of a place and date from a trained model (the paper's
     /// predictWildfire), or of every row of a CSV of points.
     Predict(PredictArgs),
+    /// The day's ignition probability at every GRIDMET cell of a region, by every saved seed
+    /// of one model of an experiment: a map (PNG) and its numbers (JSON).
+    Map(MapArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct MapArgs {
+    /// An experiment's report folder (results.json and models/).
+    #[arg(long, value_name = "DIR")]
+    pub experiment: PathBuf,
+    /// The model's name in the experiment (its `name`, else its `kind`).
+    #[arg(long)]
+    pub model: String,
+    /// The protocol [default: the experiment's headline].
+    #[arg(long)]
+    pub protocol: Option<String>,
+    /// GRIDMET folder with `<var>_<year>.nc` files covering the input window.
+    #[arg(long, value_name = "DIR")]
+    pub gridmet: PathBuf,
+    /// The day to forecast, YYYY-MM-DD.
+    #[arg(long)]
+    pub date: String,
+    /// `LAT_MIN,LAT_MAX,LON_MIN,LON_MAX` [default: every cell of the files].
+    #[arg(long, allow_hyphen_values = true, value_name = "BOX")]
+    pub region: Option<String>,
+    /// Folder for `map.png` and `map.json`.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    #[arg(long, default_value = "cpu")]
+    pub device: String,
+    /// libtorch threads.
+    #[arg(long, default_value_t = firecast_learn::DEFAULT_THREADS)]
+    pub threads: usize,
 }
 
 #[derive(Debug, Args)]
@@ -325,7 +358,66 @@ fn compare(settings: &Settings, args: &CompareArgs) -> anyhow::Result<ExitCode> 
 pub fn run_forecast_command(settings: &Settings, command: ForecastCommand) -> anyhow::Result<ExitCode> {
     match command {
         ForecastCommand::Predict(args) => predict(settings, &args),
+        ForecastCommand::Map(args) => map(settings, &args),
     }
+}
+
+fn map(settings: &Settings, args: &MapArgs) -> anyhow::Result<ExitCode> {
+    let region = match &args.region {
+        None => None,
+        Some(text) => {
+            let v: Vec<f64> = text
+                .split(',')
+                .map(|x| x.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .ok()
+                .filter(|v: &Vec<f64>| v.len() == 4)
+                .with_context(|| format!("--region `{text}`: expected LAT_MIN,LAT_MAX,LON_MIN,LON_MAX"))?;
+            Some([v[0], v[1], v[2], v[3]])
+        }
+    };
+    let device = firecast_forecast::parse_device(&args.device)?;
+    firecast_learn::set_threads(args.threads);
+    let params = firecast_forecast::stage::PredictParams {
+        lat: 0.0,
+        lon: 0.0,
+        date: args.date.clone(),
+        model: args.model.clone(),
+        protocol: args.protocol.clone(),
+        device: args.device.clone(),
+        threads: args.threads,
+        map_radius_deg: None,
+    };
+    let experiment = settings.root.join(&args.experiment);
+    let gridmet = settings.root.join(&args.gridmet);
+    let map = firecast_forecast::stage::region_map(&experiment, &gridmet, &params, region, device)?;
+    let out = settings.root.join(&args.out);
+    let staged = firecast_fs::TempPath::dir(&out)?;
+    firecast_fs::write_atomically(&staged.path().join("map.json"), &serde_json::to_vec(&map)?)?;
+    firecast_forecast::stage::map_png(&map, &staged.path().join("map.png"))?;
+    staged.publish()?;
+    let values: Vec<f64> = map.probability.iter().flatten().flatten().copied().collect();
+    let above = values.iter().filter(|&&p| p >= map.threshold).count();
+    if settings.json {
+        output::print_json(&serde_json::json!({
+            "out": out, "cells": values.len(), "above_threshold": above, "threshold": map.threshold,
+            "max": values.iter().copied().fold(0.0, f64::max),
+        }))?;
+    } else {
+        println!(
+            "{} on {}: {} cells ({} x {}), {} at or above the threshold {:.3}, max {:.3} -> {}/map.png, map.json",
+            map.model,
+            map.date,
+            values.len(),
+            map.lats.len(),
+            map.lons.len(),
+            above,
+            map.threshold,
+            values.iter().copied().fold(0.0, f64::max),
+            args.out.display()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 fn read_points(path: &Path) -> anyhow::Result<Vec<firecast_forecast::predict::Query>> {

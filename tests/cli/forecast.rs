@@ -333,6 +333,64 @@ stages:
         "{table}"
     );
     assert!(p.path("build/cells-leak_free/reliability.png").is_file());
+    // The day's map over a region: every GRIDMET cell in the box, a PNG and its numbers.
+    p.ok(&[
+        "forecast",
+        "map",
+        "--experiment",
+        "experiments/runs/cli-exp",
+        "--model",
+        "logistic_regression",
+        "--gridmet",
+        "src-a/gridmet",
+        "--date",
+        "2019-08-01",
+        "--region",
+        "39.0,39.5,-108.0,-107.5",
+        "--out",
+        "build/map",
+    ]);
+    let map: serde_json::Value = serde_json::from_str(&p.read("build/map/map.json")).unwrap();
+    let (lats, lons) = (map["lats"].as_array().unwrap(), map["lons"].as_array().unwrap());
+    assert!(
+        (11..=13).contains(&lats.len()) && (11..=13).contains(&lons.len()),
+        "{} x {}",
+        lats.len(),
+        lons.len()
+    );
+    assert!(lats.iter().all(|v| (39.0..=39.5).contains(&v.as_f64().unwrap())));
+    for row in map["probability"].as_array().unwrap() {
+        for v in row.as_array().unwrap() {
+            assert!((0.0..=1.0).contains(&v.as_f64().unwrap()), "{v}");
+        }
+    }
+    assert!(p.path("build/map/map.png").is_file());
+    let out = p
+        .firecast()
+        .args([
+            "forecast",
+            "map",
+            "--experiment",
+            "experiments/runs/cli-exp",
+            "--model",
+            "logistic_regression",
+        ])
+        .args([
+            "--gridmet",
+            "src-a/gridmet",
+            "--date",
+            "2019-08-01",
+            "--region",
+            "39,38",
+            "--out",
+            "build/bad",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "{}", describe(&out));
+    assert!(describe(&out).contains("--region `39,38`"), "{}", describe(&out));
+    assert!(!p.path("build/bad").exists());
+
     // A protocol the experiment does not have is named.
     p.write("pipelines/cells.yaml", &cells("nope"));
     let out = p

@@ -880,6 +880,156 @@ fn cells_around(
     Ok((pick(file.lats(), lat), pick(file.lons(), lon)))
 }
 
+/// The day's probability at every GRIDMET cell of the files' grid, or of those inside
+/// `region` (`[lat_min, lat_max, lon_min, lon_max]`), by every saved seed of `params.model`
+/// (`params.lat`/`lon` are not used). Cells without a complete weather window are `null`.
+pub fn region_map(
+    experiment: &std::path::Path,
+    gridmet: &std::path::Path,
+    params: &PredictParams,
+    region: Option<[f64; 4]>,
+    device: tch::Device,
+) -> Result<ProbabilityMap, crate::ForecastError> {
+    let [lat_min, lat_max, lon_min, lon_max] = region.unwrap_or([-90.0, 90.0, -180.0, 180.0]);
+    if lat_min > lat_max || lon_min > lon_max {
+        return Err(crate::ForecastError::Config {
+            key: "region".into(),
+            message: format!("[{lat_min}, {lat_max}] x [{lon_min}, {lon_max}] is empty"),
+        });
+    }
+    let (mid_lat, mid_lon) = ((lat_min + lat_max) / 2.0, (lon_min + lon_max) / 2.0);
+    let half = ((lat_max - lat_min) / 2.0).max((lon_max - lon_min) / 2.0);
+    let (lats, lons) = cells_around(gridmet, &params.date, mid_lat, mid_lon, half)?;
+    let lats: Vec<f64> = lats
+        .into_iter()
+        .filter(|v| (lat_min..=lat_max).contains(v))
+        .collect();
+    let lons: Vec<f64> = lons
+        .into_iter()
+        .filter(|v| (lon_min..=lon_max).contains(v))
+        .collect();
+    if lats.is_empty() || lons.is_empty() {
+        return Err(crate::ForecastError::Data {
+            path: gridmet.to_path_buf(),
+            message: format!("no GRIDMET cell in [{lat_min}, {lat_max}] x [{lon_min}, {lon_max}]"),
+        });
+    }
+    forecast_map(experiment, gridmet, params, &lats, &lons, device)
+}
+
+/// Draws a probability map as a PNG: each cell coloured by its probability class (five equal
+/// classes up to the map's maximum), north up; the cells at or above the threshold dotted when
+/// they are fewer than half.
+pub fn map_png(map: &ProbabilityMap, path: &std::path::Path) -> Result<(), crate::ForecastError> {
+    use firecast_render::chart::{Chart, LegendPosition, Series};
+    let step = |v: &[f64]| {
+        v.windows(2)
+            .map(|w| (w[1] - w[0]).abs())
+            .fold(f64::INFINITY, f64::min)
+            .min(1.0)
+    };
+    let size = step(&map.lats).min(step(&map.lons));
+    let size = if size.is_finite() { size } else { 1.0 / 24.0 };
+    let max = map
+        .probability
+        .iter()
+        .flatten()
+        .flatten()
+        .copied()
+        .fold(0.0f64, f64::max)
+        .max(map.threshold)
+        .max(1e-9);
+    // Five classes up to the map's maximum, the threshold marked in the legend.
+    let edges: Vec<f64> = (0..=5).map(|k| max * f64::from(k) / 5.0).collect();
+    let colors: [[u8; 3]; 5] = [
+        [255, 247, 188],
+        [254, 217, 118],
+        [254, 153, 41],
+        [217, 95, 14],
+        [153, 52, 4],
+    ];
+    let pad = size;
+    // Room on the right for the legend, off the cells.
+    let (x0, x1) = (
+        map.lons.first().copied().unwrap_or(0.0) - pad,
+        map.lons.last().copied().unwrap_or(0.0) + pad,
+    );
+    let x1 = x1 + 0.45 * (x1 - x0);
+    let (y0, y1) = (
+        map.lats.first().copied().unwrap_or(0.0) - pad,
+        map.lats.last().copied().unwrap_or(0.0) + pad,
+    );
+    let mut chart = Chart::new(820, 660)
+        .title(format!(
+            "Ignition probability on {}: {} ({}, {} seed{}); threshold {:.2}",
+            map.date,
+            map.model,
+            map.protocol,
+            map.seeds,
+            if map.seeds == 1 { "" } else { "s" },
+            map.threshold
+        ))
+        .x_label(
+            "longitude, degrees east; the model's probability at its training prevalence, not a daily rate",
+        )
+        .y_label("latitude, degrees north")
+        .x_range(x0, x1)
+        .y_range(y0, y1)
+        .legend(Some(LegendPosition::TopRight));
+    let mut missing = Vec::new();
+    let mut classes: Vec<Vec<(f64, f64)>> = vec![Vec::new(); 5];
+    let mut above = Vec::new();
+    for (r, &lat) in map.lats.iter().enumerate() {
+        for (c, &lon) in map.lons.iter().enumerate() {
+            match map
+                .probability
+                .get(r)
+                .and_then(|row| row.get(c))
+                .copied()
+                .flatten()
+            {
+                Some(p) => {
+                    let k = edges[1..].iter().position(|&e| p <= e).unwrap_or(4);
+                    classes[k].push((lon, lat));
+                    if p >= map.threshold {
+                        above.push((lon, lat));
+                    }
+                }
+                None => missing.push((lon, lat)),
+            }
+        }
+    }
+    for (k, cells) in classes.into_iter().enumerate() {
+        chart = chart.series(
+            Series::cells(cells, size)
+                .color(colors[k])
+                .alpha(1.0)
+                .label(format!("{:.2}–{:.2}", edges[k], edges[k + 1])),
+        );
+    }
+    if !missing.is_empty() {
+        chart = chart.series(
+            Series::cells(missing, size)
+                .color([200, 200, 200])
+                .alpha(1.0)
+                .label("no data"),
+        );
+    }
+    // Dots mark the cells at or above the threshold when they are the minority worth seeing.
+    if above.len() * 2 < map.lats.len() * map.lons.len() {
+        chart = chart.series(
+            Series::scatter(above)
+                .color([90, 0, 0])
+                .marker(firecast_render::chart::Marker::Circle, 2.5)
+                .label(format!("at or above the threshold {:.2}", map.threshold)),
+        );
+    }
+    chart.save_png(path).map_err(|e| crate::ForecastError::Data {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })
+}
+
 /// A name that must stay one folder inside the experiment.
 fn check_folder_name(key: &str, name: &str) -> Result<(), ParamsError> {
     if name.is_empty() || name == "." || name == ".." || name.contains(['/', '\\']) {
