@@ -364,9 +364,9 @@ trait Rates {
     /// The stencil's moves (move `k` of the later calls is `moves[k]`) and the first window,
     /// before the search starts.
     fn prepare(&mut self, moves: &[Move], window: &Window);
-    /// 1 / the rate of spread in cell `i` along stencil move `k`, `m`, min/ft; `None` where the
-    /// fire does not spread that way (no rate, or not a number).
-    fn inverse_rate(&mut self, i: usize, l: usize, k: usize, m: &Move) -> Option<f64>;
+    /// 1 / the rate of spread in cell `i` along stencil move `k`, `m`, min/ft; +∞ where the fire
+    /// does not spread that way (no rate, or not a number), which drops the move (below).
+    fn inverse_rate(&mut self, i: usize, l: usize, k: usize, m: &Move) -> f64;
     fn burnable(&mut self, i: usize, l: usize) -> bool;
     /// The engine's window grew from `old` to `new`: per-cell state kept by window index moves.
     fn rewindow(&mut self, old: &Window, new: &Window);
@@ -386,8 +386,8 @@ impl Rates for &MttGrid {
     fn prepare(&mut self, _moves: &[Move], _window: &Window) {}
 
     #[inline]
-    fn inverse_rate(&mut self, i: usize, _l: usize, _k: usize, m: &Move) -> Option<f64> {
-        inverse_of(MttGrid::ros_toward_ftmin(self, i, m.ux, m.uy))
+    fn inverse_rate(&mut self, i: usize, _l: usize, _k: usize, m: &Move) -> f64 {
+        inverse_of(MttGrid::ros_toward_ftmin(self, i, m.ux, m.uy)).unwrap_or(f64::INFINITY)
     }
 
     fn burnable(&mut self, i: usize, _l: usize) -> bool {
@@ -398,7 +398,7 @@ impl Rates for &MttGrid {
 }
 
 /// Ellipses computed on first use, each kept as its 1/rate along every move of the stencil
-/// (computed by [`MttGrid::ros_toward_ftmin`]'s formula, so the same bits; NaN where the fire
+/// (computed by [`MttGrid::ros_toward_ftmin`]'s formula, so the same bits; +∞ where the fire
 /// does not spread that way), in the order they were first needed; `slot[l]` is 1 + the place
 /// of window cell `l`'s (0: not yet evaluated). The engine reads a cell's 1/rate along a move
 /// many times (once for each source whose move crosses it), here one load each.
@@ -441,7 +441,7 @@ impl<F: FnMut(usize) -> Ellipse> LazyEllipses<F> {
         self.inverse.resize(base + self.ux.len(), 0.0);
         for ((out, &ux), &uy) in self.inverse[base..].iter_mut().zip(&self.ux).zip(&self.uy) {
             let r = numerator / (1.0 - ecc * (ux * s + uy * c));
-            *out = if r.is_nan() || r <= 0.0 { f64::NAN } else { 1.0 / r };
+            *out = inverse_of(r).unwrap_or(f64::INFINITY);
         }
         self.heads.push(head);
         self.slot[l] = self.heads.len() as u32;
@@ -459,10 +459,9 @@ impl<F: FnMut(usize) -> Ellipse> Rates for LazyEllipses<F> {
     }
 
     #[inline]
-    fn inverse_rate(&mut self, i: usize, l: usize, k: usize, _m: &Move) -> Option<f64> {
+    fn inverse_rate(&mut self, i: usize, l: usize, k: usize, _m: &Move) -> f64 {
         let slot = self.get(i, l);
-        let v = self.inverse[slot * self.ux.len() + k];
-        if v.is_nan() { None } else { Some(v) }
+        self.inverse[slot * self.ux.len() + k]
     }
 
     fn burnable(&mut self, i: usize, l: usize) -> bool {
@@ -696,11 +695,9 @@ fn dijkstra<R: Rates>(
             let cost_limit = (margin(bound.min(max_min)) - ti) * inverse_scale;
             let mut cost = 0.0;
             for &(offset, local, pieces) in &crossed[span.clone()] {
-                let Some(inverse) =
-                    rates.inverse_rate(i.wrapping_add_signed(offset), il.wrapping_add_signed(local), k, m)
-                else {
-                    continue 'moves;
-                };
+                // +∞ (no spread that way) makes the cost pass any limit: the move is dropped.
+                let inverse =
+                    rates.inverse_rate(i.wrapping_add_signed(offset), il.wrapping_add_signed(local), k, m);
                 // `for _ in 0..pieces { cost += inverse }` for one or two pieces, without a
                 // branch on their number.
                 let once = cost + inverse;
