@@ -1052,6 +1052,94 @@ mod tests {
         }
     }
 
+    /// Scott & Reinhardt's crown fire under a 15 mi/h wind beside pyretechnics' on the cells where
+    /// the two models' wind handling agrees (flat cells whose canopy both shelter the same way,
+    /// [`comparable_cell`]) and where pyretechnics looks for crown fire (cover > 40 %): fire type
+    /// and, where both spread an active crown fire, the crown rate (Rothermel's 1991 rate here,
+    /// Cruz et al.'s 2005 rate there). Skipped when pyretechnics' venv is missing.
+    #[test]
+    fn scott_reinhardt_crown_fire_under_wind_beside_pyretechnics_on_flat_cells() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let Ok(python) = peer_python(None, &root) else {
+            eprintln!(
+                "skipped: pyretechnics is not installed in {PEER_VENV} (`cargo xtask setup` installs it)"
+            );
+            return;
+        };
+        let mut params = windy_params();
+        params.crown = firecast_sim::crown::CrownMethod::ScottReinhardt;
+        let work = std::env::temp_dir().join(format!("firecast-crown-wind-{}", std::process::id()));
+        let opts = BenchOptions {
+            landscape: root.join(WORCESTER),
+            params: params.clone(),
+            repeats: 1,
+            python,
+            work: work.clone(),
+        };
+        let bench = bench_behavior(&opts, None).expect("both engines run");
+        assert!(bench.agreement.holds(), "{:?}", bench.agreement);
+        let land = worcester();
+        let n = land.grid.width * land.grid.height;
+        let peer_ros = read_f32(&work.join("spread_rate_m_min.f32"), n).expect("rates");
+        let peer_type = read_u8(&work.join("fire_type.u8"), n).expect("types");
+        std::fs::remove_dir_all(&work).ok();
+        let grids = surface_behavior_grids(&land, &params).expect("grids");
+        let layer = |l: &Option<Vec<f32>>, i: usize| l.as_ref().map_or(f32::NAN, |v| v[i]);
+        let mut confusion = [[0usize; 4]; 4];
+        let mut crown_ratio: [Vec<f64>; 4] = Default::default();
+        let mut sparse_crown = 0;
+        for i in 0..n {
+            let cover = layer(&land.canopy_cover_pct, i);
+            let ours = grids.fire_type[i];
+            if ours == grids.nodata
+                || ours < 1.0
+                || !comparable_cell(
+                    params.wind_20ft_mph,
+                    land.slope_percent[i],
+                    cover,
+                    layer(&land.canopy_height_m, i),
+                )
+            {
+                continue;
+            }
+            if cover.is_nan() || cover <= 40.0 {
+                // pyretechnics does not look for crown fire here.
+                sparse_crown += usize::from(ours >= 2.0);
+                continue;
+            }
+            let (a, b) = (ours as usize, usize::from(peer_type[i]).min(3));
+            confusion[a][b] += 1;
+            if a == b {
+                crown_ratio[a].push(f64::from(peer_ros[i]) / (f64::from(grids.ros_chph[i]) * M_MIN_PER_CH_H));
+            }
+        }
+        for r in &mut crown_ratio {
+            r.sort_by(f64::total_cmp);
+        }
+        let range = |r: &[f64]| (r.first().copied(), r.get(r.len() / 2).copied(), r.last().copied());
+        let cells: usize = confusion.iter().flatten().sum();
+        let equal: usize = (0..4).map(|k| confusion[k][k]).sum();
+        let crown_ours: usize = confusion[2..].iter().flatten().sum();
+        let crown_both: usize = confusion[2..].iter().map(|r| r[2] + r[3]).sum();
+        eprintln!(
+            "flat comparable burning cells at cover > 40 %: {cells}; fire type equal {equal}; \
+             FireCast crown {crown_ours}, both crown {crown_both}; confusion (rows FireCast \
+             surface/passive/active, columns pyretechnics none/surface/passive/active): {:?}; \
+             rate pyretechnics/FireCast (min, median, max) where both surface {:?}, both passive {:?}, \
+             both active {:?}; FireCast crown cells at cover <= 40 % (not looked for there): {sparse_crown}",
+            &confusion[1..],
+            range(&crown_ratio[1]),
+            range(&crown_ratio[2]),
+            range(&crown_ratio[3]),
+        );
+        // Where the two models' wind and crown rules agree, they call the same fire type.
+        assert!(
+            cells >= 100 && crown_both > 0,
+            "{cells} cells, {crown_both} crown"
+        );
+        assert_eq!(equal, cells, "{confusion:?}");
+    }
+
     /// For profiling the bench's fire alone: `cargo test --release … --lib -- --ignored
     /// bench::tests::spread_timing --nocapture`.
     #[test]
