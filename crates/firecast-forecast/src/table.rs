@@ -322,11 +322,15 @@ fn comparisons_table(out: &mut String, result: &ExperimentResult, protocol: &str
         result.level * 100.0
     );
     let _ = writeln!(out, "|---|---|---:|---|---:|---|---:|---:|---|---|");
-    let p_text = |p: f64| {
-        if p.is_finite() {
-            format!("{p:.2e}")
+    // A bootstrap p of 0 means no resample crossed 0: below one in the resamples drawn.
+    let floor = 1.0 / result.bootstrap.max(1) as f64;
+    let p_text = |p: f64, floor: f64| {
+        if !p.is_finite() {
+            "—".to_string()
+        } else if p == 0.0 {
+            format!("< {floor:.1e}")
         } else {
-            "—".into()
+            format!("{p:.2e}")
         }
     };
     for c in &here {
@@ -346,8 +350,9 @@ fn comparisons_table(out: &mut String, result: &ExperimentResult, protocol: &str
             c.auprc_diff,
             c.auprc_diff_interval.0,
             c.auprc_diff_interval.1,
-            p_text(c.p_value),
-            p_text(c.p_holm),
+            p_text(c.p_value, floor),
+            // Holm multiplies by at most the number of comparisons.
+            p_text(c.p_holm, (floor * here.len() as f64).min(1.0)),
             c.delong_p
                 .iter()
                 .map(|p| p.map_or_else(|| "—".to_string(), |p| format!("{p:.2e}")))
