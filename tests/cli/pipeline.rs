@@ -172,7 +172,7 @@ fn strict_yaml_errors_name_file_line_and_key_path() {
         ),
         (
             "stages:\n  a:\n    uses: gridmet.nope\n",
-            "error: pipelines/bad.yaml:3:5: stages.a.uses: unknown stage kind `gridmet.nope` (known: cmd, data.dataset, data.ignitions, data.import_kaggle, data.negatives, data.synthesize, data.windows, forecast.evaluate, forecast.experiment, forecast.predict, report, rl.ensemble, rl.evaluate, rl.train, sim.behavior, sim.ensemble, sim.episodes, sim.render, sql)",
+            "error: pipelines/bad.yaml:3:5: stages.a.uses: unknown stage kind `gridmet.nope` (known: cmd, data.dataset, data.ignitions, data.import_kaggle, data.negatives, data.synthesize, data.windows, forecast.cell_days, forecast.evaluate, forecast.experiment, forecast.predict, report, rl.ensemble, rl.evaluate, rl.train, sim.behavior, sim.ensemble, sim.episodes, sim.render, sql)",
         ),
         (
             "stages:\n  a:\n    uses: cmd\n    params: {command: \"echo ${nope}\"}\n",

@@ -453,7 +453,9 @@ fn columns(block: &Block, features: &[String]) -> Option<Vec<usize>> {
 fn resolved_params(config: &ModelConfig) -> Result<serde_json::Value, ForecastError> {
     let v = match config {
         ModelConfig::Baseline { spec, .. } => serde_json::to_value(spec),
-        ModelConfig::Xgboost(e) | ModelConfig::WindowStatsXgboost(e) => serde_json::to_value(&e.params),
+        ModelConfig::Xgboost(e) | ModelConfig::WindowStatsXgboost(e) | ModelConfig::ClimateBoost(e) => {
+            serde_json::to_value(&e.params)
+        }
         ModelConfig::Neural(n) => serde_json::to_value(n),
         other => serde_json::to_value(other),
     };

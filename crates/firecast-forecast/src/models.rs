@@ -29,6 +29,7 @@ pub const KINDS: &[&str] = &[
     "cnn_bilstm",
     "cnn_bilstm_attn",
     "firecast",
+    "climate_boost",
 ];
 
 /// Inputs shared by the flattened baselines: which variables, scaled or not.
@@ -156,6 +157,9 @@ pub enum ModelConfig {
     },
     Xgboost(XgbEntry),
     WindowStatsXgboost(XgbEntry),
+    /// FireCast's blend of where and when: the window statistics and the climatology's rate
+    /// (left out for each training sample's own label) in one boosted model.
+    ClimateBoost(XgbEntry),
     MiniRocket(MiniRocketParams),
     Neural(NeuralConfig),
 }
@@ -231,6 +235,7 @@ impl ModelConfig {
             | "knn" => baseline(kind, params)?,
             "xgboost" => ModelConfig::Xgboost(XgbEntry::parse(params)?),
             "window_stats_xgboost" => ModelConfig::WindowStatsXgboost(XgbEntry::parse(params)?),
+            "climate_boost" => ModelConfig::ClimateBoost(XgbEntry::parse(params)?),
             "minirocket" => ModelConfig::MiniRocket(strict(params)?),
             "mlp" | "lstm2" | "lightts" | "cnn_bilstm" | "cnn_bilstm_attn" | "firecast" => {
                 let kind = NeuralKind::parse(kind)
@@ -244,7 +249,8 @@ impl ModelConfig {
     /// XGBoost's `nthread` from the experiment's `threads` when the model's `params` name
     /// none (the count can change the trees, so it must not be the machine's core count).
     pub fn with_threads(mut self, threads: usize, params: &serde_json::Value) -> Self {
-        if let ModelConfig::Xgboost(x) | ModelConfig::WindowStatsXgboost(x) = &mut self
+        if let ModelConfig::Xgboost(x) | ModelConfig::WindowStatsXgboost(x) | ModelConfig::ClimateBoost(x) =
+            &mut self
             && params.get("nthread").is_none()
         {
             x.params.nthread = u32::try_from(threads).unwrap_or(u32::MAX);
@@ -259,7 +265,7 @@ impl ModelConfig {
             ModelConfig::Baseline { spec, .. } => {
                 matches!(spec, firecast_baselines::BaselineSpec::RandomForest(_))
             }
-            ModelConfig::Xgboost(e) | ModelConfig::WindowStatsXgboost(e) => {
+            ModelConfig::Xgboost(e) | ModelConfig::WindowStatsXgboost(e) | ModelConfig::ClimateBoost(e) => {
                 e.params.subsample < 1.0 || e.params.colsample_bytree < 1.0
             }
             ModelConfig::MiniRocket(_) | ModelConfig::Neural(_) => true,
@@ -319,6 +325,12 @@ pub enum Trained {
         features: Vec<String>,
         stats: bool,
         /// The booster as XGBoost's own JSON model.
+        model_json: String,
+    },
+    ClimateBoost {
+        /// The climatology ([`Trained::Climatology`]) whose rate is the booster's last input.
+        climatology: Box<Trained>,
+        features: Vec<String>,
         model_json: String,
     },
     MiniRocket {
@@ -423,6 +435,45 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
                 model_json: String::from_utf8_lossy(&json).into_owned(),
             }
         }
+        ModelConfig::ClimateBoost(e) => {
+            let params = ClimatologyParams {
+                bandwidth_days: default_bandwidth(),
+                block_degrees: default_block(),
+                prior_strength: default_prior(),
+            };
+            let samples: Vec<(u32, i64, i64, bool)> = ctx
+                .train
+                .meta
+                .iter()
+                .zip(y)
+                .map(|(m, &l)| {
+                    let (r, c) = block_of(m, params.block_degrees);
+                    (m.day_of_year, r, c, l)
+                })
+                .collect();
+            // Each training sample's climatology without its own label (else the booster
+            // learns to read the answer from the rate).
+            let rates = climatology_rates(&params, &samples, prevalence, &samples, true);
+            let features = e.features.resolve(&ctx.train.block.features)?;
+            let x = with_rate(window_statistics(ctx.train.block, &features)?, &rates);
+            let report = |done: u32, total: u32| (ctx.progress)(u64::from(done), u64::from(total), "boost");
+            let booster = firecast_xgboost::Booster::fit_with_progress(
+                &x.data, x.rows, x.cols, y, &e.params, ctx.seed, report,
+            )
+            .map_err(|e| ForecastError::Model(e.to_string()))?;
+            let json = booster
+                .save_json()
+                .map_err(|e| ForecastError::Model(e.to_string()))?;
+            Trained::ClimateBoost {
+                climatology: Box::new(Trained::Climatology {
+                    params,
+                    samples,
+                    prevalence,
+                }),
+                features,
+                model_json: String::from_utf8_lossy(&json).into_owned(),
+            }
+        }
         ModelConfig::MiniRocket(p) => {
             let features = p.features.resolve(&ctx.train.block.features)?;
             let rocket =
@@ -474,6 +525,68 @@ fn last_day_values(block: &Block, feature: &str) -> Result<Vec<f32>, ForecastErr
 }
 
 /// Circular day-of-year distance.
+/// The climatology's rate at each query `(day of year, block row, block col, _)`: the
+/// region's seasonal rate (a Gaussian kernel over the day of the year), and the block's rate
+/// shrunk toward it. With `leave_out`, `queries` are the training `samples` themselves and
+/// each one's own label and weight are left out of its rate.
+fn climatology_rates(
+    params: &ClimatologyParams,
+    samples: &[(u32, i64, i64, bool)],
+    prevalence: f64,
+    queries: &[(u32, i64, i64, bool)],
+    leave_out: bool,
+) -> Vec<f64> {
+    let kernel = |a: u32, b: u32| {
+        let d = doy_distance(a, b) / params.bandwidth_days;
+        (-0.5 * d * d).exp()
+    };
+    let n = samples.len() as f64;
+    queries
+        .iter()
+        .map(|&(qd, r, c, own)| {
+            let (mut gw, mut gp, mut bw, mut bp) = (0.0, 0.0, 0.0, 0.0);
+            for &(doy, sr, sc, l) in samples {
+                let k = kernel(qd, doy);
+                gw += k;
+                gp += k * f64::from(u8::from(l));
+                if sr == r && sc == c {
+                    bw += k;
+                    bp += k * f64::from(u8::from(l));
+                }
+            }
+            let mut prevalence = prevalence;
+            if leave_out {
+                // The query's own sample: kernel weight 1 in the region and in its block.
+                let l = f64::from(u8::from(own));
+                (gw, gp, bw, bp) = (gw - 1.0, gp - l, bw - 1.0, bp - l);
+                prevalence = if n > 1.0 {
+                    (prevalence * n - l) / (n - 1.0)
+                } else {
+                    prevalence
+                };
+            }
+            // Seasonal rate of the whole region, then the block's rate shrunk toward it.
+            let season = (gp + prevalence) / (gw + 1.0);
+            (bp + params.prior_strength * season) / (bw.max(0.0) + params.prior_strength)
+        })
+        .collect()
+}
+
+/// `x` with one more column: the climatology's rate.
+fn with_rate(x: firecast_baselines::Matrix, rates: &[f64]) -> firecast_baselines::Matrix {
+    let cols = x.cols + 1;
+    let mut data = Vec::with_capacity(x.rows * cols);
+    for (row, &rate) in x.data.chunks(x.cols.max(1)).zip(rates) {
+        data.extend_from_slice(row);
+        data.push(rate as f32);
+    }
+    firecast_baselines::Matrix {
+        rows: x.rows,
+        cols,
+        data,
+    }
+}
+
 fn doy_distance(a: u32, b: u32) -> f64 {
     let d = (a as f64 - b as f64).abs();
     d.min(365.25 - d)
@@ -490,31 +603,28 @@ impl Trained {
                 samples,
                 prevalence,
             } => {
-                let kernel = |a: u32, b: u32| {
-                    let d = doy_distance(a, b) / params.bandwidth_days;
-                    (-0.5 * d * d).exp()
-                };
-                inputs
+                let queries: Vec<(u32, i64, i64, bool)> = inputs
                     .meta
                     .iter()
                     .map(|m| {
                         let (r, c) = block_of(m, params.block_degrees);
-                        let (mut gw, mut gp, mut bw, mut bp) = (0.0, 0.0, 0.0, 0.0);
-                        for &(doy, sr, sc, l) in samples {
-                            let k = kernel(m.day_of_year, doy);
-                            gw += k;
-                            gp += k * f64::from(u8::from(l));
-                            if sr == r && sc == c {
-                                bw += k;
-                                bp += k * f64::from(u8::from(l));
-                            }
-                        }
-                        // Seasonal rate of the whole region, then the block's rate shrunk
-                        // toward it.
-                        let season = (gp + prevalence) / (gw + 1.0);
-                        (bp + params.prior_strength * season) / (bw + params.prior_strength)
+                        (m.day_of_year, r, c, false)
                     })
-                    .collect()
+                    .collect();
+                climatology_rates(params, samples, *prevalence, &queries, false)
+            }
+            Trained::ClimateBoost {
+                climatology,
+                features,
+                model_json,
+            } => {
+                let rates = climatology.predict(inputs, device)?;
+                let x = with_rate(window_statistics(inputs.block, features)?, &rates);
+                let booster = firecast_xgboost::Booster::load_json(model_json.as_bytes())
+                    .map_err(|e| ForecastError::Model(e.to_string()))?;
+                booster
+                    .predict_proba(&x.data, x.rows, x.cols)
+                    .map_err(|e| ForecastError::Model(e.to_string()))?
             }
             Trained::FireDangerIndex { feature, a, b } => last_day_values(inputs.block, feature)?
                 .into_iter()
