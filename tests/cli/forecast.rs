@@ -310,6 +310,11 @@ stages:
     assert_eq!(rows.len(), 7, "every model of the protocol");
     for row in rows {
         assert!(row["auprc_share_of_oracle"].is_number(), "{row}");
+        let (lo, hi) = (
+            row["auprc_interval"][0].as_f64().unwrap(),
+            row["auprc_interval"][1].as_f64().unwrap(),
+        );
+        assert!(lo.is_finite() && lo <= hi, "{row}");
         // Corrected to the prior, the forecasts are small on average (0.2 or more before).
         let (brier, mean) = (
             row["brier"].as_f64().unwrap(),
@@ -333,6 +338,12 @@ stages:
         "{table}"
     );
     assert!(p.path("build/cells-leak_free/reliability.png").is_file());
+    // FireCast's recommended forecaster (here its network, the only one) against the best other.
+    assert_eq!(r["comparison"]["model"], "firecast", "{}", r["comparison"]);
+    assert!(
+        table.contains("FireCast's recommended forecaster `firecast` against"),
+        "{table}"
+    );
     // The day's map over a region: every GRIDMET cell in the box, a PNG and its numbers.
     p.ok(&[
         "forecast",

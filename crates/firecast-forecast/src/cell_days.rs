@@ -41,6 +41,14 @@ pub struct CellDayParams {
     pub reliability_bins: usize,
     #[serde(default = "default_device")]
     pub device: String,
+    /// Resamples of GRIDMET cells for the AUPRC intervals and the paired comparison (a few
+    /// dozen ignitions make AUPRC noisy).
+    #[serde(default = "default_bootstrap")]
+    pub bootstrap: usize,
+}
+
+fn default_bootstrap() -> usize {
+    200
 }
 
 fn one() -> u32 {
@@ -73,6 +81,20 @@ pub struct CellDayRow {
     pub auprc_share_of_oracle: Option<f64>,
     /// Mean corrected probability (compare with the prevalence).
     pub mean_probability: f64,
+    /// 95 % percentile interval of the AUPRC of the seeds' mean forecast, resampling cells.
+    #[serde(default)]
+    pub auprc_interval: Option<(f64, f64)>,
+}
+
+/// FireCast's recommended forecaster against the model with the best AUPRC (or the runner-up
+/// when it is the best itself), paired over cells and seeds.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct CellDayComparison {
+    pub model: String,
+    pub other: String,
+    pub auprc_diff: f64,
+    pub auprc_diff_interval: (f64, f64),
+    pub p_value: f64,
 }
 
 /// Everything the scoring measured.
@@ -101,6 +123,9 @@ pub struct CellDayResult {
     pub oracle: Option<CellDayRow>,
     /// By AUPRC, best first.
     pub rows: Vec<CellDayRow>,
+    pub bootstrap: usize,
+    #[serde(default)]
+    pub comparison: Option<CellDayComparison>,
 }
 
 /// King & Zeng's prior correction of a probability learnt at prevalence `sampled` to a
@@ -142,6 +167,7 @@ fn score_row(
         brier_skill_vs_prior: mean(&|p| 1.0 - firecast_eval::metrics::brier(y, p) / reference),
         auprc_share_of_oracle: None,
         mean_probability: mean(&|p| p.iter().sum::<f64>() / p.len().max(1) as f64),
+        auprc_interval: None,
     }
 }
 
@@ -395,6 +421,27 @@ pub fn score(
         });
     }
     let prevalence = ignitions as f64 / y.len() as f64;
+    // Cell-days of one cell move together in the resamples.
+    let clusters: Vec<u64> = complete
+        .iter()
+        .map(|&s| {
+            let (j, i, _) = queries[table.samples[s].sample_id as usize];
+            (j * lons.len() + i) as u64
+        })
+        .collect();
+    let interval = |p: &[f64]| {
+        firecast_eval::bootstrap::ci(
+            &y,
+            p,
+            Some(&clusters),
+            params.bootstrap,
+            0,
+            0.95,
+            firecast_eval::metrics::average_precision,
+        )
+        .ok()
+        .map(|i| (i.low, i.high))
+    };
 
     let oracle = if inputs.truth.is_some() {
         let truth: Option<Vec<f64>> = complete
@@ -402,13 +449,15 @@ pub fn score(
             .map(|&s| table.samples[s].true_probability.map(f64::from))
             .collect();
         truth.map(|t| {
-            score_row(
+            let mut row = score_row(
                 ("oracle", "truth", "oracle"),
                 &y,
-                &[t],
+                std::slice::from_ref(&t),
                 params.reliability_bins,
                 prior,
-            )
+            );
+            row.auprc_interval = interval(&t);
+            row
         })
     } else {
         None
@@ -416,6 +465,7 @@ pub fn score(
 
     let mut rows = Vec::new();
     let mut curves: Vec<(String, Vec<f64>)> = Vec::new();
+    let mut scores: Vec<(String, Vec<Vec<f64>>)> = Vec::new();
     for m in &models {
         progress(&format!("scoring {} ({} seeds)", m.model, m.runs.len()));
         let mut per_seed = Vec::new();
@@ -448,10 +498,46 @@ pub fn score(
         if let Some(o) = &oracle {
             row.auprc_share_of_oracle = Some((row.auprc - prevalence) / (o.auprc - prevalence));
         }
-        curves.push((m.model.clone(), mean_over_seeds(&per_seed)));
+        let mean = mean_over_seeds(&per_seed);
+        row.auprc_interval = interval(&mean);
+        curves.push((m.model.clone(), mean));
+        scores.push((m.model.clone(), per_seed));
         rows.push(row);
     }
     rows.sort_by(|a, b| b.auprc.total_cmp(&a.auprc).then(a.model.cmp(&b.model)));
+    // FireCast's recommended forecaster (by validation, as Table III chooses it) against the
+    // best other model here.
+    let comparison =
+        crate::experiment::recommended_forecaster(&protocol, &result.results).and_then(|focus| {
+            let other = rows.iter().find(|r| r.model != focus.model)?;
+            let find = |name: &str| scores.iter().find(|s| s.0 == name).map(|s| &s.1);
+            let (a, b) = (find(&focus.model)?, find(&other.model)?);
+            let k = if a.len() == 1 || b.len() == 1 {
+                a.len().max(b.len())
+            } else {
+                a.len().min(b.len())
+            };
+            let pick =
+                |v: &[Vec<f64>]| -> Vec<Vec<f64>> { (0..k).map(|i| v[i.min(v.len() - 1)].clone()).collect() };
+            let d = firecast_eval::bootstrap::paired_diff_ci_seeds(
+                &y,
+                &pick(a),
+                &pick(b),
+                Some(&clusters),
+                params.bootstrap,
+                0,
+                0.95,
+                firecast_eval::metrics::average_precision,
+            )
+            .ok()?;
+            Some(CellDayComparison {
+                model: focus.model.clone(),
+                other: other.model.clone(),
+                auprc_diff: d.interval.estimate,
+                auprc_diff_interval: (d.interval.low, d.interval.high),
+                p_value: d.p_value,
+            })
+        });
     if let Some(path) = plot {
         let mut shown: Vec<(String, Vec<f64>)> = rows
             .iter()
@@ -488,6 +574,8 @@ pub fn score(
         reliability_bins: params.reliability_bins,
         oracle,
         rows,
+        bootstrap: params.bootstrap,
+        comparison,
     })
 }
 
@@ -617,7 +705,7 @@ pub fn markdown(r: &CellDayResult) -> String {
     );
     let _ = writeln!(
         md,
-        "| model | family | AUPRC | share of the oracle's AUPRC skill | AUROC | Brier | Brier skill vs the prior | log loss | ECE | mean forecast |"
+        "| model | family | AUPRC [95 % interval over cells] | share of the oracle's AUPRC skill | AUROC | Brier | Brier skill vs the prior | log loss | ECE | mean forecast |"
     );
     let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     let fmt = |v: f64, d: usize| {
@@ -640,7 +728,10 @@ pub fn markdown(r: &CellDayResult) -> String {
             "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             r.model,
             r.family,
-            fmt(r.auprc, 4),
+            match r.auprc_interval {
+                Some((lo, hi)) => format!("{} [{}, {}]", fmt(r.auprc, 4), fmt(lo, 4), fmt(hi, 4)),
+                None => fmt(r.auprc, 4),
+            },
             r.auprc_share_of_oracle
                 .map_or("—".into(), |s| format!("{:.0} %", s * 100.0)),
             fmt(r.auroc, 3),
@@ -659,9 +750,30 @@ pub fn markdown(r: &CellDayResult) -> String {
     }
     let _ = writeln!(
         md,
-        "\nThe no-skill AUPRC is the prevalence ({:.2e}). `reliability.png` draws the best five and the oracle.",
-        r.prevalence
+        "\nThe no-skill AUPRC is the prevalence ({:.2e}); intervals from {} resamples of the GRIDMET cells. \
+         `reliability.png` draws the best five and the oracle.",
+        r.prevalence, r.bootstrap
     );
+    if let Some(c) = &r.comparison {
+        let _ = writeln!(
+            md,
+            "\nFireCast's recommended forecaster `{}` against `{}` (paired over cells and seeds): ΔAUPRC {:+.4} \
+             [{:+.4}, {:+.4}], bootstrap p {:.2}: {}.",
+            c.model,
+            c.other,
+            c.auprc_diff,
+            c.auprc_diff_interval.0,
+            c.auprc_diff_interval.1,
+            c.p_value,
+            if c.auprc_diff_interval.0 > 0.0 {
+                "better"
+            } else if c.auprc_diff_interval.1 < 0.0 {
+                "worse"
+            } else {
+                "not told apart"
+            }
+        );
+    }
     md
 }
 

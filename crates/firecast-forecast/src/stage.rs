@@ -34,7 +34,8 @@ impl StageKind for CellDaysStage {
         "forecast.cell_days"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: AUPRC intervals over cells and the recommended forecaster's paired comparison.
+        2
     }
     fn summary(&self) -> &'static str {
         "saved models -> every GRIDMET cell-day of a period at the true prevalence: AUPRC, Brier and reliability after the prior correction, beside the oracle"
