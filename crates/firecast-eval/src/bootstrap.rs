@@ -580,7 +580,8 @@ mod tests {
         assert!(better.p_value < 0.01, "{better:?}");
         assert_eq!(better.seeds, 2);
         // Mismatched seed counts name the argument.
-        let err = paired_diff_ci_seeds(&y, std::slice::from_ref(&p), &[], None, 10, 5, 0.95, roc_auc).unwrap_err();
+        let err =
+            paired_diff_ci_seeds(&y, std::slice::from_ref(&p), &[], None, 10, 5, 0.95, roc_auc).unwrap_err();
         assert!(err.to_string().contains("b (seeds)"), "{err}");
     }
 
