@@ -512,17 +512,11 @@ pub fn score(
             let other = rows.iter().find(|r| r.model != focus.model)?;
             let find = |name: &str| scores.iter().find(|s| s.0 == name).map(|s| &s.1);
             let (a, b) = (find(&focus.model)?, find(&other.model)?);
-            let k = if a.len() == 1 || b.len() == 1 {
-                a.len().max(b.len())
-            } else {
-                a.len().min(b.len())
-            };
-            let pick =
-                |v: &[Vec<f64>]| -> Vec<Vec<f64>> { (0..k).map(|i| v[i.min(v.len() - 1)].clone()).collect() };
+            let (a, b) = crate::experiment::seed_pairs(a, b);
             let d = firecast_eval::bootstrap::paired_diff_ci_seeds(
                 &y,
-                &pick(a),
-                &pick(b),
+                &a,
+                &b,
                 Some(&clusters),
                 params.bootstrap,
                 0,

@@ -1052,6 +1052,18 @@ pub fn recommended_forecaster<'a>(protocol: &str, results: &'a [ModelResult]) ->
     best
 }
 
+/// Two models' per-seed scores as seed pairs: seed i with seed i, or a deterministic model's
+/// one run with each seed of the other.
+pub(crate) fn seed_pairs(a: &[Vec<f64>], b: &[Vec<f64>]) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    let k = if a.len() == 1 || b.len() == 1 {
+        a.len().max(b.len())
+    } else {
+        a.len().min(b.len())
+    };
+    let pick = |v: &[Vec<f64>]| -> Vec<Vec<f64>> { (0..k).map(|i| v[i.min(v.len() - 1)].clone()).collect() };
+    (pick(a), pick(b))
+}
+
 /// The protocol's paired comparisons over all seeds: FireCast's recommended forecaster
 /// against every other model (the majority rule included: its AUROC is 0.5), and the best
 /// model by test AUROC against the best of the paper's baselines and references; Holm's
@@ -1103,15 +1115,7 @@ pub(crate) fn comparisons(
         let (Some(a), Some(b)) = (find(&model), find(&other)) else {
             continue;
         };
-        // A deterministic model runs once: its one run meets each seed of the other.
-        let k = if a.len() == 1 || b.len() == 1 {
-            a.len().max(b.len())
-        } else {
-            a.len().min(b.len())
-        };
-        let pick =
-            |v: &[Vec<f64>]| -> Vec<Vec<f64>> { (0..k).map(|i| v[i.min(v.len() - 1)].clone()).collect() };
-        let (a, b) = (pick(a), pick(b));
+        let (a, b) = seed_pairs(a, b);
         let (a, b) = (a.as_slice(), b.as_slice());
         let ci = |statistic: fn(&[bool], &[f64]) -> Option<f64>| {
             firecast_eval::bootstrap::paired_diff_ci_seeds(
@@ -1147,7 +1151,7 @@ pub(crate) fn comparisons(
             questions,
             model,
             other,
-            seeds: k,
+            seeds: a.len(),
             auroc_diff: roc.interval.estimate,
             auroc_diff_interval: (roc.interval.low, roc.interval.high),
             auprc_diff: pr.interval.estimate,
