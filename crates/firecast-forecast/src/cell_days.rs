@@ -203,7 +203,7 @@ pub fn score(
     inputs: &CellDayInputs<'_>,
     params: &CellDayParams,
     plot: Option<&Path>,
-    progress: &dyn Fn(&str),
+    progress: &dyn Fn(&str, usize, usize),
 ) -> Result<CellDayResult, ForecastError> {
     let device = crate::parse_device(&params.device)?;
     let results_path = inputs.experiment.join("results.json");
@@ -322,14 +322,18 @@ pub fn score(
         .iter()
         .flat_map(|&d| cells.iter().map(move |&(j, i)| (j, i, d)))
         .collect();
-    progress(&format!(
-        "{} cells x {} days = {} cell-days, protocol {protocol} (days {} to {})",
-        cells.len(),
-        days.len(),
-        queries.len(),
-        info.days.0,
-        info.days.1
-    ));
+    progress(
+        &format!(
+            "{} cells x {} days = {} cell-days, protocol {protocol} (days {} to {})",
+            cells.len(),
+            days.len(),
+            queries.len(),
+            info.days.0,
+            info.days.1
+        ),
+        0,
+        1,
+    );
     let samples: Vec<firecast_dataset::windows::SampleIn> = queries
         .iter()
         .enumerate()
@@ -466,8 +470,12 @@ pub fn score(
     let mut rows = Vec::new();
     let mut curves: Vec<(String, Vec<f64>)> = Vec::new();
     let mut scores: Vec<(String, Vec<Vec<f64>>)> = Vec::new();
-    for m in &models {
-        progress(&format!("scoring {} ({} seeds)", m.model, m.runs.len()));
+    for (k, m) in models.iter().enumerate() {
+        progress(
+            &format!("scoring {} ({} seeds)", m.model, m.runs.len()),
+            k,
+            models.len(),
+        );
         let mut per_seed = Vec::new();
         for (_, rel) in crate::stage::seed_bundles(inputs.experiment, None, &protocol, &m.model)? {
             let bundle = crate::bundle::load(&inputs.experiment.join(&rel), device)?;
@@ -504,6 +512,7 @@ pub fn score(
         scores.push((m.model.clone(), per_seed));
         rows.push(row);
     }
+    progress("scored every model", models.len(), models.len());
     rows.sort_by(|a, b| b.auprc.total_cmp(&a.auprc).then(a.model.cmp(&b.model)));
     // FireCast's recommended forecaster (by validation, as Table III chooses it) against the
     // best other model here.

@@ -122,14 +122,19 @@ impl StageKind for CellDaysStage {
                 ignitions: &ignitions,
             };
             let mut lines = Vec::new();
-            let steps = std::cell::RefCell::new(Vec::new());
-            let result =
-                crate::cell_days::score(&inputs, &params, Some(&out.join("reliability.png")), &|line| {
-                    steps.borrow_mut().push(line.to_string());
-                })?;
-            for line in steps.into_inner() {
-                ctx.log(line);
-            }
+            // A bar over the models (reading the windows comes first, at 0).
+            let bar = ctx.progress_bar(1, "models scored over all cell-days");
+            let result = crate::cell_days::score(
+                &inputs,
+                &params,
+                Some(&out.join("reliability.png")),
+                &|line, done, total| {
+                    bar.set_length(total as u64);
+                    bar.set_position(done as u64);
+                    ctx.log(line);
+                },
+            )?;
+            bar.finish_and_clear();
             crate::cell_days::write(&out, &result)?;
             for row in result.oracle.iter().chain(&result.rows) {
                 ctx.metric(&format!("cell_days/{}/auprc", row.model), 0, row.auprc);
