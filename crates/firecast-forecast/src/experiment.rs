@@ -964,6 +964,29 @@ fn breakdown_by_tier(
         .collect()
 }
 
+/// The protocol's best model by mean test AUROC and the best other model of the paper's
+/// baselines and references (the majority rule left out).
+fn best_and_baseline<'a>(
+    protocol: &str,
+    results: &'a [ModelResult],
+) -> Option<(&'a ModelResult, &'a ModelResult)> {
+    let auroc = |r: &ModelResult| r.test.get("auroc").copied().unwrap_or(f64::NAN);
+    let here = || {
+        results
+            .iter()
+            .filter(move |r| r.protocol == protocol && auroc(r).is_finite())
+    };
+    let best = here().max_by(|a, b| auroc(a).total_cmp(&auroc(b)))?;
+    let baseline = here()
+        .filter(|r| {
+            r.model != best.model
+                && matches!(r.family.as_str(), "paper_baseline" | "reference")
+                && r.kind != "majority"
+        })
+        .max_by(|a, b| auroc(a).total_cmp(&auroc(b)))?;
+    Some((best, baseline))
+}
+
 /// The best model (by mean test AUROC) against the best other model of the paper's
 /// baselines and references, on the first seed's scores.
 pub(crate) fn paired_test(
@@ -974,21 +997,7 @@ pub(crate) fn paired_test(
     clusters: &[u64],
     evaluation: &Evaluation,
 ) -> Option<PairedTest> {
-    let here: Vec<&ModelResult> = results.iter().filter(|r| r.protocol == protocol).collect();
-    let auroc = |r: &ModelResult| r.test.get("auroc").copied().unwrap_or(f64::NAN);
-    let best = here
-        .iter()
-        .filter(|r| auroc(r).is_finite())
-        .max_by(|a, b| auroc(a).total_cmp(&auroc(b)))?;
-    let baseline = here
-        .iter()
-        .filter(|r| {
-            r.model != best.model
-                && matches!(r.family.as_str(), "paper_baseline" | "reference")
-                && r.kind != "majority"
-        })
-        .filter(|r| auroc(r).is_finite())
-        .max_by(|a, b| auroc(a).total_cmp(&auroc(b)))?;
+    let (best, baseline) = best_and_baseline(protocol, results)?;
     let find = |name: &str| scores.iter().find(|s| s.0 == name);
     let (_, _, sa, ta) = find(&best.model)?;
     let (_, _, sb, tb) = find(&baseline.model)?;
@@ -1090,24 +1099,8 @@ pub(crate) fn comparisons(
             ask(&focus.model, &r.model, "firecast_vs_model");
         }
     }
-    let auroc = |r: &ModelResult| r.test.get("auroc").copied().unwrap_or(f64::NAN);
-    let best = here
-        .iter()
-        .filter(|r| auroc(r).is_finite())
-        .max_by(|a, b| auroc(a).total_cmp(&auroc(b)));
-    if let Some(best) = best {
-        let baseline = here
-            .iter()
-            .filter(|r| {
-                r.model != best.model
-                    && matches!(r.family.as_str(), "paper_baseline" | "reference")
-                    && r.kind != "majority"
-            })
-            .filter(|r| auroc(r).is_finite())
-            .max_by(|a, b| auroc(a).total_cmp(&auroc(b)));
-        if let Some(baseline) = baseline {
-            ask(&best.model, &baseline.model, "best_vs_best_baseline");
-        }
+    if let Some((best, baseline)) = best_and_baseline(protocol, results) {
+        ask(&best.model, &baseline.model, "best_vs_best_baseline");
     }
     let find = |name: &str| scores.iter().find(|s| s.0 == name).map(|s| &s.2);
     let mut out: Vec<Comparison> = Vec::new();
