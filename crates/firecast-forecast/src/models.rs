@@ -367,16 +367,7 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
     Ok(match config {
         ModelConfig::Majority => Trained::Majority { prevalence },
         ModelConfig::Climatology(p) => {
-            let samples = ctx
-                .train
-                .meta
-                .iter()
-                .zip(y)
-                .map(|(m, &l)| {
-                    let (r, c) = block_of(m, p.block_degrees);
-                    (m.day_of_year, r, c, l)
-                })
-                .collect();
+            let samples = climatology_samples(&ctx.train.meta, y, p.block_degrees);
             Trained::Climatology {
                 params: p.clone(),
                 samples,
@@ -421,18 +412,11 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
             } else {
                 crate::features::flatten(ctx.train.block, &features)?
             };
-            let report = |done: u32, total: u32| (ctx.progress)(u64::from(done), u64::from(total), "boost");
-            let booster = firecast_xgboost::Booster::fit_with_progress(
-                &x.data, x.rows, x.cols, y, &e.params, ctx.seed, report,
-            )
-            .map_err(|e| ForecastError::Model(e.to_string()))?;
-            let json = booster
-                .save_json()
-                .map_err(|e| ForecastError::Model(e.to_string()))?;
+            let model_json = fit_booster(&x, y, e, ctx)?;
             Trained::Xgboost {
                 features,
                 stats,
-                model_json: String::from_utf8_lossy(&json).into_owned(),
+                model_json,
             }
         }
         ModelConfig::ClimateBoost(e) => {
@@ -441,29 +425,13 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
                 block_degrees: default_block(),
                 prior_strength: default_prior(),
             };
-            let samples: Vec<(u32, i64, i64, bool)> = ctx
-                .train
-                .meta
-                .iter()
-                .zip(y)
-                .map(|(m, &l)| {
-                    let (r, c) = block_of(m, params.block_degrees);
-                    (m.day_of_year, r, c, l)
-                })
-                .collect();
+            let samples = climatology_samples(&ctx.train.meta, y, params.block_degrees);
             // Each training sample's climatology without its own label (else the booster
             // learns to read the answer from the rate).
             let rates = climatology_rates(&params, &samples, prevalence, &samples, true);
             let features = e.features.resolve(&ctx.train.block.features)?;
             let x = with_rate(window_statistics(ctx.train.block, &features)?, &rates);
-            let report = |done: u32, total: u32| (ctx.progress)(u64::from(done), u64::from(total), "boost");
-            let booster = firecast_xgboost::Booster::fit_with_progress(
-                &x.data, x.rows, x.cols, y, &e.params, ctx.seed, report,
-            )
-            .map_err(|e| ForecastError::Model(e.to_string()))?;
-            let json = booster
-                .save_json()
-                .map_err(|e| ForecastError::Model(e.to_string()))?;
+            let model_json = fit_booster(&x, y, e, ctx)?;
             Trained::ClimateBoost {
                 climatology: Box::new(Trained::Climatology {
                     params,
@@ -471,7 +439,7 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
                     prevalence,
                 }),
                 features,
-                model_json: String::from_utf8_lossy(&json).into_owned(),
+                model_json,
             }
         }
         ModelConfig::MiniRocket(p) => {
@@ -572,6 +540,43 @@ fn climatology_rates(
         .collect()
 }
 
+/// Per training sample: (day of year, block row, block col, label), the climatology's data.
+fn climatology_samples(meta: &[&SampleMeta], y: &[bool], block_degrees: f64) -> Vec<(u32, i64, i64, bool)> {
+    meta.iter()
+        .zip(y)
+        .map(|(m, &l)| {
+            let (r, c) = block_of(m, block_degrees);
+            (m.day_of_year, r, c, l)
+        })
+        .collect()
+}
+
+/// Fits an XGBoost booster on `x` and returns its JSON model.
+fn fit_booster(
+    x: &firecast_baselines::Matrix,
+    y: &[bool],
+    e: &XgbEntry,
+    ctx: &FitContext<'_>,
+) -> Result<String, ForecastError> {
+    let report = |done: u32, total: u32| (ctx.progress)(u64::from(done), u64::from(total), "boost");
+    let booster =
+        firecast_xgboost::Booster::fit_with_progress(&x.data, x.rows, x.cols, y, &e.params, ctx.seed, report)
+            .map_err(|e| ForecastError::Model(e.to_string()))?;
+    let json = booster
+        .save_json()
+        .map_err(|e| ForecastError::Model(e.to_string()))?;
+    Ok(String::from_utf8_lossy(&json).into_owned())
+}
+
+/// A saved booster's probabilities for `x`.
+fn booster_proba(model_json: &str, x: &firecast_baselines::Matrix) -> Result<Vec<f64>, ForecastError> {
+    let booster = firecast_xgboost::Booster::load_json(model_json.as_bytes())
+        .map_err(|e| ForecastError::Model(e.to_string()))?;
+    booster
+        .predict_proba(&x.data, x.rows, x.cols)
+        .map_err(|e| ForecastError::Model(e.to_string()))
+}
+
 /// `x` with one more column: the climatology's rate.
 fn with_rate(x: firecast_baselines::Matrix, rates: &[f64]) -> firecast_baselines::Matrix {
     let cols = x.cols + 1;
@@ -620,11 +625,7 @@ impl Trained {
             } => {
                 let rates = climatology.predict(inputs, device)?;
                 let x = with_rate(window_statistics(inputs.block, features)?, &rates);
-                let booster = firecast_xgboost::Booster::load_json(model_json.as_bytes())
-                    .map_err(|e| ForecastError::Model(e.to_string()))?;
-                booster
-                    .predict_proba(&x.data, x.rows, x.cols)
-                    .map_err(|e| ForecastError::Model(e.to_string()))?
+                booster_proba(model_json, &x)?
             }
             Trained::FireDangerIndex { feature, a, b } => last_day_values(inputs.block, feature)?
                 .into_iter()
@@ -654,11 +655,7 @@ impl Trained {
                 } else {
                     crate::features::flatten(inputs.block, features)?
                 };
-                let booster = firecast_xgboost::Booster::load_json(model_json.as_bytes())
-                    .map_err(|e| ForecastError::Model(e.to_string()))?;
-                booster
-                    .predict_proba(&x.data, x.rows, x.cols)
-                    .map_err(|e| ForecastError::Model(e.to_string()))?
+                booster_proba(model_json, &x)?
             }
             Trained::MiniRocket {
                 rocket, scaler, head, ..
@@ -677,5 +674,45 @@ impl Trained {
             Trained::Neural(m) => Some(m.parameter_count()),
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// climate_boost's training input: each sample's climatology with its own label left out
+    /// equals the climatology fitted without that sample.
+    #[test]
+    fn a_left_out_rate_is_the_rate_without_the_sample() {
+        let params = ClimatologyParams {
+            bandwidth_days: default_bandwidth(),
+            block_degrees: default_block(),
+            prior_strength: default_prior(),
+        };
+        let samples: Vec<(u32, i64, i64, bool)> = (0..40u32)
+            .map(|k| (1 + (k * 37) % 365, i64::from(k % 3), i64::from(k % 2), k % 5 < 2))
+            .collect();
+        let prevalence =
+            |s: &[(u32, i64, i64, bool)]| s.iter().filter(|x| x.3).count() as f64 / s.len() as f64;
+        let left_out = climatology_rates(&params, &samples, prevalence(&samples), &samples, true);
+        for (i, &q) in samples.iter().enumerate() {
+            let mut rest = samples.clone();
+            rest.remove(i);
+            let without = climatology_rates(&params, &rest, prevalence(&rest), &[q], false)[0];
+            assert!(
+                (left_out[i] - without).abs() < 1e-12,
+                "sample {i}: {} vs {without}",
+                left_out[i]
+            );
+        }
+        // Without leaving out, a positive sample's own label raises its rate.
+        let kept = climatology_rates(&params, &samples, prevalence(&samples), &samples, false);
+        assert!(
+            samples
+                .iter()
+                .zip(kept.iter().zip(&left_out))
+                .any(|(s, (k, l))| s.3 && k > l)
+        );
     }
 }
