@@ -967,7 +967,7 @@ pub fn map_png(map: &ProbabilityMap, path: &std::path::Path) -> Result<(), crate
     );
     let mut chart = Chart::new(820, 660)
         .title(format!(
-            "Ignition probability on {}: {} ({}, {} seed{}); threshold {:.2}",
+            "Model probability on {}: {} ({}, {} seed{}), threshold {:.2}",
             map.date,
             map.model,
             map.protocol,
@@ -975,9 +975,9 @@ pub fn map_png(map: &ProbabilityMap, path: &std::path::Path) -> Result<(), crate
             if map.seeds == 1 { "" } else { "s" },
             map.threshold
         ))
-        .x_label(
-            "longitude, degrees east; the model's probability at its training prevalence, not a daily rate",
-        )
+        // "Model probability": at the training data's prevalence, not a daily rate (a label
+        // saying so did not fit under the map).
+        .x_label("longitude, degrees east")
         .y_label("latitude, degrees north")
         .x_range(x0, x1)
         .y_range(y0, y1)

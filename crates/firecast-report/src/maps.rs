@@ -427,8 +427,9 @@ pub fn land_cover_legend(land: &Landscape, no_data_cells: u64) -> String {
                 .map_or_else(|| format!("code {code}"), |m| format!("{} {}", m.code, m.name)),
         };
         let name = if code == firecast_episodes::landfire::NODATA_FUEL_CODE && no_data_cells > 0 {
+            // Short: legend entries do not wrap, and a printed column is narrow.
             format!(
-                "{name} or no fuel data ({:.0} % of the map has none; not burnable)",
+                "{name} or no fuel data ({:.0} % none)",
                 no_data_cells as f64 / n as f64 * 100.0
             )
         } else {
