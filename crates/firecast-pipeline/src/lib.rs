@@ -20,6 +20,7 @@ pub mod cmd;
 pub mod dvc;
 pub mod error;
 pub mod executor;
+pub mod extends;
 pub mod hash;
 mod locate;
 pub mod lock;

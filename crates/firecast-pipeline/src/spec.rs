@@ -370,7 +370,7 @@ pub fn deserialize_mapping_enums<T: serde::de::DeserializeOwned>(
     source: &str,
 ) -> Result<T, SpecError> {
     let value: Value = deserialize_located(file, source)?;
-    let json = crate::plan::yaml_to_json(&value).map_err(|m| SpecError::new(file, "", m))?;
+    let json = yaml_to_json(&value).map_err(|m| SpecError::new(file, "", m))?;
     crate::stage::deserialize_params(&json)
         .map_err(|e| SpecError::new(file, e.path.replace(".?", ""), e.message).located_in(source))
 }
@@ -538,6 +538,39 @@ pub(crate) fn scalar_to_string(v: &Value) -> Option<String> {
     }
 }
 
+/// YAML to JSON (for params): mapping keys must be strings, numbers must be finite.
+pub fn yaml_to_json(v: &Value) -> Result<serde_json::Value, String> {
+    Ok(match v {
+        Value::Null => serde_json::Value::Null,
+        Value::Bool(b) => serde_json::Value::Bool(*b),
+        Value::Number(n) => {
+            if let Some(i) = n.as_i64() {
+                serde_json::Value::from(i)
+            } else if let Some(u) = n.as_u64() {
+                serde_json::Value::from(u)
+            } else {
+                let f = n.as_f64().unwrap_or(f64::NAN);
+                serde_json::Number::from_f64(f)
+                    .map(serde_json::Value::Number)
+                    .ok_or_else(|| format!("number {f} is not finite"))?
+            }
+        }
+        Value::String(s) => serde_json::Value::String(s.clone()),
+        Value::Sequence(items) => {
+            serde_json::Value::Array(items.iter().map(yaml_to_json).collect::<Result<_, _>>()?)
+        }
+        Value::Mapping(map) => {
+            let mut out = serde_json::Map::new();
+            for (k, v) in map {
+                let key = scalar_to_string(k).ok_or("mapping keys must be scalars")?;
+                out.insert(key, yaml_to_json(v)?);
+            }
+            serde_json::Value::Object(out)
+        }
+        Value::Tagged(t) => yaml_to_json(&t.value)?,
+    })
+}
+
 struct Scope<'a> {
     vars: &'a Mapping,
     item: Option<&'a Value>,
@@ -670,7 +703,7 @@ fn render_string(s: &str, scope: &Scope<'_>) -> Result<Value, String> {
     Ok(Value::String(out))
 }
 
-fn merge_mapping(base: &mut Mapping, overlay: Mapping) {
+pub(crate) fn merge_mapping(base: &mut Mapping, overlay: Mapping) {
     for (k, v) in overlay {
         match (base.get_mut(&k), v) {
             (Some(Value::Mapping(b)), Value::Mapping(o)) => merge_mapping(b, o),

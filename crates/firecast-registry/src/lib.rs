@@ -6,6 +6,7 @@
 //! Also here: the `sql` stage kind (DuckDB over the stage's inputs) and
 //! `query`, which exposes registered Parquet datasets as views.
 
+pub mod saved_models;
 mod sql_stage;
 
 use std::collections::BTreeMap;

@@ -1,9 +1,8 @@
 //! Integration tests of firecast-rl.
 
-mod cartpole;
 mod ensemble;
-mod golden;
 mod imitation;
+mod recipes;
 mod recordings;
 mod recurrent;
 mod tiny;
