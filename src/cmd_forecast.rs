@@ -29,21 +29,8 @@ pub enum ExperimentCommand {
 pub struct RunArgs {
     /// The experiment file.
     pub file: PathBuf,
-    /// Override a key: `-S seeds=[1,2,3]`, `-S models.3.params.max_epochs=5` (value read as YAML).
-    #[arg(short = 'S', long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
-    /// Torch device: auto, cpu, cuda, cuda:N (overrides the file's `device`).
-    #[arg(long)]
-    pub device: Option<String>,
-    /// libtorch and XGBoost threads (overrides the file's `threads`; part of the result and its cache key).
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Report folder [default: experiments/runs/<name>].
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Run even when nothing changed.
-    #[arg(short, long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub spec: crate::settings::SpecArgs,
 }
 
 #[derive(Debug, Args)]
@@ -135,11 +122,11 @@ pub fn run_experiment_command(settings: &Settings, command: ExperimentCommand) -
 
 fn run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
     let file = crate::cmd_pipeline::relative_to_root(settings, &args.file);
-    let mut spec = ExperimentSpec::load(&settings.root, &file, &args.set)?;
-    if let Some(device) = &args.device {
+    let mut spec = ExperimentSpec::load(&settings.root, &file, &args.spec.set)?;
+    if let Some(device) = &args.spec.device {
         spec.device = device.clone();
     }
-    if let Some(threads) = args.threads {
+    if let Some(threads) = args.spec.threads {
         spec.threads = threads;
     }
     let dataset = spec.dataset.take().with_context(|| {
@@ -157,6 +144,7 @@ fn run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let out = args
+        .spec
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("experiments/runs").join(&spec.name));
@@ -168,6 +156,10 @@ fn run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
         "inputs": {"dataset": dataset.display().to_string()},
         "outputs": {"report": out.display().to_string()},
     });
+    if args.spec.dry_run {
+        crate::settings::SpecArgs::print_stage(&stage)?;
+        return Ok(ExitCode::SUCCESS);
+    }
     let (outcome, secs, run_id) = crate::cmd_pipeline::run_one_stage(
         settings,
         &file,
@@ -176,7 +168,7 @@ fn run(settings: &Settings, args: &RunArgs) -> anyhow::Result<ExitCode> {
         stage,
         crate::cmd_pipeline::OneStage {
             description: Some(format!("experiment {} ({})", spec.name, file.display())),
-            force: args.force,
+            force: args.spec.force,
             kinds: None,
         },
     )?;
@@ -509,380 +501,6 @@ fn predict(settings: &Settings, args: &PredictArgs) -> anyhow::Result<ExitCode> 
     Ok(ExitCode::SUCCESS)
 }
 
-/// `firecast bench forecast`.
-#[derive(Debug, Args)]
-pub struct BenchForecastArgs {
-    /// The experiment whose dataset, protocol and hyper-parameters are compared.
-    #[arg(long, default_value = "experiments/table3.yaml", value_name = "FILE")]
-    pub experiment: PathBuf,
-    /// Override a key of the experiment: `-S models.6.params.n_estimators=20` (value as YAML).
-    #[arg(short = 'S', long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
-    /// The protocol (days and split) of the experiment to use.
-    #[arg(long, default_value = "paper")]
-    pub protocol: String,
-    /// Threads for both sides (libtorch, rayon, XGBoost, scikit-learn, PyTorch) [default: all cores].
-    #[arg(long)]
-    pub threads: Option<usize>,
-    /// Windows of the full-size run to project to (the published CSV has 66,568).
-    #[arg(long, default_value_t = firecast_forecast::bench::PUBLISHED_WINDOWS, value_name = "N")]
-    pub project_to: usize,
-    /// Seed of every fit, both sides.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Timed training steps of the CNN-BiLSTM throughput comparison (each side).
-    #[arg(long, default_value_t = 20)]
-    pub steps: usize,
-    /// Untimed warm-up steps before them (each side).
-    #[arg(long, default_value_t = 3)]
-    pub warmup: usize,
-    /// Throughput rounds, alternating tch and PyTorch; the best round of each is compared.
-    #[arg(long, default_value_t = 3)]
-    pub rounds: usize,
-    /// Timed training steps of each other network, for the projection.
-    #[arg(long, default_value_t = 5)]
-    pub projection_steps: usize,
-    /// Python with scikit-learn, xgboost and torch [default: $FIRECAST_VENV, ./.venv, python3].
-    #[arg(long, value_name = "PATH")]
-    pub python: Option<PathBuf>,
-    /// Keep the exported arrays, configs and scripts in this folder [default: a temporary one,
-    /// removed afterwards].
-    #[arg(long, value_name = "DIR")]
-    pub keep: Option<PathBuf>,
-    /// Internal: run one tch throughput measurement (JSON job) and print it. The bench runs
-    /// its tch rounds this way, in a fresh process like the Python side's.
-    #[arg(long, hide = true, value_name = "JSON")]
-    pub throughput_job: Option<String>,
-}
-
-/// Human-readable seconds.
-fn duration(s: f64) -> String {
-    if !s.is_finite() {
-        "—".into()
-    } else if s < 1.0 {
-        format!("{:.0} ms", s * 1000.0)
-    } else if s < 120.0 {
-        format!("{s:.1} s")
-    } else if s < 7200.0 {
-        format!("{:.1} min", s / 60.0)
-    } else {
-        format!("{:.1} h", s / 3600.0)
-    }
-}
-
-/// The flattened baselines against scikit-learn / xgboost on the same exported split, the
-/// networks' parameter counts and the CNN-BiLSTM's training speed against PyTorch eager, and
-/// the full-size run projected. Exit status 1 when a baseline is out of bounds or a count
-/// differs (the tables are printed either way).
-pub fn bench_forecast(settings: &Settings, args: &BenchForecastArgs) -> anyhow::Result<ExitCode> {
-    use firecast_forecast::bench::{self, BenchOptions};
-    if let Some(job) = &args.throughput_job {
-        let job: bench::ThroughputJob = serde_json::from_str(job).context("--throughput-job: not a job")?;
-        // One line: the bench reads the last line of the worker's output.
-        println!("{}", serde_json::to_string(&bench::run_throughput_job(&job)?)?);
-        return Ok(ExitCode::SUCCESS);
-    }
-    let file = crate::cmd_pipeline::relative_to_root(settings, &args.experiment);
-    let spec = ExperimentSpec::load(&settings.root, &file, &args.set)?;
-    let dataset = spec.dataset.clone().with_context(|| {
-        format!(
-            "{}: `dataset`: the experiment names no dataset folder",
-            file.display()
-        )
-    })?;
-    let windows = firecast_forecast::data::Windows::load(&settings.root.join(&dataset))?;
-    let threads = args
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from))
-        .max(1);
-    let (work, temporary) = match &args.keep {
-        Some(dir) => (settings.root.join(dir), false),
-        None => (
-            std::env::temp_dir().join(format!("firecast-bench-forecast-{}", std::process::id())),
-            true,
-        ),
-    };
-    let opts = BenchOptions {
-        protocol: args.protocol.clone(),
-        threads,
-        seed: args.seed,
-        project_to: args.project_to,
-        throughput_steps: args.steps.max(1),
-        warmup_steps: args.warmup,
-        rounds: args.rounds.max(1),
-        // The tch rounds run in fresh processes of this program, as the Python rounds do.
-        tch_worker: std::env::current_exe().ok().map(|exe| {
-            (
-                exe,
-                vec!["bench".into(), "forecast".into(), "--throughput-job".into()],
-            )
-        }),
-        projection_steps: args.projection_steps.max(1),
-        python: firecast_dataset::bench::find_python(args.python.as_deref(), &settings.root),
-        work: work.clone(),
-    };
-    eprintln!(
-        "bench forecast: {} on {} ({} windows), protocol {}, {threads} threads, Python {}",
-        file.display(),
-        dataset.display(),
-        windows.len(),
-        args.protocol,
-        opts.python.display()
-    );
-    let log = |line: &str| eprintln!("  {line}");
-    let result = firecast_learn::exclusive(|| bench::run(&spec, &windows, &opts, &log));
-    if temporary {
-        let _ = std::fs::remove_dir_all(&work);
-    }
-    let report = result?;
-    let failed = !report.all_within_bounds || !report.all_parameters_equal;
-    if settings.json {
-        output::print_json(&report)?;
-    } else {
-        print_bench(&report)?;
-    }
-    Ok(if failed {
-        ExitCode::from(1)
-    } else {
-        ExitCode::SUCCESS
-    })
-}
-
-fn print_bench(r: &firecast_forecast::bench::ForecastBench) -> anyhow::Result<()> {
-    let v = |k: &str| r.versions.get(k).cloned().unwrap_or_else(|| "?".into());
-    println!(
-        "Fidelity — experiment {}, dataset {} {}, protocol `{}` (days {}..{}, {}): train {}, test {}; \
-         flattened inputs {} ({} variables x {} days); seed {}, {} threads, {}",
-        r.experiment,
-        r.dataset,
-        r.dataset_version,
-        r.protocol,
-        r.days.0,
-        r.days.1,
-        r.split,
-        r.train,
-        r.test,
-        r.flat_inputs,
-        r.variables,
-        r.flat_inputs / r.variables.max(1),
-        r.seed,
-        r.threads,
-        r.device
-    );
-    println!(
-        "references: scikit-learn {}, xgboost {}, numpy {}, Python {} — same exported arrays, same hyper-parameters",
-        v("sklearn"),
-        v("xgboost"),
-        v("numpy"),
-        v("python")
-    );
-    let mut table = output::table(&[
-        "model",
-        "reference",
-        "FireCast acc %",
-        "ref acc %",
-        "Δ pts",
-        "FireCast acc % @thr",
-        "ref acc % @thr",
-        "Δ pts @thr",
-        "FireCast AUROC",
-        "ref AUROC",
-        "Δ AUROC",
-        "within ±1.5 pts (both) / ±0.015",
-        "FireCast fit",
-        "ref fit",
-        "ref / FireCast",
-    ]);
-    for b in &r.baselines {
-        table.add_row(vec![
-            if b.from_experiment {
-                b.model.clone()
-            } else {
-                format!("{} (defaults)", b.model)
-            },
-            b.reference.clone(),
-            format!("{:.2}", b.firecast_accuracy * 100.0),
-            format!("{:.2}", b.reference_accuracy * 100.0),
-            format!("{:+.2}", b.accuracy_delta_points),
-            format!(
-                "{:.2} (t {:.3})",
-                b.firecast_accuracy_at_threshold * 100.0,
-                b.firecast_threshold
-            ),
-            format!(
-                "{:.2} (t {:.3})",
-                b.reference_accuracy_at_threshold * 100.0,
-                b.reference_threshold
-            ),
-            format!("{:+.2}", b.threshold_accuracy_delta_points),
-            format!("{:.4}", b.firecast_auroc),
-            format!("{:.4}", b.reference_auroc),
-            format!("{:+.4}", b.auroc_delta),
-            if b.within_bounds { "yes" } else { "OUT OF BOUNDS" }.to_string(),
-            duration(b.firecast_fit_seconds),
-            duration(b.reference_fit_seconds),
-            format!("{:.2}x", b.speed_ratio),
-        ]);
-    }
-    output::print_table(&table)?;
-    println!(
-        "  acc @thr: test accuracy at each side's own threshold, chosen by the model's Table III rule \
-         (default max F1) on that side's validation scores; acc: at 0.5 (scikit-learn's predict)"
-    );
-    for b in &r.baselines {
-        if let Some(note) = &b.note {
-            println!("  {}: {note}", b.model);
-        }
-    }
-    for note in &r.notes {
-        println!("  {note}");
-    }
-
-    println!("\nNetworks — trainable parameters, tch against PyTorch eager (the same architecture)");
-    let mut table = output::table(&[
-        "network",
-        "kind",
-        "inputs (width x days)",
-        "hidden x layers",
-        "tch",
-        "PyTorch",
-        "equal",
-    ]);
-    for c in &r.parameters {
-        table.add_row(vec![
-            if c.from_experiment {
-                c.model.clone()
-            } else {
-                format!("{} (defaults)", c.model)
-            },
-            c.kind.clone(),
-            format!("{} x {}", c.width, c.days),
-            format!("{} x {}", c.hidden, c.layers),
-            c.tch.to_string(),
-            c.pytorch.to_string(),
-            if c.equal { "yes" } else { "NO" }.to_string(),
-        ]);
-    }
-    output::print_table(&table)?;
-
-    let t = &r.throughput;
-    println!(
-        "\nTraining throughput — {} ({}): {} x {} inputs, batch {}, hidden {} x {} layers; forward + BCE + backward + \
-         AdamW step on random batches of {} rows; {} threads each; {} timed steps after {} warm-up; \
-         best of {} alternating rounds, each in a fresh process",
-        t.model,
-        t.kind,
-        t.width,
-        t.days,
-        t.batch,
-        t.hidden,
-        t.layers,
-        t.rows,
-        t.threads,
-        t.steps,
-        t.warmup_steps,
-        t.rounds
-    );
-    let rounds = |v: &[f64]| v.iter().map(|x| format!("{x:.1}")).collect::<Vec<_>>().join(", ");
-    let mut table = output::table(&[
-        "engine",
-        "best samples/s",
-        "seconds (best)",
-        "every round (samples/s)",
-    ]);
-    table.add_row(vec![
-        "FireCast (tch)".to_string(),
-        format!("{:.1}", t.tch_samples_per_s),
-        format!("{:.2}", t.tch_seconds),
-        rounds(&t.tch_rounds_samples_per_s),
-    ]);
-    table.add_row(vec![
-        format!("PyTorch eager {}", t.torch_version),
-        format!("{:.1}", t.pytorch_samples_per_s),
-        format!("{:.2}", t.pytorch_seconds),
-        rounds(&t.pytorch_rounds_samples_per_s),
-    ]);
-    output::print_table(&table)?;
-    println!(
-        "tch / PyTorch = {:.2} (goal ≥ 1.0: {})",
-        t.ratio,
-        if t.ratio >= 1.0 { "met" } else { "not met" }
-    );
-
-    let p = &r.projection;
-    println!(
-        "\nFull-size projection — {} windows, train share {:.3} → {} training rows (measured up to {})",
-        p.windows, p.train_share, p.train_rows, p.measured_train_rows
-    );
-    println!("method: {}", p.method);
-    let mut table = output::table(&[
-        "model",
-        "method",
-        "measured (rows: fit)",
-        "b fitted",
-        "b used",
-        "runs",
-        "per run",
-        "projected",
-    ]);
-    for m in &p.models {
-        let measured = match (m.samples_per_s, m.epochs) {
-            (Some(sps), Some(epochs)) => format!("{sps:.0} samples/s, {epochs} epochs max"),
-            _ => m
-                .measured
-                .iter()
-                .map(|(n, s)| format!("{n}: {}", duration(*s)))
-                .collect::<Vec<_>>()
-                .join(", "),
-        };
-        table.add_row(vec![
-            m.model.clone(),
-            m.method.clone(),
-            measured,
-            m.exponent_fitted.map_or("—".into(), |b| format!("{b:.2}")),
-            m.exponent_used.map_or("—".into(), |b| format!("{b:.2}")),
-            m.runs.to_string(),
-            duration(m.projected_seconds_per_run),
-            duration(m.projected_seconds),
-        ]);
-    }
-    output::print_table(&table)?;
-    println!(
-        "projected total for protocol `{}`: {} ({} protocols in the experiment: about {} if each costs the same)",
-        r.protocol,
-        duration(p.total_seconds),
-        p.protocols_in_experiment,
-        duration(p.total_seconds * p.protocols_in_experiment as f64)
-    );
-
-    let out: Vec<&str> = r
-        .baselines
-        .iter()
-        .filter(|b| !b.within_bounds)
-        .map(|b| b.model.as_str())
-        .collect();
-    if out.is_empty() {
-        println!(
-            "\nall {} baselines within ±{} points and ±{} AUROC of their references",
-            r.baselines.len(),
-            r.bounds.accuracy_points,
-            r.bounds.auroc
-        );
-    } else {
-        println!(
-            "\nOUT OF BOUNDS: {} (±{} points, ±{} AUROC)",
-            out.join(", "),
-            r.bounds.accuracy_points,
-            r.bounds.auroc
-        );
-    }
-    if !r.all_parameters_equal {
-        println!("PARAMETER COUNTS DIFFER: see the networks table");
-    }
-    println!("bench took {}", duration(r.seconds));
-    Ok(())
-}
-
 /// A model folder, or a model an experiment run saved to the artifact store (fetched into
 /// `.firecast/cache/models/<run>/…`, checked against the registry's hashes).
 fn resolve_model(settings: &Settings, spec: &str) -> anyhow::Result<PathBuf> {
@@ -890,74 +508,15 @@ fn resolve_model(settings: &Settings, spec: &str) -> anyhow::Result<PathBuf> {
     if as_dir.is_dir() {
         return Ok(as_dir);
     }
-    let Some((run, path)) = spec.split_once(':') else {
+    if !spec.contains(':') {
         anyhow::bail!(
-            "--model `{spec}`: no such folder, and not RUN:PROTOCOL/MODEL[/seed-N] (a model saved by an experiment run)"
+            "--model {}",
+            firecast_registry::saved_models::SavedModelError::NotAModelName(spec.into())
         );
-    };
+    }
     let registry = firecast_registry::Registry::open(&settings.registry)?;
-    let details = crate::cmd_runs::stage_run_details(&registry, run)?;
-    let path = path.trim_matches('/');
-    let wanted = if path.split('/').count() == 2 {
-        // No seed given: the lowest one saved.
-        let prefix = format!("model/{path}/seed-");
-        let mut seeds: Vec<(u64, &str)> = details
-            .artifacts
-            .iter()
-            .filter_map(|a| {
-                a.name
-                    .strip_prefix(&prefix)
-                    .and_then(|n| n.parse().ok())
-                    .map(|n| (n, a.name.as_str()))
-            })
-            .collect();
-        seeds.sort();
-        seeds.first().map(|(_, n)| n.to_string())
-    } else {
-        Some(format!("model/{path}"))
-    };
-    let files: Vec<_> = match &wanted {
-        Some(name) => details.artifacts.iter().filter(|a| &a.name == name).collect(),
-        None => Vec::new(),
-    };
-    if files.is_empty() {
-        let mut saved: Vec<&str> = details
-            .artifacts
-            .iter()
-            .filter_map(|a| a.name.strip_prefix("model/"))
-            .collect();
-        saved.dedup();
-        anyhow::bail!(
-            "--model `{spec}`: run {} saved no model `{path}`{}",
-            details.run.run_id,
-            if saved.is_empty() {
-                " (it saved no models: is it an experiment run?)".to_string()
-            } else {
-                format!("; it saved: {}", saved.join(", "))
-            }
-        );
-    }
     let store = firecast_store::ArtifactStore::open(&settings.store, &settings.root)?;
-    let name = wanted.unwrap_or_default();
-    let dir = settings
-        .root
-        .join(".firecast/cache/models")
-        .join(&details.run.run_id)
-        .join(name.trim_start_matches("model/"));
-    for a in files {
-        let file = a.uri.rsplit('/').next().unwrap_or_default();
-        let dest = dir.join(file);
-        store
-            .get_to_file(&a.uri, &dest)
-            .with_context(|| format!("fetching {} of run {}", a.uri, details.run.run_id))?;
-        let hash = blake3::hash(&std::fs::read(&dest)?).to_hex().to_string();
-        if !a.hash.is_empty() && a.hash != hash {
-            anyhow::bail!(
-                "{}: fetched bytes hash to {hash}, the registry recorded {} for this artifact",
-                dest.display(),
-                a.hash
-            );
-        }
-    }
-    Ok(dir)
+    let cache = settings.root.join(".firecast/cache/models");
+    firecast_registry::saved_models::fetch_saved_model(&registry, &store, &cache, spec)
+        .map_err(|e| anyhow::anyhow!("--model `{spec}`: {e}"))
 }

@@ -165,7 +165,7 @@ pub fn run(settings: &Settings, command: RunsCommand) -> anyhow::Result<ExitCode
         RunsCommand::Compare { runs, all, metric } => {
             let details = runs
                 .iter()
-                .map(|r| stage_run_details(&registry, r))
+                .map(|r| registry.stage_run_details(r))
                 .collect::<Result<Vec<_>, _>>()?;
             compare(settings, &details, all, &metric)?;
         }
@@ -201,19 +201,6 @@ pub fn query(settings: &Settings, sql: &str) -> anyhow::Result<ExitCode> {
         println!("{} rows", result.rows.len());
     }
     Ok(ExitCode::SUCCESS)
-}
-
-/// A run by id: a pipeline run with a single stage (what `experiment run` and `rl train`
-/// print) stands for that stage's run, which holds the params, metrics and artifacts.
-pub(crate) fn stage_run_details(
-    registry: &Registry,
-    id: &str,
-) -> anyhow::Result<firecast_registry::RunDetails> {
-    let details = registry.run_details(id)?;
-    if details.run.stage.is_none() && details.children.len() == 1 {
-        return Ok(registry.run_details(&details.children[0].run_id)?);
-    }
-    Ok(details)
 }
 
 /// `runs compare`: params that differ; each metric's mean over its steps (over seeds for an

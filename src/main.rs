@@ -3,7 +3,6 @@
 
 mod cmd_artifacts;
 mod cmd_dataset;
-mod cmd_fire_bench;
 mod cmd_forecast;
 mod cmd_pipeline;
 mod cmd_report;
@@ -75,40 +74,43 @@ enum Command {
     Bench(BenchCommand),
     /// Show what this firecast links and sees: versions, libtorch device, DuckDB, Rerun.
     Doctor,
+    /// Print the settings every command resolves (flags > environment > firecast.yaml >
+    /// defaults) and where each value came from.
+    Settings,
 }
 
 #[derive(Debug, Subcommand)]
 enum BenchCommand {
     /// Simulator speed: env steps per second (one env on one thread, and vectorised on all
     /// cores) with an active fire, and Rothermel point evaluations per second.
-    Sim(cmd_sim::BenchSimArgs),
+    Sim(firecast_bench::sim::Args),
     /// GRIDMET window extraction: FireCast beside the authors' xarray method (Python, run in
     /// the same command on the same files and windows), with the ratio and a projection to
     /// the paper's scale.
-    Gridmet(cmd_dataset::BenchGridmetArgs),
+    Gridmet(firecast_bench::gridmet::Args),
     /// PPO speed beside Stable-Baselines3 in the same command, same network, settings and
     /// threads: (a) CartPole-v1 with the MLP policy, (b) the helitack environment with the
     /// compact policy (SB3 through the Python package), (c) SB3 on the FireCastRL Python
     /// environment (`--reference-env DIR`); environment only, rollout, training.
-    Ppo(cmd_rl::BenchPpoArgs),
+    Ppo(firecast_bench::ppo::Args),
     /// Forecasting models beside their references in the same command: the flattened
     /// baselines against scikit-learn / xgboost on the same exported split (accuracy within
     /// ±1.5 points, AUROC within ±0.015, fit times), every network's parameter count against
     /// PyTorch eager, the CNN-BiLSTM's training throughput against PyTorch eager (same net,
     /// threads), and the full-size run projected. Exit status 1 when out of bounds.
-    Forecast(cmd_forecast::BenchForecastArgs),
+    Forecast(firecast_bench::forecast::Args),
     /// The web app under load on loopback: a registry of many runs, live fires at 30 frames
     /// a second, many fires at once beside clients hammering the runs table; latencies,
     /// frame rates, requests a second, errors and the server's peak memory against the goals.
-    Serve(cmd_serve::BenchServeArgs),
+    Serve(firecast_bench::serve::Args),
     /// Fire behaviour of every cell of a LANDFIRE landscape beside pyretechnics (PyPI, its own
     /// venv from `cargo xtask setup`), one thread each, same landscape and inputs: agreement on
     /// rate of spread first (exit status 1 if it fails), then grid cells per second and the ratio.
-    Behavior(cmd_fire_bench::BenchBehaviorArgs),
+    Behavior(firecast_bench::behavior::Args),
     /// A point fire spread for 8 hours beside pyretechnics' level set, one thread each, same
     /// landscape and inputs: FireCast's minimum-travel-time engine, wall seconds, burnt cells per
     /// second, the ratios and both burnt areas.
-    Spread(cmd_fire_bench::BenchSpreadArgs),
+    Spread(firecast_bench::spread::Args),
 }
 
 /// Exit status of an error at this edge: the command could not be carried out (bad
@@ -163,15 +165,83 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Report(args) => cmd_report::run(&settings, &args),
         Command::Sim(command) => cmd_sim::run(&settings, command),
         Command::Serve(args) => cmd_serve::run(&settings, &args),
-        Command::Bench(BenchCommand::Sim(args)) => cmd_sim::bench(&settings, &args),
-        Command::Bench(BenchCommand::Gridmet(args)) => cmd_dataset::bench_gridmet(&settings, &args),
-        Command::Bench(BenchCommand::Ppo(args)) => cmd_rl::bench_ppo(&settings, &args),
-        Command::Bench(BenchCommand::Forecast(args)) => cmd_forecast::bench_forecast(&settings, &args),
-        Command::Bench(BenchCommand::Serve(args)) => cmd_serve::bench(&settings, &args),
-        Command::Bench(BenchCommand::Behavior(args)) => cmd_fire_bench::bench_behavior(&settings, &args),
-        Command::Bench(BenchCommand::Spread(args)) => cmd_fire_bench::bench_spread(&settings, &args),
+        Command::Bench(command) => bench(&settings, command),
         Command::Doctor => doctor(&settings),
+        Command::Settings => print_settings(&settings),
     }
+}
+
+/// `firecast bench …`: each bench runs in firecast-bench; its report is printed here.
+fn bench(settings: &Settings, command: BenchCommand) -> anyhow::Result<ExitCode> {
+    let ctx = settings.bench();
+    match command {
+        BenchCommand::Sim(args) => print_bench(settings, firecast_bench::sim::run(&ctx, &args)?),
+        BenchCommand::Gridmet(args) => print_bench(settings, firecast_bench::gridmet::run(&ctx, &args)?),
+        BenchCommand::Ppo(args) => print_bench(settings, firecast_bench::ppo::run(&ctx, &args)?),
+        BenchCommand::Forecast(mut args) => match &args.throughput_job {
+            // The bench's own worker: one line of JSON, whatever --json says.
+            Some(job) => {
+                println!("{}", firecast_bench::forecast::throughput_job(job)?);
+                Ok(ExitCode::SUCCESS)
+            }
+            None => {
+                args.experiment = cmd_pipeline::relative_to_root(settings, &args.experiment);
+                print_bench(settings, firecast_bench::forecast::run(&ctx, &args)?)
+            }
+        },
+        BenchCommand::Serve(args) => print_bench(settings, firecast_bench::serve::run(&ctx, &args)?),
+        BenchCommand::Behavior(args) => print_bench(settings, firecast_bench::behavior::run(&ctx, &args)?),
+        BenchCommand::Spread(args) => print_bench(settings, firecast_bench::spread::run(&ctx, &args)?),
+    }
+}
+
+/// Prints a bench's report (JSON or its tables) and returns its exit status.
+fn print_bench(settings: &Settings, report: impl firecast_bench::Report) -> anyhow::Result<ExitCode> {
+    if settings.json {
+        output::print_json(&report)?;
+    } else {
+        use std::io::Write as _;
+        write!(std::io::stdout().lock(), "{}", report.render())?;
+    }
+    Ok(ExitCode::from(report.exit_code()))
+}
+
+fn print_settings(settings: &Settings) -> anyhow::Result<ExitCode> {
+    let o = &settings.origins;
+    let rows: Vec<(&str, String, settings::Origin)> = vec![
+        ("root", settings.root.display().to_string(), o.root),
+        ("registry", settings.registry.display().to_string(), o.registry),
+        ("store", settings.store.clone(), o.store),
+        ("jobs", settings.jobs.to_string(), o.jobs),
+        (
+            "executor",
+            format!("{:?}", settings.executor).to_lowercase(),
+            o.executor,
+        ),
+        (
+            "rerun_connect",
+            settings.rerun_connect.clone().unwrap_or_else(|| "-".into()),
+            o.rerun_connect,
+        ),
+    ];
+    if settings.json {
+        let map: serde_json::Map<String, serde_json::Value> = rows
+            .iter()
+            .map(|(k, v, origin)| ((*k).to_string(), serde_json::json!({"value": v, "from": origin})))
+            .collect();
+        output::print_json(&map)?;
+    } else {
+        for (key, value, origin) in rows {
+            let from = match origin {
+                settings::Origin::Flag => "flag",
+                settings::Origin::Env => "environment",
+                settings::Origin::File => "firecast.yaml",
+                settings::Origin::Default => "default",
+            };
+            println!("{key:<14} {value}  ({from})");
+        }
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 fn doctor(settings: &Settings) -> anyhow::Result<ExitCode> {

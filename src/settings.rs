@@ -69,6 +69,46 @@ pub struct Settings {
     pub ray: RaySettings,
     /// A Rerun viewer that stage runs' metrics stream to as well as to their `metrics.rrd`.
     pub rerun_connect: Option<String>,
+    /// Where each setting came from, for `firecast settings`.
+    pub origins: Origins,
+}
+
+/// Where a setting's value came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Origin {
+    /// A command-line flag.
+    Flag,
+    /// An environment variable.
+    Env,
+    /// `firecast.yaml`.
+    File,
+    #[default]
+    Default,
+}
+
+/// The origin of each setting that has more than one source.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct Origins {
+    pub root: Origin,
+    pub registry: Origin,
+    pub store: Origin,
+    pub jobs: Origin,
+    pub executor: Origin,
+    pub rerun_connect: Origin,
+}
+
+/// A flag's value came from its environment variable when the variable holds that value
+/// (clap fills the flag from it when the flag is absent; a flag given wins either way).
+fn flag_or_env<T: PartialEq + std::str::FromStr>(flag: Option<&T>, env: &str, in_file: bool) -> Origin {
+    match flag {
+        Some(value) => match std::env::var(env).ok().and_then(|v| v.parse::<T>().ok()) {
+            Some(from_env) if &from_env == value => Origin::Env,
+            _ => Origin::Flag,
+        },
+        None if in_file => Origin::File,
+        None => Origin::Default,
+    }
 }
 
 /// Raw global flags (clap fills these; env vars are applied by clap's `env`).
@@ -104,6 +144,34 @@ impl Settings {
             None => std::env::current_dir().context("cannot read the current directory")?,
         };
         let project = load_project_file(&root)?;
+        let origins = Origins {
+            root: if args.root.is_some() {
+                Origin::Flag
+            } else {
+                Origin::Default
+            },
+            registry: flag_or_env(
+                args.registry.as_ref(),
+                "FIRECAST_REGISTRY",
+                project.registry.is_some(),
+            ),
+            store: flag_or_env(args.store.as_ref(), "FIRECAST_STORE", project.store.is_some()),
+            jobs: match (jobs_flag, project.jobs) {
+                (Some(_), _) => Origin::Flag,
+                (None, Some(_)) => Origin::File,
+                (None, None) => Origin::Default,
+            },
+            executor: if project.executor.is_some() {
+                Origin::File
+            } else {
+                Origin::Default
+            },
+            rerun_connect: flag_or_env(
+                args.rerun_connect.as_ref(),
+                "FIRECAST_RERUN_CONNECT",
+                project.rerun_connect.is_some(),
+            ),
+        };
         let registry = args
             .registry
             .clone()
@@ -119,6 +187,7 @@ impl Settings {
             .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from))
             .max(1);
         Ok(Self {
+            origins,
             registry: root.join(registry),
             root,
             store,
@@ -136,6 +205,17 @@ impl Settings {
     }
 }
 
+impl Settings {
+    /// What the benches take from the settings.
+    pub fn bench(&self) -> firecast_bench::Context {
+        firecast_bench::Context {
+            root: self.root.clone(),
+            json: self.json,
+            progress: self.progress,
+        }
+    }
+}
+
 fn load_project_file(root: &Path) -> anyhow::Result<ProjectFile> {
     let path = root.join("firecast.yaml");
     match std::fs::read_to_string(&path) {
@@ -145,5 +225,40 @@ fn load_project_file(root: &Path) -> anyhow::Result<ProjectFile> {
         )?),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(ProjectFile::default()),
         Err(e) => Err(e).with_context(|| format!("cannot read {}", path.display())),
+    }
+}
+
+/// The arguments every command that runs a spec file takes (`experiment run FILE`, `rl train
+/// FILE`), declared once.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SpecArgs {
+    /// Override a key of the spec: `-S seeds=[0,1,2]`, `-S ppo.total_timesteps=20000`,
+    /// `-S models.3.params.max_epochs=5` (value read as YAML).
+    #[arg(short = 'S', long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Torch device: auto, cpu, cuda, cuda:N (overrides the spec's `device`).
+    #[arg(long)]
+    pub device: Option<String>,
+    /// libtorch threads (XGBoost's too in experiments; overrides the spec's `threads`; part
+    /// of the result and its cache key).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Output folder [default: experiments/runs/<name>].
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Run even when nothing changed.
+    #[arg(short, long)]
+    pub force: bool,
+    /// Print the stage this would run — the spec resolved through `extends`, `-S` and the
+    /// flags, its inputs and outputs — and run nothing.
+    #[arg(short = 'n', long)]
+    pub dry_run: bool,
+}
+
+impl SpecArgs {
+    /// Prints a one-stage pipeline (`uses`, `params`, `inputs`, `outputs`) as YAML.
+    pub fn print_stage(stage: &serde_json::Value) -> anyhow::Result<()> {
+        print!("{}", serde_yaml_ng::to_string(stage)?);
+        Ok(())
     }
 }

@@ -3,66 +3,19 @@
 //! compared with the registry; live streaming to a running `rerun`, and a viewer that is
 //! not there (a warning, the file still written).
 
-use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 
 use crate::{Project, describe, venv_bin};
 
-/// Scalar series of an `.rrd` file as JSON: entity path → sorted `[step, value]` rows.
-const READ_RRD: &str = r#"
-import json, sys
-from rerun.experimental import RrdReader
-series = {}
-for chunk in RrdReader(sys.argv[1]).stream():
-    batch = chunk.to_record_batch()
-    names = batch.schema.names
-    if chunk.is_static or "step" not in names or "Scalars:scalars" not in names:
-        continue
-    rows = series.setdefault(chunk.entity_path.lstrip("/"), [])
-    for step, values in zip(batch.column("step").to_pylist(), batch.column("Scalars:scalars").to_pylist()):
-        rows.extend([step, v] for v in values)
-for rows in series.values():
-    rows.sort()
-json.dump(series, sys.stdout)
-"#;
-
-type Series = BTreeMap<String, Vec<(i64, f64)>>;
+type Series = firecast_testkit::Series;
 
 fn read_rrd(path: &Path) -> Series {
-    let python = venv_bin("python");
-    assert!(
-        python.exists(),
-        "{} is missing: run `cargo xtask setup`",
-        python.display()
-    );
-    let out = Command::new(&python)
-        .arg("-c")
-        .arg(READ_RRD)
-        .arg(path)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "reading {}: {}",
-        path.display(),
-        describe(&out)
-    );
-    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", describe(&out)))
+    firecast_testkit::read_scalars(path)
 }
 
 fn verify_rrd(path: &Path) {
-    let out = Command::new(venv_bin("rerun"))
-        .args(["rrd", "verify"])
-        .arg(path)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "rerun rrd verify {}: {}",
-        path.display(),
-        describe(&out)
-    );
+    firecast_testkit::verify_rrd(path);
 }
 
 /// `<name>.yaml`: CartPole PPO, 2 envs x 32 steps per update, `updates` updates of one

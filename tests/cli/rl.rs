@@ -361,3 +361,68 @@ fn an_ignition_off_the_map_names_the_fire_files_key_and_line() {
         "{err}"
     );
 }
+
+#[test]
+fn a_recipe_extends_another_and_a_dry_run_prints_what_would_train() {
+    let p = project();
+    p.write(
+        "ablations/no-ppo.yaml",
+        "# What imitation alone gives.\nextends: ../a.yaml\nname: heli-no-ppo\nenv:\n  reward: {profile: suppression, quenched: 0, new_burnt: -1}\nppo: {n_epochs: 1}\n",
+    );
+    let out = p.ok(&["rl", "train", "ablations/no-ppo.yaml", "-n", "-S", "seeds=[4]"]);
+    let stage: serde_json::Value = serde_yaml_ng::from_slice(&out.stdout).unwrap();
+    assert_eq!(stage["uses"], "rl.train");
+    let params = &stage["params"];
+    assert_eq!(params["name"], "heli-no-ppo");
+    assert_eq!(params["seeds"], serde_json::json!([4]), "-S over the file");
+    // Mappings merge: the base's PPO settings stay, the ablation's one key replaces its own.
+    assert_eq!(params["ppo"]["n_epochs"], 1);
+    assert_eq!(params["ppo"]["n_steps"], 16);
+    assert_eq!(params["env"]["reward"]["new_burnt"], -1);
+    assert_eq!(stage["inputs"]["fires"], "fires.yaml");
+    assert_eq!(stage["outputs"]["run"], "experiments/runs/heli-no-ppo");
+    assert!(!p.path("experiments/runs").exists(), "a dry run trains nothing");
+
+    // A typo in the base is placed in the base, with its line.
+    p.write("a.yaml", &spec("heli-a").replace("policy:", "polcy:"));
+    let out = p
+        .firecast()
+        .args(["rl", "train", "ablations/no-ppo.yaml", "-n"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "{}", describe(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("a.yaml:4:"), "{err}");
+    assert!(err.contains("polcy"), "{err}");
+}
+
+#[test]
+fn settings_say_where_each_value_came_from() {
+    let p = Project::new();
+    p.write("firecast.yaml", "jobs: 3\nstore: file-store\n");
+    let out = p
+        .firecast()
+        .args(["--json", "settings"])
+        .env("FIRECAST_REGISTRY", "reg.duckdb")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", describe(&out));
+    let s: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(s["jobs"], serde_json::json!({"value": "3", "from": "file"}));
+    assert_eq!(
+        s["store"],
+        serde_json::json!({"value": "file-store", "from": "file"})
+    );
+    assert_eq!(s["registry"]["from"], "env");
+    assert!(s["registry"]["value"].as_str().unwrap().ends_with("reg.duckdb"));
+    assert_eq!(
+        s["executor"],
+        serde_json::json!({"value": "local", "from": "default"})
+    );
+    // A flag wins over the file.
+    let s = p.json(&["--store", "flag-store", "settings"]);
+    assert_eq!(
+        s["store"],
+        serde_json::json!({"value": "flag-store", "from": "flag"})
+    );
+}

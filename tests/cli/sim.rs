@@ -354,13 +354,8 @@ fn sim_behavior_writes_georeferenced_grids_and_a_summary() {
 
     // An independent reader: Pillow from the project's venv (rasterio and GDAL are not
     // installed there) reads the float32 band and the GeoTIFF tags.
-    let python = venv_bin("python");
-    let has_pil = python.exists()
-        && std::process::Command::new(&python)
-            .args(["-c", "import PIL, numpy"])
-            .status()
-            .is_ok_and(|s| s.success());
-    if has_pil {
+    let python = firecast_testkit::python_with(&["PIL", "numpy"]);
+    {
         let flammap =
             crate::repo_root().join("crates/firecast-landscape/tests/fixtures/landfire-worcester/flammap");
         let script = r#"
@@ -580,17 +575,7 @@ fn worcester_fixtures() -> std::path::PathBuf {
 
 /// The venv's Python with rasterio (GDAL), from `cargo xtask setup`.
 fn gdal_python() -> std::path::PathBuf {
-    let python = venv_bin("python");
-    let has_rasterio = std::process::Command::new(&python)
-        .args(["-c", "import rasterio, numpy"])
-        .status()
-        .is_ok_and(|s| s.success());
-    assert!(
-        has_rasterio,
-        "{} has no rasterio (GDAL): run `cargo xtask setup`",
-        python.display()
-    );
-    python
+    firecast_testkit::python_with(&["rasterio", "numpy"])
 }
 
 /// Write an `.lcp` of the whole Worcester clip with GDAL's LCP driver (make_lcp.py; whole
@@ -1164,16 +1149,10 @@ fn sim_behavior_on_the_committed_lcp_crop_matches_flammap() {
 
 /// pyretechnics' own venv (`.venv-peers/pyretechnics`, from `cargo xtask setup`), if installed.
 fn pyretechnics_python() -> Option<std::path::PathBuf> {
-    let python = crate::repo_root().join(".venv-peers/pyretechnics/bin/python");
-    let ok = python.is_file()
-        && std::process::Command::new(&python)
-            .args([
-                "-c",
-                "import pyretechnics.burn_cells, pyretechnics.eulerian_level_set",
-            ])
-            .status()
-            .is_ok_and(|s| s.success());
-    ok.then_some(python)
+    firecast_testkit::peer_python(
+        "pyretechnics",
+        &["pyretechnics.burn_cells", "pyretechnics.eulerian_level_set"],
+    )
 }
 
 #[test]

@@ -21,11 +21,6 @@ impl Moto {
             .unwrap()
             .port();
         let server = venv_bin("moto_server");
-        assert!(
-            server.exists(),
-            "{} missing: run `cargo xtask setup`",
-            server.display()
-        );
         let child = Command::new(server)
             .args(["-H", "127.0.0.1", "-p", &port.to_string()])
             .stdout(Stdio::null())

@@ -13,17 +13,9 @@ use firecast_landscape::procedural::{ProceduralOptions, generate};
 use firecast_sim::{Action, EnvConfig, VecEnv, WildfireEnv};
 use serde_json::{Value, json};
 
-/// `FIRECAST_PYTHON`, else `$FIRECAST_VENV/bin/python` (set by .cargo/config.toml), else the
-/// workspace's `.venv`.
+/// The venv's Python, where `cargo xtask setup` installed the `firecast` wheel.
 fn python() -> PathBuf {
-    if let Some(p) = std::env::var_os("FIRECAST_PYTHON") {
-        return PathBuf::from(p);
-    }
-    std::env::var_os("FIRECAST_VENV")
-        .map(PathBuf::from)
-        .or_else(|| option_env!("FIRECAST_VENV").map(PathBuf::from))
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../.venv"))
-        .join("bin/python")
+    firecast_testkit::python()
 }
 
 fn hex(bytes: &[u8]) -> String {

@@ -7,22 +7,17 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use firecast_data::gridmet::GridmetVariable;
-use firecast_data::synth::{self, Region, SynthConfig};
 use firecast_episodes::ensemble::{Ensemble, Setup, run_agent};
 use firecast_episodes::free_spread::run_mtt;
 use firecast_episodes::{AgentKind, LandscapeSpec, Scenario, WeatherSpec};
 use firecast_report::model::ThreatReport;
 use firecast_report::{ReportFiles, ReportSettings, build};
+use firecast_synth::{Region, SynthConfig};
 
 const DATE: &str = "2019-08-01";
 
 fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn python() -> Option<PathBuf> {
-    let p = root().join(".venv/bin/python");
-    p.exists().then_some(p)
+    firecast_testkit::workspace_root()
 }
 
 struct Fixture {
@@ -62,7 +57,7 @@ fn fixture() -> Fixture {
     ];
     cfg.write_incidents = false;
     cfg.warmup_days = 20;
-    synth::generate(&cfg, &dir.join("sources"), &mut |_, _| {}).expect("synthetic GRIDMET");
+    firecast_synth::generate(&cfg, &dir.join("sources"), &mut |_, _| {}).expect("synthetic GRIDMET");
     let gridmet = dir.join("sources/gridmet");
 
     let env: firecast_sim::EnvConfig = serde_json::from_value(serde_json::json!({
@@ -316,7 +311,8 @@ fn every_number_comes_from_its_source() {
     );
 
     // The JSON against the committed schema, by an independent validator.
-    if let Some(py) = python() {
+    {
+        let py = firecast_testkit::python_with(&["jsonschema"]);
         let schema = root().join("schemas/threat-report-1.schema.json");
         let status = Command::new(py)
             .args([
@@ -511,7 +507,7 @@ fn renders_in_chromium_and_prints_to_pdf() {
 
 /// `.venv`'s Python, which `cargo xtask setup` installs with shapely and rasterio.
 fn gis_python() -> PathBuf {
-    python().expect("no .venv/bin/python: `cargo xtask setup` installs it with shapely and rasterio")
+    firecast_testkit::python_with(&["shapely", "rasterio"])
 }
 
 /// Runs `tests/gis_check.py` and fails with its findings.
@@ -894,7 +890,8 @@ fn the_verified_engine_draws_where_the_fire_goes() {
         out.join("burn_probability_pct.tif").as_os_str(),
     ]);
     gis_check(&["geojson".as_ref(), out.join("report.geojson").as_os_str()]);
-    if let Some(py) = python() {
+    {
+        let py = firecast_testkit::python_with(&["jsonschema"]);
         let status = Command::new(py)
             .args([
                 "-c",

@@ -2,7 +2,7 @@
 `firecast rl train` learns: the compact policy re-stated for SB3 (bench_sb3_helitack.py), the
 paper's hyper-parameters (training_improved.py) with `--ent-coef` overridable, reward
 normalisation only, `firecast.HelitackVecEnv` with 8 environments over the training
-landscapes of experiments/rl/helitack-small-fires.yaml (procedural seeds 1-8 on 96 x 64,
+landscapes of experiments/rl/fires/small-map.yaml (procedural seeds 1-8 on 96 x 64,
 400-step episodes, P2 reward). The Python package takes one weather for every fire, so the
 fires differ from the fire file's: 8 fixed ignition cells, a 1.5 mi/h wind from 45 degrees
 and the default fuel moisture. Prints SB3's own logger output (rollout/ep_rew_mean,

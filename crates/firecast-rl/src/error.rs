@@ -1,3 +1,5 @@
+//! The crate's error type, and its conversions to and from the PPO engine's.
+
 use std::path::PathBuf;
 
 /// Errors of training, checkpoints and evaluation. Paths come last in messages.
@@ -61,6 +63,51 @@ pub enum RlError {
     Spec(#[from] firecast_pipeline::SpecError),
     #[error("interrupted")]
     Interrupted,
+    /// An error of the PPO engine that is none of the above.
+    #[error(transparent)]
+    Ppo(firecast_ppo::PpoError),
+}
+
+/// The engine's errors as this crate's own: a setting or a tensor error keeps its variant
+/// (so [`RlError::located`] finds its key), and an environment's error its own type.
+impl From<firecast_ppo::PpoError> for RlError {
+    fn from(e: firecast_ppo::PpoError) -> Self {
+        use firecast_ppo::PpoError;
+        match e {
+            PpoError::Config { key, message } => Self::Config { key, message },
+            PpoError::Torch(e) => Self::Torch(e),
+            PpoError::NonFinite {
+                update,
+                what,
+                checkpoint,
+            } => Self::NonFinite {
+                update,
+                what,
+                checkpoint,
+            },
+            PpoError::Checkpoint { path, message } => Self::Checkpoint { path, message },
+            PpoError::Io {
+                context,
+                path,
+                source,
+            } => Self::Io {
+                context,
+                path,
+                source,
+            },
+            PpoError::Env(e) => match e.downcast::<RlError>() {
+                Ok(e) => *e,
+                Err(e) => Self::Ppo(PpoError::Env(e)),
+            },
+        }
+    }
+}
+
+/// The helitack environment's errors, carried through the engine's interface.
+impl From<RlError> for firecast_ppo::PpoError {
+    fn from(e: RlError) -> Self {
+        Self::Env(Box::new(e))
+    }
 }
 
 impl RlError {
@@ -84,6 +131,14 @@ impl RlError {
                 },
                 None => Self::Config { key, message },
             },
+            other => other,
+        }
+    }
+    /// A [`RlError::Config`] placed in the file of an `extends` chain that wrote its key
+    /// (FILE:LINE:COL); other errors unchanged.
+    pub fn placed(self, layered: &firecast_pipeline::extends::Layered) -> Self {
+        match self {
+            Self::Config { key, message } => Self::Spec(layered.error(key, message)),
             other => other,
         }
     }

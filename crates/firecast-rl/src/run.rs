@@ -5,15 +5,16 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use firecast_ppo::cartpole::CartPoleVec;
+use firecast_ppo::env::VecEnvironment;
+use firecast_ppo::train::{POLICY_FILE, TrainSink, Trainer};
 use serde::{Deserialize, Serialize};
 use tch::Device;
 
 use crate::RlError;
-use crate::cartpole::CartPoleVec;
-use crate::env::VecEnvironment;
 use crate::helitack::{FireDraw, HelitackVec};
+use crate::policy::{Policy, PolicyConfig};
 use crate::spec::{EnvSpec, FiresSpec, TrainSpec};
-use crate::train::{TrainSink, Trainer};
 
 /// What a run reports while it trains.
 pub trait RunSink: Sync {
@@ -36,7 +37,7 @@ pub struct SeedSummary {
     pub policy: String,
     pub parameters: i64,
     /// Environment steps spent imitating a teacher before PPO (`imitation:`).
-    #[serde(default, skip_serializing_if = "crate::train::is_zero")]
+    #[serde(default, skip_serializing_if = "firecast_ppo::train::is_zero")]
     pub imitation_timesteps: u64,
 }
 
@@ -45,7 +46,7 @@ pub struct SeedSummary {
 pub struct TrainSummary {
     pub name: String,
     pub spec: TrainSpec,
-    pub ppo: crate::ppo::PpoConfig,
+    pub ppo: firecast_ppo::ppo::PpoConfig,
     pub policy: crate::policy::PolicyConfig,
     pub device: String,
     pub seeds: Vec<SeedSummary>,
@@ -58,6 +59,12 @@ pub struct TrainSummary {
 }
 
 pub const SUMMARY_FILE: &str = "summary.json";
+
+/// Version of the `rl.train` kind; also keys the checkpoint folders in `.firecast/rl/`, so a
+/// resume never continues a checkpoint that other code made. 2: recurrent weights lead
+/// Adam's flat buffer in cuDNN's order (the `paper` policy's gradient-norm sums run in
+/// another order).
+pub const TRAIN_VERSION: u32 = 2;
 
 struct SeedSink<'a> {
     seed: u64,
@@ -152,8 +159,8 @@ pub fn train(
     let ppo = spec.ppo()?;
     let policy = spec.policy();
     let fires = match (&spec.env, fires_file) {
-        (EnvSpec::Helitack { .. }, Some(path)) => {
-            let f = FiresSpec::load(path)?;
+        (EnvSpec::Helitack { reward, .. }, Some(path)) => {
+            let f = FiresSpec::load(path)?.with_reward(reward.as_ref())?;
             let (draws, cores) = f.train.build("train")?;
             Some((f, draws, cores))
         }
@@ -171,9 +178,9 @@ pub fn train(
         let ck = work.join(format!("seed-{seed}"));
         std::fs::create_dir_all(&ck).map_err(|e| RlError::io("creating the checkpoint folder", &ck, e))?;
         let env = train_env(spec, fires.as_ref(), ppo.n_envs, seed)?;
-        let (mut trainer, resumed_from) = match Trainer::latest_checkpoint(&ck) {
+        let (mut trainer, resumed_from) = match firecast_ppo::train::latest_checkpoint(&ck) {
             Some(dir) => {
-                let t = Trainer::resume(&dir, ppo.clone(), env, device)?;
+                let t = Trainer::<PolicyConfig>::resume(&dir, ppo.clone(), env, device)?;
                 sink.message(&format!(
                     "seed {seed}: resuming from {} at {} steps",
                     dir.display(),
@@ -209,10 +216,10 @@ pub fn train(
             return Err(RlError::Interrupted);
         }
         // No PPO step (a policy that only imitates): the policy as imitation left it.
-        if Trainer::latest_checkpoint(&ck).is_none() {
+        if firecast_ppo::train::latest_checkpoint(&ck).is_none() {
             trainer.save(&ck.join(format!("step-{:09}", trainer.num_timesteps)))?;
         }
-        let last = Trainer::latest_checkpoint(&ck).ok_or_else(|| RlError::Checkpoint {
+        let last = firecast_ppo::train::latest_checkpoint(&ck).ok_or_else(|| RlError::Checkpoint {
             path: ck.clone(),
             message: "no checkpoint after training".into(),
         })?;
@@ -220,7 +227,7 @@ pub fn train(
         copy_dir(&last, &dest.join("policy"))?;
         std::fs::copy(&metrics_path, dest.join("metrics.jsonl"))
             .map_err(|e| RlError::io("copying metrics", &dest, e))?;
-        let mean = |f: &dyn Fn(&crate::train::EpisodeRecord) -> f64| {
+        let mean = |f: &dyn Fn(&firecast_ppo::train::EpisodeRecord) -> f64| {
             let v: Vec<f64> = trainer.episodes.iter().map(f).collect();
             (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
         };
@@ -339,11 +346,11 @@ pub fn work_dir(root: &Path, spec: &TrainSpec, fires_file: Option<&Path>) -> Res
     let mut h = blake3::Hasher::new();
     let mut s = spec.clone();
     // Where the fires come from does not matter, what they are does.
-    if let EnvSpec::Helitack { fires } = &mut s.env {
+    if let EnvSpec::Helitack { fires, .. } = &mut s.env {
         *fires = None;
     }
     s.description = None;
-    h.update(&crate::stage::TRAIN_VERSION.to_le_bytes());
+    h.update(&TRAIN_VERSION.to_le_bytes());
     h.update(&serde_json::to_vec(&s).map_err(|e| RlError::config("", e.to_string()))?);
     if let Some(p) = fires_file {
         h.update(&std::fs::read(p).map_err(|e| RlError::io("reading the fire file", p, e))?);
@@ -352,4 +359,59 @@ pub fn work_dir(root: &Path, spec: &TrainSpec, fires_file: Option<&Path>) -> Res
     Ok(root
         .join(".firecast/rl")
         .join(format!("{}-{}", spec.name, &key[..16])))
+}
+
+/// Reads a run folder's summary and policies.
+pub fn load_run(dir: &Path, device: Device) -> Result<(TrainSummary, Vec<(u64, Policy)>), RlError> {
+    let path = dir.join(SUMMARY_FILE);
+    let text = std::fs::read(&path).map_err(|e| RlError::io("reading the training run", &path, e))?;
+    let summary: TrainSummary = serde_json::from_slice(&text).map_err(|e| RlError::Checkpoint {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
+    let policies = summary
+        .seeds
+        .iter()
+        .map(|s| Ok((s.seed, load_policy(&dir.join(&s.policy), device)?)))
+        .collect::<Result<Vec<_>, RlError>>()?;
+    Ok((summary, policies))
+}
+
+/// A trained PPO policy loaded from a checkpoint folder.
+pub fn load_policy(dir: &Path, device: Device) -> Result<Policy, RlError> {
+    #[derive(Deserialize)]
+    struct Head {
+        policy: crate::policy::PolicyConfig,
+        space: firecast_ppo::env::ObsSpace,
+        num_actions: usize,
+    }
+    let state = dir.join("trainer.json");
+    let text = std::fs::read(&state).map_err(|e| RlError::io("reading the policy", &state, e))?;
+    let head: Head = serde_json::from_slice(&text).map_err(|e| RlError::Checkpoint {
+        path: dir.to_path_buf(),
+        message: format!("trainer.json: {e}"),
+    })?;
+    let mut p = Policy::new(&head.policy, head.space, head.num_actions, device)?;
+    p.vs.load(dir.join(POLICY_FILE))
+        .map_err(|e| RlError::Checkpoint {
+            path: dir.to_path_buf(),
+            message: format!("{POLICY_FILE}: {e}"),
+        })?;
+    Ok(p)
+}
+
+/// Whether a seed of `spec` has a checkpoint in `work` short of the budget: an interrupted
+/// run, which must run whatever the cache says. A finished run's last checkpoint is not one
+/// (invoking it again is `up to date`).
+pub fn has_unfinished_checkpoint(work: &Path, spec: &TrainSpec) -> Result<bool, RlError> {
+    let total = spec.ppo()?.total_timesteps;
+    Ok(spec.seeds.iter().any(|s| {
+        firecast_ppo::train::latest_checkpoint(&work.join(format!("seed-{s}"))).is_some_and(|dir| {
+            dir.file_name()
+                .and_then(|n| n.to_str())
+                .and_then(|n| n.strip_prefix("step-"))
+                .and_then(|n| n.parse::<u64>().ok())
+                .is_none_or(|step| step < total)
+        })
+    }))
 }

@@ -8,7 +8,7 @@ use crate::RlError;
 use crate::helitack::FireSet;
 use crate::imitation::ImitationConfig;
 use crate::policy::{PolicyConfig, PolicyKind};
-use crate::ppo::PpoConfig;
+use firecast_ppo::ppo::PpoConfig;
 use firecast_sim::RewardWeights;
 
 /// Which environment to train on.
@@ -23,7 +23,46 @@ pub enum EnvSpec {
         /// input instead).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         fires: Option<PathBuf>,
+        /// The reward to train on, replacing the fire file's `profile` and `reward`: the
+        /// fires say where and how fires burn, the recipe says what the agent is paid for.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        reward: Option<RewardSpec>,
     },
+}
+
+/// `reward:` — a profile (`p2`, `websocket_t`, `p1_improved` or `suppression`) and weights
+/// that replace the profile's (`RewardWeights`' names), e.g. `{profile: suppression,
+/// quenched: 0, new_burnt: -1}`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RewardSpec {
+    #[serde(default = "default_profile")]
+    pub profile: String,
+    #[serde(flatten)]
+    pub weights: serde_json::Map<String, serde_json::Value>,
+}
+
+impl RewardSpec {
+    /// The profile's weights with this spec's replacements; `key` prefixes error paths.
+    pub fn weights(&self, key: &str) -> Result<RewardWeights, RlError> {
+        let mut reward = crate::helitack::reward_profile(&self.profile).map_err(|e| match e {
+            RlError::Config { message, .. } => RlError::config(format!("{key}.profile"), message),
+            other => other,
+        })?;
+        if !self.weights.is_empty() {
+            let mut weights =
+                serde_json::to_value(&reward).map_err(|e| RlError::config(key, e.to_string()))?;
+            if let Some(w) = weights.as_object_mut() {
+                w.extend(self.weights.clone());
+            }
+            reward = firecast_pipeline::stage::deserialize_params(&weights).map_err(|e| {
+                RlError::config(
+                    format!("{key}.{}", e.path).trim_end_matches('.').to_string(),
+                    e.message,
+                )
+            })?;
+        }
+        Ok(reward)
+    }
 }
 
 /// `ppo:` — a preset and overrides of any [`PpoConfig`] field.
@@ -90,23 +129,17 @@ fn default_device() -> String {
 }
 
 impl TrainSpec {
-    /// Reads a spec strictly; `overrides` are `key.path=value` (value as YAML).
+    /// Reads a spec strictly, through its `extends` chain (a recipe may start from another
+    /// and change only what differs); `overrides` are `key.path=value` (value as YAML).
+    /// A setting refused after parsing names the file and line that wrote it.
     pub fn load(root: &Path, file: &Path, overrides: &[String]) -> Result<Self, RlError> {
-        let path = root.join(file);
-        let text =
-            std::fs::read_to_string(&path).map_err(|e| RlError::io("reading the training spec", &path, e))?;
-        let spec: Self = if overrides.is_empty() {
-            firecast_pipeline::spec::deserialize_mapping_enums(file, &text)?
-        } else {
-            let mut value: serde_yaml_ng::Value = firecast_pipeline::spec::deserialize_located(file, &text)?;
-            for o in overrides {
-                firecast_pipeline::spec::apply_override(&mut value, o)
-                    .map_err(|e| RlError::config(e.path, e.message))?;
-            }
-            let merged = serde_yaml_ng::to_string(&value).map_err(|e| RlError::config("", e.to_string()))?;
-            firecast_pipeline::spec::deserialize_mapping_enums(file, &merged)?
-        };
-        spec.validate()?;
+        let mut layered = firecast_pipeline::extends::load(root, file)?;
+        for o in overrides {
+            firecast_pipeline::spec::apply_override(&mut layered.value, o)
+                .map_err(|e| RlError::config(e.path, e.message))?;
+        }
+        let spec: Self = layered.deserialize()?;
+        spec.validate().map_err(|e| e.placed(&layered))?;
         Ok(spec)
     }
 
@@ -121,7 +154,7 @@ impl TrainSpec {
     }
 
     pub fn ppo(&self) -> Result<PpoConfig, RlError> {
-        PpoConfig::resolve(&self.ppo.preset, &self.ppo.overrides)
+        Ok(PpoConfig::resolve(&self.ppo.preset, &self.ppo.overrides)?)
     }
 
     pub fn validate(&self) -> Result<(), RlError> {
@@ -154,6 +187,12 @@ impl TrainSpec {
             ));
         }
         crate::parse_device(&self.device)?;
+        if let EnvSpec::Helitack {
+            reward: Some(reward), ..
+        } = &self.env
+        {
+            reward.weights("env.reward")?;
+        }
         let p = self.policy();
         if let Some(imitation) = &self.imitation {
             if self.env == EnvSpec::Cartpole {
@@ -162,7 +201,7 @@ impl TrainSpec {
                     "the teachers fly helicopters: imitation needs the helitack environment",
                 ));
             }
-            crate::imitation::single_steps(p.memory == crate::policy::Memory::Lstm)?;
+            firecast_ppo::imitation::single_steps(p.memory == crate::policy::Memory::Lstm)?;
             imitation.validate(ppo.buffer_size())?;
         }
         match (&self.env, p.kind) {
@@ -206,6 +245,9 @@ fn default_profile() -> String {
 impl FiresSpec {
     /// Reads a fire file strictly; a setting refused after parsing names the file, the line
     /// and the column of its key (`fires.yaml:14:7: train.env.ignition: …`).
+    /// Reads a fire file strictly; a setting refused after parsing names the file, the line
+    /// and the column of its key (`fires.yaml:14:7: train.env.ignition: …`). Fire files do
+    /// not `extends` one another: a stage's cache key hashes the fire file it is given.
     pub fn load(path: &Path) -> Result<Self, RlError> {
         let text =
             std::fs::read_to_string(path).map_err(|e| RlError::io("reading the fire file", path, e))?;
@@ -213,23 +255,32 @@ impl FiresSpec {
         spec.checked().map_err(|e| e.located(path, &text))
     }
 
+    /// The fires with the reward of a training spec instead of the file's own, when the
+    /// spec names one (`env.reward`).
+    pub fn with_reward(mut self, reward: Option<&RewardSpec>) -> Result<Self, RlError> {
+        if let Some(reward) = reward {
+            let weights = reward.weights("env.reward")?;
+            self.profile = reward.profile.clone();
+            self.reward = reward.weights.clone();
+            self.train.env.reward = weights.clone();
+            self.evaluate.env.reward = weights;
+        }
+        Ok(self)
+    }
+
     /// The profile's reward applied and every check of [`load`](Self::load) passed.
     fn checked(mut self) -> Result<Self, RlError> {
         let spec = &mut self;
-        let mut reward = crate::helitack::reward_profile(&spec.profile)?;
-        if !spec.reward.is_empty() {
-            let mut weights =
-                serde_json::to_value(&reward).map_err(|e| RlError::config("reward", e.to_string()))?;
-            if let Some(w) = weights.as_object_mut() {
-                w.extend(spec.reward.clone());
+        let reward = crate::helitack::reward_profile(&spec.profile)?;
+        let reward = if spec.reward.is_empty() {
+            reward
+        } else {
+            RewardSpec {
+                profile: spec.profile.clone(),
+                weights: spec.reward.clone(),
             }
-            reward = firecast_pipeline::stage::deserialize_params(&weights).map_err(|e| {
-                RlError::config(
-                    format!("reward.{}", e.path).trim_end_matches('.').to_string(),
-                    e.message,
-                )
-            })?;
-        }
+            .weights("reward")?
+        };
         for (key, set) in [("train", &spec.train), ("evaluate", &spec.evaluate)] {
             if set.env.reward != RewardWeights::default() {
                 return Err(RlError::config(
@@ -269,7 +320,7 @@ impl FiresSpec {
 /// Where a spec's fire file is.
 pub fn fires_path(spec: &TrainSpec) -> Option<&PathBuf> {
     match &spec.env {
-        EnvSpec::Helitack { fires } => fires.as_ref(),
+        EnvSpec::Helitack { fires, .. } => fires.as_ref(),
         EnvSpec::Cartpole => None,
     }
 }

@@ -7,14 +7,8 @@ use firecast_pipeline::{ParamsError, Port, Ports, StageContext, StageError, Stag
 
 use crate::RlError;
 use crate::evaluate::EvalConfig;
-use crate::run::{RunSink, SUMMARY_FILE, TrainSummary};
+use crate::run::{RunSink, SUMMARY_FILE, TRAIN_VERSION};
 use crate::spec::{EnvSpec, FiresSpec, TrainSpec};
-
-/// Version of the `rl.train` kind; also keys the checkpoint folders in `.firecast/rl/`, so a
-/// resume never continues a checkpoint that other code made. 2: recurrent weights lead
-/// Adam's flat buffer in cuDNN's order (the `paper` policy's gradient-norm sums run in
-/// another order).
-pub const TRAIN_VERSION: u32 = 2;
 
 fn stage_error(e: RlError) -> StageError {
     StageError::msg(e.to_string())
@@ -103,7 +97,7 @@ impl StageKind for TrainStage {
     }
     fn resolve_params(&self, raw: &serde_json::Value) -> Result<serde_json::Value, ParamsError> {
         let (spec, v) = typed_params::<TrainSpec>(raw)?;
-        if let EnvSpec::Helitack { fires: Some(_) } = &spec.env {
+        if let EnvSpec::Helitack { fires: Some(_), .. } = &spec.env {
             return Err(ParamsError {
                 path: "env.fires".into(),
                 message: "a stage takes its fire file from its `fires` input".into(),
@@ -160,7 +154,7 @@ impl StageKind for TrainStage {
             };
             if ctx.output_final_path("run").is_some() {
                 for s in &summary.seeds {
-                    let path = out.join(&s.policy).join(crate::train::POLICY_FILE);
+                    let path = out.join(&s.policy).join(firecast_ppo::train::POLICY_FILE);
                     let _ = ctx.artifact(&format!("policy/seed-{}", s.seed), &path)?;
                 }
             }
@@ -189,30 +183,6 @@ fn default_device() -> String {
 
 #[derive(Debug, Default)]
 pub struct EvaluateStage;
-
-/// Reads a run folder's summary and policies.
-pub fn load_run(
-    dir: &std::path::Path,
-    device: tch::Device,
-) -> Result<(TrainSummary, Vec<(u64, crate::policy::Policy)>), RlError> {
-    let path = dir.join(SUMMARY_FILE);
-    let text = std::fs::read(&path).map_err(|e| RlError::io("reading the training run", &path, e))?;
-    let summary: TrainSummary = serde_json::from_slice(&text).map_err(|e| RlError::Checkpoint {
-        path: path.clone(),
-        message: e.to_string(),
-    })?;
-    let policies = summary
-        .seeds
-        .iter()
-        .map(|s| {
-            Ok((
-                s.seed,
-                crate::evaluate::load_policy(&dir.join(&s.policy), device)?,
-            ))
-        })
-        .collect::<Result<Vec<_>, RlError>>()?;
-    Ok((summary, policies))
-}
 
 /// Evaluates a run folder on a fire file's evaluation fires and writes `evaluation.json`,
 /// `table4.md`, `episodes.csv`, the plots and (when `cfg.recordings`) the Rerun recordings

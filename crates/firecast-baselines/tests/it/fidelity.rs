@@ -11,21 +11,9 @@ use serde_json::{Value, json};
 
 use crate::data::{accuracy, auroc, read_npy_f32, split, write_npy_f32, write_npy_labels};
 
-/// `$FIRECAST_VENV/bin/python`; a missing venv fails the test (never skips it).
+/// The venv's Python with scikit-learn; a missing venv fails the test (never skips it).
 fn python() -> PathBuf {
-    let venv = std::env::var_os("FIRECAST_VENV")
-        .map(PathBuf::from)
-        .or_else(|| option_env!("FIRECAST_VENV").map(PathBuf::from))
-        .unwrap_or_else(|| {
-            panic!("FIRECAST_VENV is not set (it comes from .cargo/config.toml): run `cargo xtask setup`")
-        });
-    let py = venv.join("bin").join("python");
-    assert!(
-        py.exists(),
-        "no Python interpreter at {}: run `cargo xtask setup` to create the venv with scikit-learn",
-        py.display()
-    );
-    py
+    firecast_testkit::python_with(&["sklearn"])
 }
 
 /// (name, spec JSON, whether it sees standardised features, max |Δproba| or None).

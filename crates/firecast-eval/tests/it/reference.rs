@@ -21,18 +21,7 @@ pub struct Reference {
 }
 
 fn python() -> PathBuf {
-    let venv = std::env::var_os("FIRECAST_VENV")
-        .map(PathBuf::from)
-        .or_else(|| option_env!("FIRECAST_VENV").map(PathBuf::from))
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../.venv")));
-    let python = venv.join("bin").join("python");
-    assert!(
-        python.exists(),
-        "the scikit-learn reference needs {} (FIRECAST_VENV={}): run `cargo xtask setup` to create the venv",
-        python.display(),
-        venv.display()
-    );
-    python
+    firecast_testkit::python_with(&["sklearn"])
 }
 
 fn run() -> Reference {

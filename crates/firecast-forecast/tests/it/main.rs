@@ -8,14 +8,7 @@ use std::process::Command;
 use firecast_forecast::neural::{NeuralConfig, NeuralKind, count_parameters};
 
 fn python() -> PathBuf {
-    let venv = PathBuf::from(env!("FIRECAST_VENV"));
-    let py = venv.join("bin/python");
-    assert!(
-        py.exists(),
-        "{} is missing: run `cargo xtask setup`",
-        py.display()
-    );
-    py
+    firecast_testkit::python_with(&["torch"])
 }
 
 fn reference() -> PathBuf {

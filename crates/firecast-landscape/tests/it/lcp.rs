@@ -27,16 +27,7 @@ const WINDOW: (usize, usize, usize, usize) = (70, 400, 48, 40);
 
 /// The project's Python (`cargo xtask setup`), with rasterio.
 fn python() -> PathBuf {
-    let venv = std::env::var_os("FIRECAST_VENV")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../.venv"));
-    let python = venv.join("bin/python");
-    assert!(
-        python.exists(),
-        "GDAL's LCP writer needs {} with rasterio: run `cargo xtask setup`",
-        python.display()
-    );
-    python
+    firecast_testkit::python_with(&["rasterio"])
 }
 
 /// Write an `.lcp` of the Worcester layers with GDAL, in the given units.

@@ -8,10 +8,7 @@ use std::process::Command;
 use firecast_recorder::{RERUN_VERSION, Recording, rerun};
 
 fn rerun_cli() -> PathBuf {
-    std::path::PathBuf::from(
-        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
-    )
-    .join("../../.venv/bin/rerun")
+    firecast_testkit::rerun_cli()
 }
 
 #[test]
@@ -67,36 +64,8 @@ fn application_ids_follow_rerun_rules() {
 }
 
 /// Scalar rows per entity of an `.rrd`, read with the venv's Rerun SDK.
-fn scalar_rows(path: &std::path::Path) -> std::collections::BTreeMap<String, Vec<(i64, f64)>> {
-    const READ: &str = r#"
-import json, sys
-from rerun.experimental import RrdReader
-series = {}
-for chunk in RrdReader(sys.argv[1]).stream():
-    batch = chunk.to_record_batch()
-    if chunk.is_static or "step" not in batch.schema.names:
-        continue
-    rows = series.setdefault(chunk.entity_path.lstrip("/"), [])
-    for step, values in zip(batch.column("step").to_pylist(), batch.column("Scalars:scalars").to_pylist()):
-        rows.extend([step, v] for v in values)
-for rows in series.values():
-    rows.sort()
-json.dump(series, sys.stdout)
-"#;
-    let python = rerun_cli().with_file_name("python");
-    let out = Command::new(&python)
-        .arg("-c")
-        .arg(READ)
-        .arg(path)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}: {}",
-        python.display(),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap()
+fn scalar_rows(path: &std::path::Path) -> firecast_testkit::Series {
+    firecast_testkit::read_scalars(path)
 }
 
 #[test]

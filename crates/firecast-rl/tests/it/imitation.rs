@@ -5,12 +5,13 @@
 
 use std::path::Path;
 
-use firecast_rl::env::{ObsBatch, VecEnvironment};
-use firecast_rl::imitation::{ChaserTeacher, ImitationConfig, Teacher, TeacherKind};
+use firecast_ppo::env::{ObsBatch, VecEnvironment};
+use firecast_ppo::imitation::Teacher;
+use firecast_ppo::ppo::PpoConfig;
+use firecast_ppo::train::{NoSink, Trainer, policy_actions};
+use firecast_rl::imitation::{ChaserTeacher, ImitationConfig, TeacherKind};
 use firecast_rl::policy::{PolicyConfig, PolicyKind, View};
-use firecast_rl::ppo::PpoConfig;
 use firecast_rl::spec::{EnvSpec, PpoSpec, TrainSpec};
-use firecast_rl::train::{NoSink, Trainer, policy_actions};
 use firecast_rl::{Device, RlError};
 use firecast_sim::agents::{FireChaser, Policy as _};
 use firecast_sim::env::{FRAME_STACK, Observation};
@@ -79,7 +80,7 @@ fn the_teacher_reads_the_observation_as_the_chaser_reads_the_environment() {
 
 /// Greedy agreement of a trainer's policy with the chaser on observations of fires flown by
 /// the chaser from another seed.
-fn agreement(trainer: &Trainer, seed: u64) -> f64 {
+fn agreement(trainer: &Trainer<PolicyConfig>, seed: u64) -> f64 {
     let mut vec = env(4, seed);
     vec.reset(seed);
     let mut teacher = ChaserTeacher::new(vec.space()).expect("teacher");
@@ -167,7 +168,10 @@ fn spec(imitation: Option<ImitationConfig>) -> TrainSpec {
     TrainSpec {
         name: "imitate".into(),
         description: None,
-        env: EnvSpec::Helitack { fires: None },
+        env: EnvSpec::Helitack {
+            fires: None,
+            reward: None,
+        },
         policy: Some(compact()),
         ppo: PpoSpec {
             preset: "paper".into(),

@@ -2,7 +2,7 @@
 //! fire at a time reproduce the batched evaluation (two training seeds with an observation
 //! normaliser, four held-out fires of 40 steps on a 48×32 grid).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use firecast_rl::agent::PpoAgent;
 use firecast_rl::ensemble::load_policies;
@@ -38,11 +38,6 @@ evaluate:
 fn evaluate(run: &Path, fires: &Path, out: &Path, cfg: &EvalConfig) -> EvalReport {
     firecast_rl::stage::evaluate_run(run, fires, None, out, cfg, Device::Cpu, &|_| {})
         .expect("the evaluation")
-}
-
-fn rerun_cli() -> PathBuf {
-    PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()))
-        .join("../../.venv/bin/rerun")
 }
 
 /// Every PPO episode, played again alone through the `firecast_sim::Policy` adapter.
@@ -137,22 +132,8 @@ fn evaluation_records_the_best_median_and_worst_ppo_episodes() {
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
 
-    let cli = rerun_cli();
-    if cli.exists() {
-        for r in &report.recordings {
-            let verify = std::process::Command::new(&cli)
-                .args(["rrd", "verify"])
-                .arg(out.join(&r.path))
-                .output()
-                .expect("running rerun");
-            assert!(
-                verify.status.success(),
-                "rerun rrd verify {}:\n{}\n{}",
-                r.path.display(),
-                String::from_utf8_lossy(&verify.stdout),
-                String::from_utf8_lossy(&verify.stderr)
-            );
-        }
+    for r in &report.recordings {
+        firecast_testkit::verify_rrd(&out.join(&r.path));
     }
 
     // Evaluated again: the same recordings, byte for byte (the stage's outputs hash the same).

@@ -2,10 +2,11 @@
 //! own log-probabilities (stored states, resets at episode starts inside a sequence), the
 //! state matters, a resumed run equals a straight one, and bad settings are refused.
 
-use firecast_rl::env::VecEnvironment;
-use firecast_rl::policy::{Hidden, Memory, ObsTensors, PolicyConfig, PolicyKind, SEQUENCE, View};
-use firecast_rl::ppo::PpoConfig;
-use firecast_rl::train::{NoSink, Trainer};
+use firecast_ppo::env::VecEnvironment;
+use firecast_ppo::policy::{Hidden, ObsTensors, SEQUENCE};
+use firecast_ppo::ppo::PpoConfig;
+use firecast_ppo::train::{NoSink, Trainer};
+use firecast_rl::policy::{Memory, PolicyConfig, PolicyKind, View};
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
 use tch::{Device, Kind, Tensor};
@@ -37,7 +38,11 @@ fn ppo() -> PpoConfig {
 
 /// Log-probabilities of the taken actions when the minibatch's sequences are replayed from
 /// `hidden`.
-fn replayed(trainer: &Trainer, mb: &firecast_rl::buffer::Minibatch, hidden: &Hidden) -> Vec<f32> {
+fn replayed(
+    trainer: &Trainer<PolicyConfig>,
+    mb: &firecast_ppo::buffer::Minibatch,
+    hidden: &Hidden,
+) -> Vec<f32> {
     let seq = mb.sequences.as_ref().expect("a sequence minibatch");
     let (logits, _, _) = tch::no_grad(|| {
         trainer.policy.sequence(
@@ -104,9 +109,9 @@ fn a_resumed_recurrent_run_equals_a_straight_run() {
     first
         .learn_until(&NoSink, Some((dir.path(), 0)), Some(2 * 64))
         .expect("first half");
-    let ckpt = Trainer::latest_checkpoint(dir.path()).expect("a checkpoint");
+    let ckpt = firecast_ppo::train::latest_checkpoint(dir.path()).expect("a checkpoint");
     drop(first);
-    let mut resumed = Trainer::resume(&ckpt, ppo, env(2, 99), Device::Cpu).expect("resume");
+    let mut resumed = Trainer::<PolicyConfig>::resume(&ckpt, ppo, env(2, 99), Device::Cpu).expect("resume");
     resumed.learn(&NoSink, None).expect("second half");
     assert_eq!(resumed.num_timesteps, straight.num_timesteps);
     let a = straight.policy.vs.variables();

@@ -4,9 +4,9 @@
 
 use std::path::{Path, PathBuf};
 
-use firecast_rl::bench::HelitackPool;
 use firecast_rl::helitack::HelitackVec;
 use firecast_rl::policy::PolicyConfig;
+use firecast_rl::pool::HelitackPool;
 use firecast_rl::run::RunSink;
 use firecast_rl::spec::{EnvSpec, PpoSpec, TrainSpec};
 use tch::Device;
@@ -38,7 +38,10 @@ pub(crate) fn tiny_run_with(dir: &Path, fires: &str, policy: Option<PolicyConfig
     let spec = TrainSpec {
         name: "tiny".into(),
         description: None,
-        env: EnvSpec::Helitack { fires: None },
+        env: EnvSpec::Helitack {
+            fires: None,
+            reward: None,
+        },
         policy,
         ppo: PpoSpec {
             preset: "paper".into(),

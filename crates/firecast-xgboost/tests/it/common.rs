@@ -88,23 +88,9 @@ pub fn write_npy_f32(path: &Path, data: &[f32], shape: &[usize]) {
     f.write_all(&bytes).expect("write npy");
 }
 
-/// `$FIRECAST_VENV/bin/python` (run-time env first, then the build-time value). Panics,
-/// failing the test, if there is none: the agreement test must not be skipped.
+/// The venv's Python with xgboost: the agreement test must not be skipped.
 pub fn venv_python() -> PathBuf {
-    let venv = std::env::var_os("FIRECAST_VENV")
-        .filter(|v| !v.is_empty())
-        .map(PathBuf::from)
-        .or_else(|| option_env!("FIRECAST_VENV").map(PathBuf::from));
-    let Some(venv) = venv else {
-        panic!("FIRECAST_VENV is not set; run `cargo xtask setup` and test through cargo");
-    };
-    let python = venv.join("bin/python");
-    assert!(
-        python.exists(),
-        "{} does not exist; run `cargo xtask setup` (it installs xgboost==3.2.0 into .venv)",
-        python.display()
-    );
-    python
+    firecast_testkit::python_with(&["xgboost"])
 }
 
 /// `tests/tools/xgb_reference.py`.
