@@ -18,7 +18,6 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-pub mod bench;
 pub mod card;
 pub mod dataset;
 pub mod geo;
@@ -124,7 +123,9 @@ pub enum DatasetError {
 }
 
 impl DatasetError {
-    pub(crate) fn io<'a>(
+    /// An I/O error on `path` while `context` (`"reading"`, …), for `map_err`; public for the
+    /// benchmark harness's reference runs.
+    pub fn io<'a>(
         context: &'static str,
         path: &'a Path,
     ) -> impl FnOnce(std::io::Error) -> DatasetError + 'a {

@@ -21,7 +21,7 @@ use firecast_landscape::{Crs, GeoReference, Landscape};
 use firecast_sim::FuelModel;
 use firecast_sim::behavior::{BehaviorParams, FuelChoice, MoisturePercent, SlopeMode};
 use firecast_sim::crown::CrownMethod;
-use firecast_spread::bench::{Window, crop, landfire_arrival_lazy_h};
+use firecast_spread::landfire::{Window, crop, landfire_arrival_lazy_h};
 use firecast_spread::mtt::MttConfig;
 use serde::{Deserialize, Serialize};
 
@@ -388,7 +388,7 @@ impl LandfireSite {
     /// `ignition`, spread by the MTT engine over the window's own layers: LANDFIRE's slope and
     /// aspect, the 20-ft wind reduced to midflame by FlamMap's adjustment (sheltered under a
     /// canopy), surface fire only, each cell's ellipse evaluated when the fire first reaches it
-    /// (`firecast_spread::bench::LandfireEllipses`). None when the wind is given at midflame (the
+    /// (`firecast_spread::landfire::LandfireEllipses`). None when the wind is given at midflame (the
     /// adjustment needs a 20-ft or 10-m wind; 10-m = 1.15 × 20-ft).
     pub fn mtt_arrival_h(
         &self,

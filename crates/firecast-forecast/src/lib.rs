@@ -16,13 +16,9 @@
 //!   and a date; [`evaluate`]: saved models scored on another dataset; [`stage`]: the
 //!   `forecast.experiment`, `forecast.evaluate` and `forecast.predict` pipeline stage kinds;
 //!   [`shard`]: `forecast.experiment` sharded by training unit (protocol × model × seed).
-//! - [`bench`]: `firecast bench forecast` — the flattened baselines against scikit-learn /
-//!   xgboost on the same exported split, network sizes and training speed against PyTorch
-//!   eager, and the full-size run projected.
 
 use std::path::{Path, PathBuf};
 
-pub mod bench;
 pub mod bundle;
 pub mod cell_days;
 pub mod data;
@@ -84,7 +80,8 @@ pub enum ForecastError {
 }
 
 impl ForecastError {
-    pub(crate) fn io<'a>(
+    /// An I/O error on `path` while `context`, for `map_err`; public for the benchmark harness.
+    pub fn io<'a>(
         context: &'static str,
         path: &'a Path,
     ) -> impl FnOnce(std::io::Error) -> ForecastError + 'a {

@@ -8,10 +8,10 @@
 //! - [`train`]: the learning loop, checkpoints and exact resumption;
 //! - [`env`]: the batched-environment interface, with [`cartpole`] (the correctness gate);
 //! - [`imitation`]: learning a rule-based teacher's actions before PPO (BC, then DAgger);
+//! - [`pool`]: a pool of helitack fires as the Python package's `HelitackVecEnv` takes them;
 //! - [`agent`]: a trained policy as a simulator `Policy` (one environment: replays, recordings).
 
 pub mod agent;
-pub mod bench;
 pub mod buffer;
 pub mod cartpole;
 pub mod ensemble;
@@ -22,6 +22,7 @@ pub mod helitack;
 pub mod imitation;
 pub mod normalize;
 pub mod policy;
+pub mod pool;
 pub mod ppo;
 pub mod rng;
 pub mod run;

@@ -539,8 +539,9 @@ impl Trainer {
         Ok(())
     }
 
-    /// One update over the buffer (SB3 `train`); returns the `train/*` metrics.
-    pub(crate) fn train(&mut self, progress_remaining: f64) -> Result<Vec<(String, f64)>, RlError> {
+    /// One update over the buffer (SB3 `train`); returns the `train/*` metrics. Public so a
+    /// benchmark can time the updates alone over a collected rollout.
+    pub fn train(&mut self, progress_remaining: f64) -> Result<Vec<(String, f64)>, RlError> {
         let lr = self.ppo.learning_rate.at(progress_remaining);
         let clip = self.ppo.clip_range.at(progress_remaining);
         let settings = LossSettings {

@@ -4,7 +4,6 @@
 //! `docs/web-app.md`; the page (`web/`) is embedded in the binary.
 
 pub mod api;
-pub mod bench;
 pub mod coverage;
 pub mod error;
 pub mod fire;

@@ -8,11 +8,11 @@
 //!   against the exact ellipse (docs/spec/fire-model.md §B7, §B10.1) for both engines.
 //! - [`picture`]: one representative case drawn as a map (ellipses, MTT fronts, the
 //!   automaton's burnt cells), `firecast sim verify --png`.
-//! - [`bench`]: FireCast beside pyretechnics (PyPI) on the same LANDFIRE landscape and inputs,
-//!   one thread each: the behaviour grid (`firecast bench behavior`) and a point fire's spread
-//!   (`firecast bench spread`).
+//! - [`landfire`]: a LANDFIRE landscape's fire for the MTT engine: windows of the grid, every
+//!   cell's ellipse as the behaviour grid computes it, a point fire evaluating cells as it
+//!   reaches them (the episodes' LANDFIRE fires; `firecast bench spread` in firecast-bench).
 
-pub mod bench;
+pub mod landfire;
 pub mod mtt;
 pub mod picture;
 pub mod verify;

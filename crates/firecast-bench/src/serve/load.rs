@@ -1,4 +1,4 @@
-//! `firecast bench serve`: a bounded load test of the web app on loopback. It starts a
+//! The load itself of `firecast bench serve`: a bounded load test of the web app on loopback. It starts a
 //! `firecast serve` process (so the server's memory is its own), fills a registry with
 //! synthetic runs, then measures
 //! 1. the runs page with that many runs in the registry (first answer, then warm),

@@ -1,4 +1,5 @@
-//! `firecast bench forecast`: FireCast's models beside their Python references, in one run.
+//! The harness of `firecast bench forecast`: FireCast's models beside their Python references
+//! (`crates/firecast-forecast/reference/`, kept beside the models they re-state), in one run.
 //!
 //! - **Fidelity**: one protocol of an experiment is cut and split as `experiment run` does;
 //!   the flattened windows (`x_train`, `x_test`, labels) are exported as `.npy`, and
@@ -24,16 +25,17 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::ForecastError;
-use crate::data::{Block, Windows};
-use crate::models::{FitContext, Inputs, ModelConfig, Trained};
-use crate::neural::{NeuralConfig, TrainingThroughput};
-use crate::spec::{ExperimentSpec, ThresholdRule};
+use firecast_forecast::ForecastError;
+use firecast_forecast::data::{Block, Windows};
+use firecast_forecast::models::{FitContext, Inputs, ModelConfig, Trained};
+use firecast_forecast::neural::{NeuralConfig, TrainingThroughput};
+use firecast_forecast::spec::{ExperimentSpec, ThresholdRule};
 
 /// The scikit-learn / xgboost reference, embedded so an installed binary carries it.
-pub const BASELINES_SCRIPT: &str = include_str!("../reference/baselines_reference.py");
+pub const BASELINES_SCRIPT: &str =
+    include_str!("../../../firecast-forecast/reference/baselines_reference.py");
 /// The PyTorch eager re-statements of the networks.
-pub const TORCH_SCRIPT: &str = include_str!("../reference/forecast_torch.py");
+pub const TORCH_SCRIPT: &str = include_str!("../../../firecast-forecast/reference/forecast_torch.py");
 
 /// The paper's flattened baselines (Table III), compared with their Python references.
 pub const FLAT_KINDS: [&str; 8] = [
@@ -544,8 +546,10 @@ pub struct ThroughputJob {
 
 /// Runs a [`ThroughputJob`] in this process (the worker's side).
 pub fn run_throughput_job(job: &ThroughputJob) -> Result<TrainingThroughput, ForecastError> {
-    let kind = crate::neural::NeuralKind::parse(&job.kind).ok_or_else(|| ForecastError::UnknownModel {
-        kind: job.kind.clone(),
+    let kind = firecast_forecast::neural::NeuralKind::parse(&job.kind).ok_or_else(|| {
+        ForecastError::UnknownModel {
+            kind: job.kind.clone(),
+        }
     })?;
     let mut params = job.params.clone();
     if let Some(m) = params.as_object_mut() {
@@ -553,7 +557,7 @@ pub fn run_throughput_job(job: &ThroughputJob) -> Result<TrainingThroughput, For
     }
     let cfg = NeuralConfig::parse(kind, &params)?;
     firecast_learn::set_threads(job.threads.max(1));
-    crate::neural::training_throughput(
+    firecast_forecast::neural::training_throughput(
         &cfg, job.width, job.days, job.rows, job.warmup, job.steps, job.seed,
     )
 }
@@ -622,7 +626,7 @@ pub fn run(
     // The protocol's split and inputs, as `experiment run` cuts them.
     let key = format!("protocols.{}", opts.protocol);
     let days = windows.day_range(protocol.days.0, protocol.days.1, &format!("{key}.days"))?;
-    let split = crate::split::apply(windows, &protocol.split, protocol.days, &key)?;
+    let split = firecast_forecast::split::apply(windows, &protocol.split, protocol.days, &key)?;
     let all_features: Vec<usize> = (0..windows.n_features()).collect();
     let cut = |rows: &[usize]| Block::cut(windows, days.clone(), &all_features, rows);
     let (btr, bva, bte) = (cut(&split.train), cut(&split.val), cut(&split.test));
@@ -658,7 +662,7 @@ pub fn run(
             curve: &|_, _, _| {},
         };
         let t0 = Instant::now();
-        let trained = pool.install(|| crate::models::fit(config, &ctx))?;
+        let trained = pool.install(|| firecast_forecast::models::fit(config, &ctx))?;
         Ok::<_, ForecastError>((trained, t0.elapsed().as_secs_f64()))
     };
 
@@ -916,7 +920,7 @@ pub fn run(
             days: n_days,
             hidden: cfg.hidden,
             layers: cfg.layers,
-            tch: crate::neural::count_parameters(cfg, width, n_days),
+            tch: firecast_forecast::neural::count_parameters(cfg, width, n_days),
             pytorch: 0,
             equal: false,
             from_experiment: entry.from_experiment,
@@ -1087,7 +1091,7 @@ pub fn run(
                     "projection: {label}: {} training steps (batch {}) ...",
                     opts.projection_steps, cfg.batch_size
                 ));
-                crate::neural::training_throughput(
+                firecast_forecast::neural::training_throughput(
                     cfg,
                     width,
                     n_days,

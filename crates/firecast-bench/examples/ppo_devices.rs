@@ -10,7 +10,7 @@
 //!    a small rollout every device can afford, and with the paper's own settings on CUDA.
 //!
 //! ```text
-//! cargo run --release -p firecast-rl --example ppo_devices -- \
+//! cargo run --release -p firecast-bench --example ppo_devices -- \
 //!     [--threads N] [--steps N] [--cartpole-seeds N] [--case NAME-PART] [--json FILE]
 //! ```
 //!
@@ -21,11 +21,12 @@ use std::io::Write;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use firecast_rl::bench::{self, HelitackPool};
-use firecast_rl::cartpole::CartPoleVec;
+use firecast_bench::ppo::phases as bench;
+use firecast_ppo::cartpole::CartPoleVec;
 use firecast_rl::policy::{Memory, PolicyConfig, PolicyKind, View};
-use firecast_rl::ppo::PpoConfig;
-use firecast_rl::train::{NoSink, Trainer};
+use firecast_rl::pool::HelitackPool;
+use firecast_ppo::ppo::PpoConfig;
+use firecast_ppo::train::{NoSink, Trainer};
 use firecast_rl::{Device, RlError};
 
 struct Args {

@@ -1,8 +1,8 @@
-//! `firecast bench gridmet`: FireCast's extraction beside the reference extraction written in
-//! Python with xarray + netCDF4 the way the authors did it (one nearest-cell selection per
-//! sample and variable), on the same files and the same samples, in the same run.
+//! The reference side of `firecast bench gridmet`: the extraction written in Python with
+//! xarray + netCDF4 the way the authors did it (one nearest-cell selection per sample and
+//! variable), run on the same files and samples as FireCast's, and the comparison of the two.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
@@ -10,12 +10,13 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::land::LandMask;
-use crate::windows::{SampleIn, WindowTable};
-use crate::{DatasetError, Tier, time};
+use firecast_dataset::land::LandMask;
+use firecast_dataset::windows::{SampleIn, WindowTable};
+use firecast_dataset::{DatasetError, Tier, time};
 
-/// The reference script, shipped inside the binary so the benchmark needs no checkout.
-pub const REFERENCE_SCRIPT: &str = include_str!("../reference/gridmet_xarray.py");
+/// The reference script (kept beside the extraction it re-states), shipped inside the binary so
+/// the benchmark needs no checkout.
+pub const REFERENCE_SCRIPT: &str = include_str!("../../../firecast-dataset/reference/gridmet_xarray.py");
 
 /// The paper's scale: windows, variables and years of CONUS files (docs/spec/data.md §3.3, §4.7).
 pub const PAPER_WINDOWS: f64 = 126_800.0;
@@ -171,23 +172,4 @@ pub fn compare(ours: &[f32], reference: &[f32]) -> Agreement {
         }
     }
     a
-}
-
-/// The Python interpreter: `--python`, else `$FIRECAST_VENV/bin/python`, else the
-/// project's `.venv`, else `python3` on the PATH.
-pub fn find_python(explicit: Option<&Path>, root: &Path) -> PathBuf {
-    if let Some(p) = explicit {
-        return p.to_path_buf();
-    }
-    if let Some(venv) = std::env::var_os("FIRECAST_VENV") {
-        let p = PathBuf::from(venv).join("bin/python");
-        if p.is_file() {
-            return p;
-        }
-    }
-    let local = root.join(".venv/bin/python");
-    if local.is_file() {
-        return local;
-    }
-    PathBuf::from("python3")
 }

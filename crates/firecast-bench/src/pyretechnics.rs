@@ -6,36 +6,38 @@
 //! same GeoTIFF layers with pyretechnics' own LANDFIRE loader and times only the call being
 //! compared; FireCast's side is timed here around the same work.
 //!
-//! - **Behaviour** ([`bench_behavior`]): the fire behaviour of every cell of the grid, FireCast's
+//! - **Behaviour** ([`bench_behavior`], `firecast bench behavior`: [`crate::behavior`]): the fire behaviour of every cell of the grid, FireCast's
 //!   [`firecast_sim::behavior::surface_behavior_grids`] (surface and Finney crown fire) against
 //!   pyretechnics' `burn_cells.burn_all_cells_as_head_fire` (surface and its crown fire). Before
 //!   the times are compared, the two must agree on the head rate of spread: every *comparable*
 //!   cell that both call surface fire within [`ROS_TOLERANCE`] (see [`comparable_cell`] for
 //!   which cells the two models make the same computation on).
-//! - **Spread** ([`bench_spread`]): one point ignition spread for a given time, FireCast's
-//!   minimum-travel-time engine ([`crate::mtt`], per-cell ellipses from the landscape's own
+//! - **Spread** ([`bench_spread`], `firecast bench spread`: [`crate::spread`]): one point
+//!   ignition spread for a given time, FireCast's minimum-travel-time engine
+//!   ([`firecast_spread::mtt`], per-cell ellipses from the landscape's own
 //!   slope, aspect and canopy as the behaviour grid computes them) against pyretechnics'
 //!   Eulerian level set (`eulerian_level_set.spread_fire_with_phi_field`). Different algorithms:
 //!   the burnt areas are compared, not required to be equal.
 
 use std::path::{Path, PathBuf};
+
+use crate::Context;
+use crate::python::{Venv, find_python};
 use std::process::Command;
 use std::time::Instant;
 
 use firecast_landscape::landfire::{LandfireLandscape, LayerKind};
-use firecast_sim::behavior::{
-    BehaviorParams, FIRE_TYPE_SURFACE, SlopeMode, lcp_slope_percent, sheltering_canopy,
-    surface_behavior_grids, wind_adjustment_factor,
-};
-use firecast_sim::{FuelModel, SpreadInputs, SurfaceFuelBed, WindLimit};
+use firecast_sim::FuelModel;
+use firecast_sim::behavior::{BehaviorParams, FIRE_TYPE_SURFACE, SlopeMode, surface_behavior_grids};
+use firecast_spread::landfire::{LandfireSpreadError, Window, crop, landfire_arrival_lazy_h};
+use firecast_spread::mtt::{LazyRun, MttError};
 
-use crate::mtt::{Ellipse, MttError, MttGrid, arrival_times_lazy_h};
+/// The pyretechnics side (kept beside the engine it is compared with), embedded and written
+/// next to the job when the bench runs.
+pub const PEER_SCRIPT: &str = include_str!("../../firecast-spread/reference/pyretechnics_bench.py");
 
-/// The pyretechnics side, embedded and written next to the job when the bench runs.
-pub const PEER_SCRIPT: &str = include_str!("../reference/pyretechnics_bench.py");
-
-/// Where `cargo xtask setup` installs pyretechnics, relative to the project root.
-pub const PEER_VENV: &str = ".venv-peers/pyretechnics";
+/// The peer's venv name: `cargo xtask setup` installs it in `.venv-peers/pyretechnics`.
+pub const PEER: &str = "pyretechnics";
 
 /// The Worcester, Vermont LANDFIRE clip the parity test uses, relative to the repository root.
 pub const WORCESTER: &str = "crates/firecast-landscape/tests/fixtures/landfire-worcester/landfire";
@@ -51,11 +53,8 @@ const KMH_PER_MPH: f64 = 1.609_344;
 /// Errors of the side-by-side benches.
 #[derive(Debug, thiserror::Error)]
 pub enum BenchError {
-    #[error(
-        "pyretechnics' Python `{}` is missing: run `cargo xtask setup` (it installs pyretechnics into {PEER_VENV}), or pass --python",
-        path.display()
-    )]
-    PeerMissing { path: PathBuf },
+    #[error(transparent)]
+    PeerMissing(#[from] crate::python::PythonMissing),
     /// Boxed: a landscape error carries the files and cells it names.
     #[error(transparent)]
     Landscape(Box<firecast_landscape::landfire::LandfireError>),
@@ -65,6 +64,8 @@ pub enum BenchError {
     Kernel(#[from] firecast_sim::RothermelError),
     #[error(transparent)]
     Mtt(#[from] MttError),
+    #[error(transparent)]
+    Spread(#[from] LandfireSpreadError),
     #[error("{0}")]
     Input(String),
     #[error("pyretechnics ({python}) failed with {status}:\n{stderr}", python = python.display())]
@@ -92,17 +93,6 @@ fn io(what: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> BenchEr
     move |source| BenchError::Io { what, path, source }
 }
 
-/// The peer's Python: `explicit`, else `<root>/.venv-peers/pyretechnics/bin/python`; an error
-/// saying to run `cargo xtask setup` when it is not there.
-pub fn peer_python(explicit: Option<&Path>, root: &Path) -> Result<PathBuf, BenchError> {
-    let path = explicit.map_or_else(|| root.join(PEER_VENV).join("bin/python"), Path::to_path_buf);
-    if path.is_file() {
-        Ok(path)
-    } else {
-        Err(BenchError::PeerMissing { path })
-    }
-}
-
 /// The machine, as the results pages name it: the CPU model and the cores this process sees.
 pub fn machine() -> String {
     let model = std::fs::read_to_string("/proc/cpuinfo")
@@ -116,77 +106,6 @@ pub fn machine() -> String {
         .unwrap_or_else(|| std::env::consts::ARCH.to_string());
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
     format!("{model}, {cores} cores")
-}
-
-/// A rectangle of cells, in the landscape's rows (row 0 north) and columns.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-pub struct Window {
-    pub row0: usize,
-    pub col0: usize,
-    pub rows: usize,
-    pub cols: usize,
-}
-
-impl Window {
-    /// The whole grid.
-    pub fn full(land: &LandfireLandscape) -> Self {
-        Self {
-            row0: 0,
-            col0: 0,
-            rows: land.grid.height,
-            cols: land.grid.width,
-        }
-    }
-
-    /// `rows` × `cols` cells centred on (`col`, `row`), moved inside the grid (and cut to it).
-    pub fn around(land: &LandfireLandscape, col: usize, row: usize, rows: usize, cols: usize) -> Self {
-        let (h, w) = (land.grid.height, land.grid.width);
-        let (rows, cols) = (rows.clamp(1, h), cols.clamp(1, w));
-        Self {
-            row0: row.saturating_sub(rows / 2).min(h - rows),
-            col0: col.saturating_sub(cols / 2).min(w - cols),
-            rows,
-            cols,
-        }
-    }
-
-    pub fn cells(&self) -> usize {
-        self.rows * self.cols
-    }
-
-    fn contains(&self, col: usize, row: usize) -> bool {
-        (self.col0..self.col0 + self.cols).contains(&col) && (self.row0..self.row0 + self.rows).contains(&row)
-    }
-}
-
-/// The landscape cut to `w` (every layer; the grid's origin moved to the window's corner).
-pub fn crop(land: &LandfireLandscape, w: Window) -> LandfireLandscape {
-    fn cut<T: Copy>(v: &[T], width: usize, w: Window) -> Vec<T> {
-        (w.row0..w.row0 + w.rows)
-            .flat_map(|r| v[r * width + w.col0..r * width + w.col0 + w.cols].iter().copied())
-            .collect()
-    }
-    let width = land.grid.width;
-    let mut out = land.clone();
-    out.fuel = cut(&land.fuel, width, w);
-    out.slope_percent = cut(&land.slope_percent, width, w);
-    out.aspect_deg = cut(&land.aspect_deg, width, w);
-    for layer in [
-        &mut out.elevation_m,
-        &mut out.canopy_cover_pct,
-        &mut out.canopy_height_m,
-        &mut out.canopy_base_height_m,
-        &mut out.canopy_bulk_density_kg_m3,
-    ] {
-        if let Some(values) = layer.as_mut() {
-            *values = cut(values, width, w);
-        }
-    }
-    out.grid.origin_x += w.col0 as f64 * land.grid.pixel_dx;
-    out.grid.origin_y += w.row0 as f64 * land.grid.pixel_dy;
-    out.grid.width = w.cols;
-    out.grid.height = w.rows;
-    out
 }
 
 /// Seconds of each timed repeat, the best, and the rate the best gives.
@@ -620,160 +539,6 @@ fn behavior_agreement(
 // Spread
 // ---------------------------------------------------------------------------------------------
 
-/// The surface spread ellipse of a LANDFIRE landscape's cells, as [`firecast_sim::behavior`]
-/// evaluates the kernel per cell (slope as given, upslope from the aspect with −1 as 0,
-/// FlamMap's wind adjustment under canopy, behave's vector combination of wind and slope).
-/// Nodata and non-burnable cells do not burn. Surface fire only: the MTT engine has no crown
-/// fire.
-pub struct LandfireEllipses<'a> {
-    land: &'a LandfireLandscape,
-    params: &'a BehaviorParams,
-    moisture: firecast_sim::FuelMoisture,
-    /// Fuel beds by code, prepared when a cell of that code is first evaluated: `None` not
-    /// yet, `Some(None)` the code does not burn.
-    beds: Vec<Option<Option<(SurfaceFuelBed, f64)>>>,
-    limit: WindLimit,
-    wind_toward: f64,
-}
-
-impl<'a> LandfireEllipses<'a> {
-    pub fn new(land: &'a LandfireLandscape, params: &'a BehaviorParams) -> Self {
-        Self {
-            land,
-            params,
-            moisture: params.moisture.fractions(),
-            beds: Vec::new(),
-            limit: if params.wind_limit {
-                WindLimit::Rothermel
-            } else {
-                WindLimit::Off
-            },
-            wind_toward: (params.wind_from_deg + 180.0).rem_euclid(360.0),
-        }
-    }
-
-    fn bed(&mut self, code: u16) -> Result<Option<(SurfaceFuelBed, f64)>, BenchError> {
-        let k = usize::from(code);
-        if k >= self.beds.len() {
-            self.beds.resize(k + 1, None);
-        }
-        if self.beds[k].is_none() {
-            let bed = match FuelModel::by_number(code).filter(|m| m.burnable) {
-                Some(model) => Some((SurfaceFuelBed::new(model, &self.moisture)?, model.depth_ft)),
-                None => None,
-            };
-            self.beds[k] = Some(bed);
-        }
-        Ok(self.beds[k].flatten())
-    }
-
-    /// Cell side, ft.
-    pub fn cell_size_ft(&self) -> f64 {
-        self.land.grid.pixel_dx.abs() * FT_PER_M
-    }
-
-    /// The ellipse of the landscape's cell `i` (row 0 north).
-    pub fn at(&mut self, i: usize) -> Result<Ellipse, BenchError> {
-        let none = Ellipse {
-            head_ftmin: 0.0,
-            eccentricity: 0.0,
-            head_azimuth_deg: 0.0,
-        };
-        let land = self.land;
-        let (Some(code), slope, aspect) = (land.fuel[i], land.slope_percent[i], land.aspect_deg[i]) else {
-            return Ok(none);
-        };
-        if slope.is_nan() || aspect.is_nan() {
-            return Ok(none);
-        }
-        let Some((bed, depth)) = self.bed(code)? else {
-            return Ok(none);
-        };
-        let mut slope = f64::from(slope);
-        if self.params.slope == SlopeMode::LcpWholeDegrees {
-            slope = lcp_slope_percent(slope);
-        }
-        let upslope = (f64::from(aspect.max(0.0)) + 180.0).rem_euclid(360.0);
-        let (cover, canopy_ft) = sheltering_canopy(land, i);
-        let fire = bed.spread_with_limit(
-            &SpreadInputs {
-                midflame_wind_mph: self.params.wind_20ft_mph
-                    * wind_adjustment_factor(depth, canopy_ft, cover),
-                slope_percent: slope,
-                wind_dir_from_upslope_deg: (self.wind_toward - upslope).rem_euclid(360.0),
-            },
-            self.limit,
-        );
-        Ok(Ellipse {
-            head_ftmin: fire.head_ros_ftmin,
-            eccentricity: fire.eccentricity,
-            head_azimuth_deg: upslope + fire.dir_max_spread_from_upslope_deg,
-        })
-    }
-
-    /// The landscape's cell of the MTT grid's cell `j` (row 0 south).
-    pub fn landscape_index(&self, j: usize) -> usize {
-        let (w, h) = (self.land.grid.width, self.land.grid.height);
-        (h - 1 - j / w) * w + j % w
-    }
-
-    /// Every cell's ellipse in an [`MttGrid`] (row 0 south: the landscape's rows reversed).
-    pub fn grid(&mut self) -> Result<MttGrid, BenchError> {
-        let (w, h) = (self.land.grid.width, self.land.grid.height);
-        let ellipses: Vec<Ellipse> = (0..w * h)
-            .map(|j| self.at(self.landscape_index(j)))
-            .collect::<Result<_, _>>()?;
-        Ok(MttGrid::from_ellipses(
-            w,
-            h,
-            self.cell_size_ft(),
-            ellipses.iter().map(|e| e.head_ftmin).collect(),
-            ellipses.iter().map(|e| e.eccentricity).collect(),
-            &ellipses.iter().map(|e| e.head_azimuth_deg).collect::<Vec<_>>(),
-        )?)
-    }
-}
-
-/// A fire on a LANDFIRE landscape spread by the MTT engine over the cells' own slope, aspect and
-/// canopy ([`LandfireEllipses`]), each cell's ellipse evaluated when the fire's moves first
-/// reach it: `ignitions` as (column, row) of the MTT grid (row 0 south), `hours` the time limit.
-/// A kernel error (a fuel model that cannot be prepared) stops the fire where it occurs and is
-/// returned after the run.
-pub fn landfire_arrival_lazy_h(
-    land: &LandfireLandscape,
-    params: &BehaviorParams,
-    ignitions: &[(usize, usize)],
-    stencil_radius: u32,
-    hours: f64,
-) -> Result<crate::mtt::LazyRun, BenchError> {
-    let mut ellipses = LandfireEllipses::new(land, params);
-    let cell_ft = ellipses.cell_size_ft();
-    let mut failed = None;
-    let run = arrival_times_lazy_h(
-        land.grid.width,
-        land.grid.height,
-        cell_ft,
-        |j| {
-            let i = ellipses.landscape_index(j);
-            ellipses.at(i).unwrap_or_else(|e| {
-                failed.get_or_insert(e);
-                Ellipse {
-                    head_ftmin: 0.0,
-                    eccentricity: 0.0,
-                    head_azimuth_deg: 0.0,
-                }
-            })
-        },
-        ignitions,
-        stencil_radius,
-        hours,
-    )?;
-    match failed {
-        Some(e) => Err(e),
-        None => Ok(run),
-    }
-}
-
 /// The burnt areas of the two engines.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct BurntAreas {
@@ -871,7 +636,7 @@ pub fn bench_spread(
 
     // FireCast: the fuel beds, then the spread with each cell's ellipse evaluated when the
     // fire's moves first reach it; timed together, on one thread, around pyretechnics' runs.
-    let ours = || -> Result<(f64, crate::mtt::LazyRun), BenchError> {
+    let ours = || -> Result<(f64, LazyRun), BenchError> {
         let started = Instant::now();
         let run = landfire_arrival_lazy_h(
             &land,
@@ -962,8 +727,135 @@ fn burnt_areas(
     a
 }
 
+// ---------------------------------------------------------------------------------------------
+// The flags and lines `firecast bench behavior` and `firecast bench spread` share
+// ---------------------------------------------------------------------------------------------
+
+/// The speed goal: FireCast at least this many times pyretechnics on one core.
+pub const GOAL: f64 = 20.0;
+
+/// What both benches take.
+#[derive(Debug, clap::Args)]
+pub struct FireBenchArgs {
+    /// LANDFIRE landscape folder (GeoTIFF layers, slope in percent) [default: the Worcester
+    /// clip of the FlamMap parity test]
+    #[arg(long, value_name = "DIR")]
+    pub landscape: Option<PathBuf>,
+    /// Fuel layer: fbfm40 or fbfm13.
+    #[arg(long, default_value = "fbfm40", value_name = "LAYER")]
+    pub fuel: String,
+    /// Fuel moisture, percent: D1,D10,D100,HERB,WOODY [default: FlamMap's run on the
+    /// Worcester clip].
+    #[arg(long, default_value = "6,8,10,75,60", value_name = "D1,D10,D100,HERB,WOODY")]
+    pub moisture: String,
+    /// Foliar moisture content, percent.
+    #[arg(long, default_value_t = 120.0, value_name = "PCT")]
+    pub foliar_moisture: f64,
+    /// Direction the wind comes from, degrees clockwise from north.
+    #[arg(long, default_value_t = 225.0, value_name = "DEG")]
+    pub wind_from_deg: f64,
+    /// Timed repeats of each engine (the best counts).
+    #[arg(long, default_value_t = 5, value_name = "N")]
+    pub repeats: usize,
+    /// A small window of cells and one repeat (for tests).
+    #[arg(long)]
+    pub quick: bool,
+    /// pyretechnics' Python [default: .venv-peers/pyretechnics/bin/python, from `cargo xtask
+    /// setup`].
+    #[arg(long, value_name = "PYTHON")]
+    pub python: Option<PathBuf>,
+}
+
+/// The Worcester clip's grass cell (GR2) the spread bench ignites by default.
+pub const DEFAULT_IGNITION: (usize, usize) = (362, 457);
+/// `--quick` windows: the behaviour grid's centre, and around the ignition.
+pub const QUICK_BEHAVIOR: usize = 128;
+pub const QUICK_SPREAD: usize = 160;
+
+/// The benches' options from the flags both take, and the work folder to remove after.
+pub fn options(
+    ctx: &Context,
+    a: &FireBenchArgs,
+    wind_mph: f64,
+    crown: &str,
+) -> anyhow::Result<(BenchOptions, PathBuf)> {
+    use firecast_sim::behavior::{BehaviorParams, FuelChoice, MoisturePercent, SlopeMode};
+    let python = find_python(a.python.as_deref(), &ctx.root, Venv::Peer(PEER))?;
+    let fuel = match a.fuel.to_ascii_lowercase().as_str() {
+        "fbfm40" => FuelChoice::Fbfm40,
+        "fbfm13" => FuelChoice::Fbfm13,
+        other => anyhow::bail!("--fuel {other}: expected fbfm40 or fbfm13"),
+    };
+    let crown = firecast_sim::crown::CrownMethod::parse(crown)
+        .ok_or_else(|| anyhow::anyhow!("--crown {crown}: expected finney, scott-reinhardt or none"))?;
+    let params = BehaviorParams {
+        fuel,
+        moisture: MoisturePercent::parse(&a.moisture).map_err(|e| anyhow::anyhow!("--moisture: {e}"))?,
+        wind_20ft_mph: wind_mph,
+        wind_from_deg: a.wind_from_deg,
+        slope: SlopeMode::AsGiven,
+        wind_limit: false,
+        crown,
+        foliar_moisture_pct: a.foliar_moisture,
+    };
+    params.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let landscape = ctx
+        .root
+        .join(a.landscape.clone().unwrap_or_else(|| WORCESTER.into()));
+    let work = std::env::temp_dir().join(format!("firecast-bench-pyretechnics-{}", std::process::id()));
+    let opts = BenchOptions {
+        landscape,
+        params,
+        repeats: if a.quick { 1 } else { a.repeats.max(1) },
+        python,
+        work: work.clone(),
+    };
+    Ok((opts, work))
+}
+
+/// A path inside the project as the user would type it.
+pub fn shown<'a>(root: &std::path::Path, path: &'a std::path::Path) -> &'a std::path::Path {
+    path.strip_prefix(root).unwrap_or(path)
+}
+
+/// The inputs, as the tables' heading line names them.
+pub fn inputs_line(p: &firecast_sim::behavior::BehaviorParams) -> String {
+    let m = &p.moisture;
+    format!(
+        "moisture {}/{}/{}/{}/{} %, foliar {} %, 20-ft wind {} mi/h from {}°",
+        m.dead_1h,
+        m.dead_10h,
+        m.dead_100h,
+        m.live_herbaceous,
+        m.live_woody,
+        p.foliar_moisture_pct,
+        p.wind_20ft_mph,
+        p.wind_from_deg
+    )
+}
+
+/// A table row of one engine's timing.
+pub fn timing_row(name: String, t: &Timing, unit: &str, ratio: f64) -> Vec<String> {
+    vec![
+        name,
+        format!("{:.4}", t.best_seconds),
+        format!("{:.0} {unit}", t.cells_per_second),
+        format!("{ratio:.1}x"),
+    ]
+}
+
+/// The goal's line, met or not.
+pub fn goal_line(ratio: f64) -> String {
+    format!(
+        "goal >= {GOAL:.0}x pyretechnics on one core: {} ({ratio:.1}x)",
+        if ratio >= GOAL { "met" } else { "NOT met" }
+    )
+}
+
 #[cfg(test)]
 mod tests {
+    use firecast_sim::behavior::surface_behavior_grids;
+
     use super::*;
 
     #[test]
@@ -992,24 +884,6 @@ mod tests {
         .expect("the Worcester fixture")
     }
 
-    #[test]
-    fn windows_stay_inside_the_grid() {
-        let land = worcester();
-        let w = Window::around(&land, 0, 0, 100, 80);
-        assert_eq!((w.row0, w.col0, w.rows, w.cols), (0, 0, 100, 80));
-        let w = Window::around(&land, land.grid.width - 1, land.grid.height - 1, 100, 80);
-        assert_eq!(w.row0 + w.rows, land.grid.height);
-        assert_eq!(w.col0 + w.cols, land.grid.width);
-        let c = crop(&land, w);
-        assert_eq!((c.grid.width, c.grid.height, c.fuel.len()), (80, 100, 8000));
-        let (r, k) = (w.row0 + 7, w.col0 + 3);
-        assert_eq!(c.fuel[7 * 80 + 3], land.fuel[r * land.grid.width + k]);
-        assert_eq!(
-            c.slope_percent[7 * 80 + 3],
-            land.slope_percent[r * land.grid.width + k]
-        );
-    }
-
     fn windy_params() -> BehaviorParams {
         serde_json::from_value(serde_json::json!({
             "moisture": {"dead_1h": 6, "dead_10h": 8, "dead_100h": 10, "live_herbaceous": 75, "live_woody": 60},
@@ -1020,38 +894,6 @@ mod tests {
         .expect("params")
     }
 
-    /// The bench's fire (the lazy engine: a growing window, each cell's 1/rate table) equals the
-    /// engine over every cell's ellipse (`MttGrid`) bit for bit on the Worcester clip, for the
-    /// bench's 8 hours and a longer fire whose window grows.
-    #[test]
-    fn lazy_landfire_fire_equals_the_whole_grids_bit_for_bit() {
-        let land = worcester();
-        let params = windy_params();
-        let grid = LandfireEllipses::new(&land, &params).grid().expect("grid");
-        let (w, h) = (land.grid.width, land.grid.height);
-        for (ignition, hours) in [
-            ((362, h - 1 - 457), 8.0),
-            ((362, h - 1 - 457), 40.0),
-            ((100, 500), 24.0),
-        ] {
-            let lazy = landfire_arrival_lazy_h(&land, &params, &[ignition], 8, hours).expect("runs");
-            let whole = grid.arrival_times_h(&[ignition], 8, hours).expect("runs");
-            assert!(
-                lazy.reached_h.len() > 50,
-                "{ignition:?} {hours}: {}",
-                lazy.reached_h.len()
-            );
-            assert_eq!(
-                lazy.arrival_h(w * h)
-                    .iter()
-                    .map(|v| v.to_bits())
-                    .collect::<Vec<_>>(),
-                whole.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                "{ignition:?} {hours}"
-            );
-        }
-    }
-
     /// Scott & Reinhardt's crown fire under a 15 mi/h wind beside pyretechnics' on the cells where
     /// the two models' wind handling agrees (flat cells whose canopy both shelter the same way,
     /// [`comparable_cell`]) and where pyretechnics looks for crown fire (cover > 40 %): fire type
@@ -1060,9 +902,9 @@ mod tests {
     #[test]
     fn scott_reinhardt_crown_fire_under_wind_beside_pyretechnics_on_flat_cells() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-        let Ok(python) = peer_python(None, &root) else {
+        let Ok(python) = crate::python::find_python(None, &root, crate::python::Venv::Peer(PEER)) else {
             eprintln!(
-                "skipped: pyretechnics is not installed in {PEER_VENV} (`cargo xtask setup` installs it)"
+                "skipped: pyretechnics is not installed in .venv-peers/{PEER} (`cargo xtask setup` installs it)"
             );
             return;
         };
@@ -1138,44 +980,5 @@ mod tests {
             "{cells} cells, {crown_both} crown"
         );
         assert_eq!(equal, cells, "{confusion:?}");
-    }
-
-    /// For profiling the bench's fire alone: `cargo test --release … --lib -- --ignored
-    /// bench::tests::spread_timing --nocapture`.
-    #[test]
-    #[ignore]
-    fn spread_timing() {
-        let land = worcester();
-        let params = windy_params();
-        let h = land.grid.height;
-        let mut best = f64::INFINITY;
-        for _ in 0..2000 {
-            let started = Instant::now();
-            let run = landfire_arrival_lazy_h(&land, &params, &[(362, h - 1 - 457)], 8, 8.0).expect("runs");
-            best = best.min(started.elapsed().as_secs_f64());
-            assert_eq!(run.reached_h.len(), 273);
-        }
-        println!("best {:.3} ms", best * 1e3);
-    }
-
-    #[test]
-    fn mtt_grid_rows_run_south_to_north() {
-        // A window's MTT grid: the landscape's north row is the grid's last.
-        let land = worcester();
-        let w = Window::around(&land, 274, 306, 40, 40);
-        let c = crop(&land, w);
-        let params: BehaviorParams = serde_json::from_value(serde_json::json!({
-            "moisture": {"dead_1h": 6, "dead_10h": 8, "dead_100h": 10, "live_herbaceous": 75, "live_woody": 60}
-        }))
-        .expect("params");
-        let grid = LandfireEllipses::new(&c, &params).grid().expect("grid");
-        for row in 0..40 {
-            for col in 0..40 {
-                let burns = c.fuel[row * 40 + col]
-                    .and_then(FuelModel::by_number)
-                    .is_some_and(|m| m.burnable);
-                assert_eq!(grid.burnable((39 - row) * 40 + col), burns, "{row} {col}");
-            }
-        }
     }
 }
