@@ -4,16 +4,17 @@
 //! environment, episode seed and action seed it replays an evaluated episode, so anything
 //! that takes a `firecast_sim::Policy` (Rerun recordings, frames, GIFs) can draw it.
 
+use firecast_ppo::env::ObsBatch;
+use firecast_ppo::normalize::VecNormalize;
+use firecast_ppo::policy::Hidden;
+use firecast_ppo::train::policy_actions;
 use firecast_sim::{Action, Decision, Observation};
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
 
 use crate::RlError;
-use crate::env::ObsBatch;
 use crate::helitack;
-use crate::normalize::VecNormalize;
-use crate::policy::{Hidden, Policy};
-use crate::train::policy_actions;
+use crate::policy::Policy;
 
 /// Where an agent's trained policy and frozen observation normaliser live: borrowed from a
 /// loaded run, or owned (a live fire on its own thread).

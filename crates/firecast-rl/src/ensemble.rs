@@ -10,6 +10,9 @@ use std::path::Path;
 use firecast_episodes::ensemble::{EpisodeRecord, RunConditions, Setup, Tracker};
 use firecast_episodes::{EnsembleParams, prepare_ensemble};
 use firecast_pipeline::{ParamsError, Port, Ports, StageContext, StageError, StageKind, typed_params};
+use firecast_ppo::env::{ObsBatch, ObsSpace};
+use firecast_ppo::normalize::VecNormalize;
+use firecast_ppo::train::{pick_action, policy_log_probs_of};
 use firecast_sim::env::EnvCore;
 use firecast_sim::{Action, StepInfo};
 use rand_chacha::ChaCha8Rng;
@@ -18,12 +21,9 @@ use rayon::prelude::*;
 use serde::Deserialize;
 
 use crate::RlError;
-use crate::env::{ObsBatch, ObsSpace};
 use crate::helitack;
-use crate::normalize::VecNormalize;
 use crate::policy::{Policy, PolicyKind};
 use crate::run::TrainSummary;
-use crate::train::{pick_action, policy_log_probs_of};
 
 /// Runs stepped together at most; bounds memory for large ensembles (the chunking is fixed,
 /// so the output does not depend on the machine).
@@ -48,7 +48,7 @@ pub fn load_policies(
     struct Head {
         normalize: Option<VecNormalize>,
     }
-    let (summary, policies) = crate::stage::load_run(dir, device)?;
+    let (summary, policies) = crate::run::load_run(dir, device)?;
     let mut out = Vec::with_capacity(policies.len());
     for ((seed, policy), s) in policies.into_iter().zip(&summary.seeds) {
         let path = dir.join(&s.policy).join("trainer.json");

@@ -7,6 +7,8 @@
 use std::path::{Path, PathBuf};
 
 use firecast_eval::bootstrap::{Interval, iqm, stratified_bootstrap};
+use firecast_ppo::env::ObsBatch;
+use firecast_ppo::train::{pick_action, policy_log_probs_of};
 use firecast_sim::env::EnvCore;
 use firecast_sim::{
     Action, EpisodeContext, FireChaser, NoSuppression, Observation, Policy as SimPolicy, RuleBasedAgent,
@@ -15,16 +17,12 @@ use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use tch::Device;
 
 use crate::RlError;
 use crate::agent::PpoAgent;
 use crate::ensemble::EnsemblePolicy;
-use crate::env::ObsBatch;
 use crate::helitack::{self, FireDraw, FireSet};
-use crate::policy::Policy;
 use crate::spec::FiresSpec;
-use crate::train::{POLICY_FILE, pick_action, policy_log_probs_of};
 
 /// A statistic of (agent, baseline) pairs.
 type PairStat<'a> = &'a dyn Fn(&[(f64, f64)]) -> Option<f64>;
@@ -134,29 +132,6 @@ impl Default for EvalConfig {
             recordings: true,
         }
     }
-}
-
-/// A trained PPO policy loaded from a checkpoint folder.
-pub fn load_policy(dir: &Path, device: Device) -> Result<Policy, RlError> {
-    #[derive(Deserialize)]
-    struct Head {
-        policy: crate::policy::PolicyConfig,
-        space: crate::env::ObsSpace,
-        num_actions: usize,
-    }
-    let state = dir.join("trainer.json");
-    let text = std::fs::read(&state).map_err(|e| RlError::io("reading the policy", &state, e))?;
-    let head: Head = serde_json::from_slice(&text).map_err(|e| RlError::Checkpoint {
-        path: dir.to_path_buf(),
-        message: format!("trainer.json: {e}"),
-    })?;
-    let mut p = Policy::new(&head.policy, head.space, head.num_actions, device)?;
-    p.vs.load(dir.join(POLICY_FILE))
-        .map_err(|e| RlError::Checkpoint {
-            path: dir.to_path_buf(),
-            message: format!("{POLICY_FILE}: {e}"),
-        })?;
-    Ok(p)
 }
 
 /// The seed of every agent's episode on held-out `fire` (paired across agents).

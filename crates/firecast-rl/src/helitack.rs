@@ -3,6 +3,8 @@
 //! frames plus a helicopter channel (image) and `[x, y, on_fire]` (vector).
 
 use firecast_landscape::{Landscape, procedural};
+use firecast_ppo::PpoError;
+use firecast_ppo::env::{ObsBatch, ObsSpace, VecEnvironment};
 use firecast_sim::automaton::KernelConfig;
 use firecast_sim::env::{CODE_MAX, EnvCore, FRAME_STACK};
 use firecast_sim::{Action, EnvConfig, FuelMoisture, RewardWeights, VecEnv};
@@ -11,7 +13,6 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::RlError;
-use crate::env::{ObsBatch, ObsSpace, VecEnvironment};
 
 /// Image channels: the frame stack, then the helicopter cell.
 pub const CHANNELS: usize = FRAME_STACK + 1;
@@ -333,12 +334,13 @@ impl VecEnvironment for HelitackVec {
             a.clear();
         }
     }
-    fn step(&mut self, actions: &[u8]) -> Result<(), RlError> {
+    fn step(&mut self, actions: &[u8]) -> Result<(), PpoError> {
         let acts: Vec<Action> = actions
             .iter()
             .map(|&a| Action::try_from(a))
-            .collect::<Result<_, _>>()?;
-        self.vec.step(&acts)?;
+            .collect::<Result<_, _>>()
+            .map_err(RlError::from)?;
+        self.vec.step(&acts).map_err(RlError::from)?;
         for (i, &a) in actions.iter().enumerate() {
             if self.vec.terminated()[i] || self.vec.truncated()[i] {
                 self.actions[i].clear();
@@ -404,7 +406,7 @@ impl VecEnvironment for HelitackVec {
         };
         serde_json::to_value(snap).unwrap_or_default()
     }
-    fn restore(&mut self, snapshot: &serde_json::Value) -> Result<(), RlError> {
+    fn restore(&mut self, snapshot: &serde_json::Value) -> Result<(), PpoError> {
         let snap: Snapshot = serde_json::from_value(snapshot.clone())
             .map_err(|e| RlError::config("env", format!("bad helitack snapshot: {e}")))?;
         if snap.episodes.len() != self.vec.num_envs() || snap.actions.len() != self.vec.num_envs() {
@@ -415,7 +417,8 @@ impl VecEnvironment for HelitackVec {
                     snap.episodes.len(),
                     self.vec.num_envs()
                 ),
-            ));
+            )
+            .into());
         }
         self.vec.reset(snap.seed);
         self.seed = snap.seed;
@@ -423,8 +426,9 @@ impl VecEnvironment for HelitackVec {
             let a: Vec<Action> = acts
                 .iter()
                 .map(|&a| Action::try_from(a))
-                .collect::<Result<_, _>>()?;
-            self.vec.restore_env(i, *ep, &a)?;
+                .collect::<Result<_, _>>()
+                .map_err(RlError::from)?;
+            self.vec.restore_env(i, *ep, &a).map_err(RlError::from)?;
         }
         self.actions = snap.actions;
         Ok(())

@@ -1,34 +1,24 @@
-//! Reinforcement learning for FireCast: PPO with Stable-Baselines3's semantics in `tch`.
+//! Reinforcement learning for FireCast's helitack task, on the PPO engine of `firecast_ppo`:
 //!
-//! - [`ppo`]: hyper-parameters and presets (`sb3`, `paper`, `websocket`, `cartpole_zoo`),
-//!   the minibatch loss, PyTorch's Adam and gradient-norm clipping;
-//! - [`buffer`]: the rollout buffer and GAE(λ) as SB3 computes them;
-//! - [`normalize`]: `VecNormalize` (observation and return statistics);
-//! - [`policy`]: actor-critic networks (`mlp`, `compact`, `paper`);
-//! - [`train`]: the learning loop, checkpoints and exact resumption;
-//! - [`env`]: the batched-environment interface, with [`cartpole`] (the correctness gate);
+//! - [`policy`]: actor-critic networks (`mlp`, `compact`, `paper`), the engine's policies;
+//! - [`helitack`]: the helitack fires as a batched environment;
 //! - [`imitation`]: learning a rule-based teacher's actions before PPO (BC, then DAgger);
 //! - [`pool`]: a pool of helitack fires as the Python package's `HelitackVecEnv` takes them;
-//! - [`agent`]: a trained policy as a simulator `Policy` (one environment: replays, recordings).
+//! - [`agent`]: a trained policy as a simulator `Policy` (one environment: replays, recordings);
+//! - [`run`]: a training run's folders, summary and policies; [`evaluate`] and [`ensemble`]
+//!   play them; [`spec`] and [`stage`]: the training spec and the stage kinds.
 
 pub mod agent;
-pub mod buffer;
-pub mod cartpole;
 pub mod ensemble;
-pub mod env;
 mod error;
 pub mod evaluate;
 pub mod helitack;
 pub mod imitation;
-pub mod normalize;
 pub mod policy;
 pub mod pool;
-pub mod ppo;
-pub mod rng;
 pub mod run;
 pub mod spec;
 pub mod stage;
-pub mod train;
 
 pub use error::RlError;
 /// The torch device type, for callers that do not link `tch` themselves.

@@ -12,12 +12,14 @@
 //!   275,515,392-parameter LSTM input projection.
 
 use firecast_learn::layers::{Cell, Recurrent};
+use firecast_ppo::PpoError;
+use firecast_ppo::env::ObsSpace;
+use firecast_ppo::policy::{Activation, ActorCritic, Heads, Hidden, ObsTensors, PolicySpec, linear};
 use serde::{Deserialize, Serialize};
 use tch::nn::{self, Module, ModuleT};
 use tch::{Device, Kind, Tensor};
 
 use crate::RlError;
-use crate::env::{ObsBatch, ObsSpace};
 
 /// Which policy network.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -52,7 +54,7 @@ pub struct PolicyConfig {
     /// helicopter` only; 0 = none): the newest frame's fire states there (unburnt, burning,
     /// burnt, one-hot) feed the fusion layer directly, because the pooled branches blur
     /// where the nearest flames are to a few cells' precision, which is what a drop needs.
-    #[serde(skip_serializing_if = "crate::train::is_zero")]
+    #[serde(skip_serializing_if = "firecast_ppo::train::is_zero")]
     pub focus: u32,
     /// `[rows, columns]` of the helicopter view (`view: helicopter` only; none = the map's
     /// size): the extractor sees this many cells around the helicopter whatever the map, and
@@ -64,11 +66,11 @@ pub struct PolicyConfig {
     /// With a `window`: k > 0 adds a coarse view of k × k times the window's area around the
     /// helicopter, the newest frame's burning and burnt cells as fractions of each k × k block,
     /// on the window's grid, so flames beyond the window still show where they are.
-    #[serde(skip_serializing_if = "crate::train::is_zero")]
+    #[serde(skip_serializing_if = "firecast_ppo::train::is_zero")]
     pub context: u32,
     /// How the `compact` policy remembers: the environment's frame stack (`frames`), or an
     /// LSTM over the newest frame (`lstm`: recurrent PPO, trained on sequences of
-    /// [`SEQUENCE`] steps from the states the rollout stored).
+    /// [`SEQUENCE`](firecast_ppo::policy::SEQUENCE) steps from the states the rollout stored).
     #[serde(skip_serializing_if = "Memory::is_frames")]
     pub memory: Memory,
 }
@@ -88,56 +90,6 @@ impl Memory {
     fn is_frames(&self) -> bool {
         *self == Memory::Frames
     }
-}
-
-/// Steps per training sequence of a recurrent policy: minibatches are `batch_size / SEQUENCE`
-/// sequences, each replayed from the LSTM state stored at its first step.
-pub const SEQUENCE: usize = 16;
-
-/// LSTM state `(h, c)` of `n` environments, each `[n, hidden]` on the policy's device.
-#[derive(Debug)]
-pub struct Hidden {
-    pub h: Tensor,
-    pub c: Tensor,
-}
-
-impl Hidden {
-    /// Rows `rows` (a sub-batch).
-    pub fn select(&self, rows: &[usize]) -> Self {
-        let idx = index_tensor(rows, self.h.device());
-        Self {
-            h: self.h.index_select(0, &idx),
-            c: self.c.index_select(0, &idx),
-        }
-    }
-
-    /// Writes `other`'s rows into rows `rows`.
-    pub fn scatter(&mut self, rows: &[usize], other: &Hidden) {
-        let idx = index_tensor(rows, self.h.device());
-        let _ = self.h.index_copy_(0, &idx, &other.h);
-        let _ = self.c.index_copy_(0, &idx, &other.c);
-    }
-
-    /// `[n, 2·hidden]` on the host (h then c per row), for the rollout buffer and checkpoints.
-    pub fn to_host(&self) -> Vec<f32> {
-        let both = Tensor::cat(&[&self.h, &self.c], 1).to_device(Device::Cpu);
-        Vec::<f32>::try_from(both.flatten(0, -1)).unwrap_or_default()
-    }
-
-    /// The inverse of [`to_host`](Self::to_host).
-    pub fn from_host(data: &[f32], n: usize, device: Device) -> Self {
-        let both = Tensor::from_slice(data).view([n as i64, -1]).to_device(device);
-        let hidden = both.size()[1] / 2;
-        Self {
-            h: both.narrow(1, 0, hidden),
-            c: both.narrow(1, hidden, hidden),
-        }
-    }
-}
-
-fn index_tensor(rows: &[usize], device: Device) -> Tensor {
-    let rows: Vec<i64> = rows.iter().map(|&r| r as i64).collect();
-    Tensor::from_slice(&rows).to_device(device)
 }
 
 /// The frame of reference of the image the extractor sees.
@@ -176,61 +128,6 @@ impl Default for PolicyConfig {
     }
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Activation {
-    Tanh,
-    Relu,
-}
-
-impl Activation {
-    fn apply(self, x: &Tensor) -> Tensor {
-        match self {
-            Self::Tanh => x.tanh(),
-            Self::Relu => x.relu(),
-        }
-    }
-}
-
-/// Observations as tensors: the image part as u8 (converted inside the extractor).
-#[derive(Debug)]
-pub struct ObsTensors {
-    pub image: Option<Tensor>,
-    pub vector: Tensor,
-}
-
-impl ObsTensors {
-    pub fn from_batch(b: &ObsBatch, device: Device) -> Self {
-        let n = b.n as i64;
-        // Per step and minibatch: no `to_device` call at all on the CPU.
-        let on = |t: Tensor| {
-            if device == Device::Cpu {
-                t
-            } else {
-                t.to_device(device)
-            }
-        };
-        let image = b
-            .space
-            .image
-            .map(|[c, h, w]| on(Tensor::from_slice(&b.image).view([n, c as i64, h as i64, w as i64])));
-        let vector = on(Tensor::from_slice(&b.vector).view([n, b.space.vector as i64]));
-        Self { image, vector }
-    }
-}
-
-fn linear(p: nn::Path<'_>, i: i64, o: i64, gain: Option<f64>) -> nn::Linear {
-    let cfg = match gain {
-        Some(gain) => nn::LinearConfig {
-            ws_init: nn::Init::Orthogonal { gain },
-            bs_init: Some(nn::Init::Const(0.0)),
-            bias: true,
-        },
-        None => nn::LinearConfig::default(),
-    };
-    nn::linear(p, i, o, cfg)
-}
-
 fn conv(p: nn::Path<'_>, i: i64, o: i64, k: i64, stride: i64, padding: i64, gain: Option<f64>) -> nn::Conv2D {
     let mut cfg = nn::ConvConfig {
         stride,
@@ -247,39 +144,6 @@ fn conv(p: nn::Path<'_>, i: i64, o: i64, k: i64, stride: i64, padding: i64, gain
         nn::Init::Orthogonal { gain }.set(&mut c.ws);
     }
     c
-}
-
-/// An MLP of `sizes` with `activation` after every layer (SB3's `mlp_extractor` nets).
-#[derive(Debug)]
-struct Mlp {
-    layers: Vec<nn::Linear>,
-    activation: Activation,
-}
-
-impl Mlp {
-    /// Layers are named 0, 2, 4, … as in SB3's `nn.Sequential` (activations take odd slots).
-    fn new(
-        p: nn::Path<'_>,
-        input: i64,
-        sizes: &[i64],
-        activation: Activation,
-        gain: Option<f64>,
-    ) -> (Self, i64) {
-        let mut layers = Vec::new();
-        let mut last = input;
-        for (k, &s) in sizes.iter().enumerate() {
-            layers.push(linear(&p / (2 * k).to_string(), last, s, gain));
-            last = s;
-        }
-        (Self { layers, activation }, last)
-    }
-    fn forward(&self, x: &Tensor) -> Tensor {
-        let mut h = x.shallow_clone();
-        for l in &self.layers {
-            h = self.activation.apply(&l.forward(&h));
-        }
-        h
-    }
 }
 
 /// A conv branch step: Conv → (BN) → ReLU.
@@ -464,10 +328,7 @@ pub struct Policy {
     pub num_actions: usize,
     pub vs: nn::VarStore,
     extractor: Extractor,
-    pi: Mlp,
-    vf: Mlp,
-    action_net: nn::Linear,
-    value_net: nn::Linear,
+    heads: Heads,
 }
 
 impl Policy {
@@ -645,33 +506,22 @@ impl Policy {
                 }
             }
         };
-        let me = &root / "mlp_extractor";
-        let (pi, pi_out) = Mlp::new(
-            &me / "policy_net",
+        let heads = Heads::new(
+            &root,
             features,
             &config.pi,
-            config.activation,
-            g(sqrt2),
-        );
-        let (vf, vf_out) = Mlp::new(
-            &me / "value_net",
-            features,
             &config.vf,
             config.activation,
-            g(sqrt2),
+            ortho,
+            num_actions,
         );
-        let action_net = linear(&root / "action_net", pi_out, num_actions as i64, g(0.01));
-        let value_net = linear(&root / "value_net", vf_out, 1, g(1.0));
         Ok(Self {
             config: config.clone(),
             space,
             num_actions,
             vs,
             extractor,
-            pi,
-            vf,
-            action_net,
-            value_net,
+            heads,
         })
     }
 
@@ -781,14 +631,11 @@ impl Policy {
 
     /// Logits and values of features (the extractor's, or the LSTM's output).
     fn heads(&self, f: &Tensor) -> (Tensor, Tensor) {
-        let logits = self.action_net.forward(&self.pi.forward(f));
-        let values = self.value_net.forward(&self.vf.forward(f)).squeeze_dim(-1);
-        (logits, values)
+        self.heads.forward(f)
     }
 
     pub fn values(&self, obs: &ObsTensors) -> Tensor {
-        let f = self.features(obs, false);
-        self.value_net.forward(&self.vf.forward(&f)).squeeze_dim(-1)
+        self.heads.values(&self.features(obs, false))
     }
 
     fn lstm(&self) -> Option<&Recurrent> {
@@ -887,6 +734,60 @@ impl Policy {
             .iter()
             .map(Tensor::numel)
             .sum::<usize>() as i64
+    }
+}
+
+impl PolicySpec for PolicyConfig {
+    type Policy = Policy;
+    fn build(&self, space: ObsSpace, num_actions: usize, device: Device) -> Result<Policy, PpoError> {
+        Ok(Policy::new(self, space, num_actions, device)?)
+    }
+}
+
+impl ActorCritic for Policy {
+    type Spec = PolicyConfig;
+    fn spec(&self) -> &PolicyConfig {
+        &self.config
+    }
+    fn space(&self) -> ObsSpace {
+        self.space
+    }
+    fn num_actions(&self) -> usize {
+        self.num_actions
+    }
+    fn var_store(&self) -> &nn::VarStore {
+        &self.vs
+    }
+    fn var_store_mut(&mut self) -> &mut nn::VarStore {
+        &mut self.vs
+    }
+    fn device(&self) -> Device {
+        Policy::device(self)
+    }
+    fn forward(&self, obs: &ObsTensors, train: bool) -> (Tensor, Tensor) {
+        Policy::forward(self, obs, train)
+    }
+    fn values(&self, obs: &ObsTensors) -> Tensor {
+        Policy::values(self, obs)
+    }
+    fn sequence(
+        &self,
+        obs: &ObsTensors,
+        hidden: &Hidden,
+        starts: &[f32],
+        t: usize,
+        train: bool,
+    ) -> (Tensor, Tensor, Hidden) {
+        Policy::sequence(self, obs, hidden, starts, t, train)
+    }
+    fn is_recurrent(&self) -> bool {
+        Policy::is_recurrent(self)
+    }
+    fn hidden_len(&self) -> usize {
+        Policy::hidden_len(self)
+    }
+    fn initial_hidden(&self, n: usize) -> Option<Hidden> {
+        Policy::initial_hidden(self, n)
     }
 }
 

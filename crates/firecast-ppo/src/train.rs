@@ -11,12 +11,13 @@ use rand_chacha::rand_core::SeedableRng;
 use serde::{Deserialize, Serialize};
 use tch::{Device, Kind, Tensor};
 
-use crate::RlError;
+use crate::PpoError;
 use crate::buffer::{Minibatch, RolloutBuffer};
 use crate::env::{ObsBatch, ObsSpace, VecEnvironment};
 use crate::imitation::{ImitationConfig, Teacher};
 use crate::normalize::VecNormalize;
-use crate::policy::{Hidden, ObsTensors, Policy, PolicyConfig, SEQUENCE};
+use crate::policy::{ActorCritic, PolicySpec};
+use crate::policy::{Hidden, ObsTensors, SEQUENCE};
 use crate::ppo::{Adam, LossSettings, PpoConfig, PpoMinibatch, Sequences, log_prob_entropy, ppo_losses};
 use crate::rng::RngState;
 
@@ -48,9 +49,9 @@ impl TrainSink for NoSink {}
 
 /// What a checkpoint stores besides tensors.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-struct TrainerState {
+struct TrainerState<C> {
     format: u32,
-    policy: PolicyConfig,
+    policy: C,
     space: ObsSpace,
     num_actions: usize,
     ppo: PpoConfig,
@@ -75,7 +76,7 @@ struct TrainerState {
 
 /// For `skip_serializing_if`: a count that is zero is left out, so keys and files written
 /// before the field existed stay the same.
-pub(crate) fn is_zero<T: Default + PartialEq>(v: &T) -> bool {
+pub fn is_zero<T: Default + PartialEq>(v: &T) -> bool {
     *v == T::default()
 }
 
@@ -85,9 +86,9 @@ const OPTIMIZER_FILE: &str = "optimizer.safetensors";
 const STATE_FILE: &str = "trainer.json";
 
 /// A PPO learner bound to its environments.
-pub struct Trainer {
+pub struct Trainer<C: PolicySpec> {
     pub ppo: PpoConfig,
-    pub policy: Policy,
+    pub policy: C::Policy,
     adam: Adam,
     /// Names of `adam.params`, sorted (checkpoint keys).
     param_names: Vec<String>,
@@ -117,27 +118,27 @@ pub struct Trainer {
     kickstart: Option<(Box<dyn Teacher>, f64)>,
 }
 
-impl Trainer {
+impl<C: PolicySpec> Trainer<C> {
     /// A fresh learner: torch is seeded with `seed` before the weights are drawn, the
     /// environments are reset with `seed`, and minibatches and actions come from a ChaCha8
     /// stream seeded with `seed`.
     pub fn new(
         ppo: PpoConfig,
-        policy: &PolicyConfig,
+        policy: &C,
         mut env: Box<dyn VecEnvironment>,
         seed: u64,
         device: Device,
-    ) -> Result<Self, RlError> {
+    ) -> Result<Self, PpoError> {
         ppo.validate()?;
         if env.num_envs() != ppo.n_envs {
-            return Err(RlError::config(
+            return Err(PpoError::config(
                 "ppo.n_envs",
                 format!("{} but the environment has {}", ppo.n_envs, env.num_envs()),
             ));
         }
         let space = env.space();
         let num_actions = env.num_actions();
-        let policy = firecast_learn::with_seed(seed, || Policy::new(policy, space, num_actions, device))?;
+        let policy = firecast_learn::with_seed(seed, || policy.build(space, num_actions, device))?;
         check_sequences(&policy, &ppo)?;
         let hidden = policy.initial_hidden(ppo.n_envs);
         let (param_names, params) = trainable(&policy);
@@ -179,7 +180,7 @@ impl Trainer {
     /// Trains until `ppo.total_timesteps` (SB3 `learn`: whole rollouts, so it may overshoot
     /// by less than one rollout). With `checkpoint_every` (iterations) and a folder, a
     /// checkpoint `step-<timesteps>` is written there every so often and at the end.
-    pub fn learn(&mut self, sink: &dyn TrainSink, checkpoints: Option<(&Path, u64)>) -> Result<(), RlError> {
+    pub fn learn(&mut self, sink: &dyn TrainSink, checkpoints: Option<(&Path, u64)>) -> Result<(), PpoError> {
         self.learn_until(sink, checkpoints, None)
     }
 
@@ -191,7 +192,7 @@ impl Trainer {
         sink: &dyn TrainSink,
         checkpoints: Option<(&Path, u64)>,
         stop_after: Option<u64>,
-    ) -> Result<(), RlError> {
+    ) -> Result<(), PpoError> {
         let total = self.ppo.total_timesteps;
         let stop = stop_after.unwrap_or(total).min(total);
         let started = Instant::now();
@@ -280,7 +281,7 @@ impl Trainer {
             }
         };
         let logp_all = to_cpu(logits.log_softmax(-1, Kind::Float));
-        let a = self.policy.num_actions;
+        let a = self.policy.num_actions();
         let logp: Vec<f32> = Vec::<f32>::try_from(logp_all.flatten(0, -1)).unwrap_or_default();
         let values: Vec<f32> = Vec::<f32>::try_from(to_cpu(values)).unwrap_or_default();
         let mut actions = Vec::with_capacity(obs.n);
@@ -300,13 +301,13 @@ impl Trainer {
     /// Runs one rollout (SB3's `collect_rollouts`: actions, time-limit bootstrap, GAE) and
     /// returns the filled buffer, without training on it. For golden tests against SB3's
     /// rollout buffer; [`learn`](Self::learn) does this and then updates the policy.
-    pub fn collect_rollout(&mut self) -> Result<&RolloutBuffer, RlError> {
+    pub fn collect_rollout(&mut self) -> Result<&RolloutBuffer, PpoError> {
         self.collect_rollouts(None)?;
         Ok(&self.buffer)
     }
 
     /// With a teacher, its actions label every step (and replace the policy's when `flies`).
-    fn collect_rollouts(&mut self, mut teacher: Option<(&mut dyn Teacher, bool)>) -> Result<(), RlError> {
+    fn collect_rollouts(&mut self, mut teacher: Option<(&mut dyn Teacher, bool)>) -> Result<(), PpoError> {
         self.buffer.reset();
         let n = self.ppo.n_envs;
         let mut new_obs = ObsBatch::new(self.env.space(), n);
@@ -329,7 +330,7 @@ impl Trainer {
             }
             if let Err(e) = self.env.step(&actions) {
                 self.last_obs = obs;
-                return Err(e);
+                return Err(e.into());
             }
             self.num_timesteps += n as u64;
             let raw = self.env.rewards().to_vec();
@@ -437,8 +438,8 @@ impl Trainer {
 
     /// Kickstarting: from now on `teacher` labels every rollout and each PPO minibatch's loss
     /// gains `weight` × (1 − progress) × the cross-entropy to the labels (not part of the
-    /// checkpoint: set it again after a resume, as `run::train` does from the spec).
-    pub fn kickstart(&mut self, teacher: Box<dyn Teacher>, weight: f64) -> Result<(), RlError> {
+    /// checkpoint: set it again after a resume, as an application's run does from its spec).
+    pub fn kickstart(&mut self, teacher: Box<dyn Teacher>, weight: f64) -> Result<(), PpoError> {
         crate::imitation::single_steps(self.policy.is_recurrent())?;
         self.kickstart = (weight > 0.0).then_some((teacher, weight));
         Ok(())
@@ -452,12 +453,12 @@ impl Trainer {
     /// return. The steps count in `imitation_timesteps`, not in PPO's budget; the
     /// normalisers keep what they saw; the optimiser's moments and the training-episode
     /// window are cleared for PPO. Metrics (`imitation/*`) go to [`TrainSink::imitation`].
-    pub fn imitate(
+    pub fn imitate<K>(
         &mut self,
-        cfg: &ImitationConfig,
+        cfg: &ImitationConfig<K>,
         teacher: &mut dyn Teacher,
         sink: &dyn TrainSink,
-    ) -> Result<(), RlError> {
+    ) -> Result<(), PpoError> {
         crate::imitation::single_steps(self.policy.is_recurrent())?;
         cfg.validate(self.buffer.len())?;
         let ppo_timesteps = self.num_timesteps;
@@ -499,7 +500,7 @@ impl Trainer {
                 let value_loss = (&returns - &values).square().mean(Kind::Float);
                 let loss = &cross_entropy + &value_loss * self.ppo.vf_coef;
                 if !f64::try_from(&loss).is_ok_and(f64::is_finite) {
-                    return Err(RlError::NonFinite {
+                    return Err(PpoError::NonFinite {
                         update: u64::from(round),
                         what: "the imitation loss".into(),
                         checkpoint: self.last_checkpoint.clone(),
@@ -541,7 +542,7 @@ impl Trainer {
 
     /// One update over the buffer (SB3 `train`); returns the `train/*` metrics. Public so a
     /// benchmark can time the updates alone over a collected rollout.
-    pub fn train(&mut self, progress_remaining: f64) -> Result<Vec<(String, f64)>, RlError> {
+    pub fn train(&mut self, progress_remaining: f64) -> Result<Vec<(String, f64)>, PpoError> {
         let lr = self.ppo.learning_rate.at(progress_remaining);
         let clip = self.ppo.clip_range.at(progress_remaining);
         let settings = LossSettings {
@@ -581,7 +582,7 @@ impl Trainer {
                 let losses = ppo_losses(&self.policy, &self.minibatch(mb), &settings);
                 let loss_value = losses.loss_value;
                 if !loss_value.is_finite() {
-                    return Err(RlError::NonFinite {
+                    return Err(PpoError::NonFinite {
                         update: self.iterations,
                         what: "the PPO loss".into(),
                         checkpoint: self.last_checkpoint.clone(),
@@ -609,7 +610,7 @@ impl Trainer {
                 }
                 let norm = self.adam.clip_grad_norm(self.ppo.max_grad_norm);
                 if !norm.is_finite() {
-                    return Err(RlError::NonFinite {
+                    return Err(PpoError::NonFinite {
                         update: self.iterations,
                         what: "the gradient norm".into(),
                         checkpoint: self.last_checkpoint.clone(),
@@ -649,12 +650,12 @@ impl Trainer {
     }
 
     /// Writes a checkpoint folder atomically (a temporary sibling renamed into place).
-    pub fn save(&mut self, dir: &Path) -> Result<(), RlError> {
+    pub fn save(&mut self, dir: &Path) -> Result<(), PpoError> {
         // The staging folder is removed when dropped unpublished (any error below).
         let staged = firecast_fs::TempPath::dir(dir)
-            .map_err(|e| RlError::io("creating the checkpoint folder", &e.path, e.source))?;
+            .map_err(|e| PpoError::io("creating the checkpoint folder", &e.path, e.source))?;
         let tmp = staged.path();
-        self.policy.vs.save(tmp.join(POLICY_FILE))?;
+        self.policy.var_store().save(tmp.join(POLICY_FILE))?;
         let mut named = Vec::new();
         for ((n, m), v) in self
             .param_names
@@ -668,9 +669,9 @@ impl Trainer {
         Tensor::write_safetensors(&named, tmp.join(OPTIMIZER_FILE))?;
         let state = TrainerState {
             format: CHECKPOINT_FORMAT,
-            policy: self.policy.config.clone(),
-            space: self.policy.space,
-            num_actions: self.policy.num_actions,
+            policy: self.policy.spec().clone(),
+            space: self.policy.space(),
+            num_actions: self.policy.num_actions(),
             ppo: self.ppo.clone(),
             seed: self.seed,
             num_timesteps: self.num_timesteps,
@@ -686,16 +687,16 @@ impl Trainer {
             hidden: self.hidden.as_ref().map(Hidden::to_host),
             imitation_timesteps: self.imitation_timesteps,
         };
-        let json = serde_json::to_vec_pretty(&state).map_err(|e| RlError::Checkpoint {
+        let json = serde_json::to_vec_pretty(&state).map_err(|e| PpoError::Checkpoint {
             path: dir.to_path_buf(),
             message: e.to_string(),
         })?;
         let state_path = tmp.join(STATE_FILE);
         std::fs::write(&state_path, json)
-            .map_err(|e| RlError::io("writing the checkpoint", &state_path, e))?;
+            .map_err(|e| PpoError::io("writing the checkpoint", &state_path, e))?;
         staged
             .publish()
-            .map_err(|e| RlError::io("finishing the checkpoint", dir, e.source))?;
+            .map_err(|e| PpoError::io("finishing the checkpoint", dir, e.source))?;
         self.last_checkpoint = Some(dir.to_path_buf());
         Ok(())
     }
@@ -708,17 +709,17 @@ impl Trainer {
         ppo: PpoConfig,
         mut env: Box<dyn VecEnvironment>,
         device: Device,
-    ) -> Result<Self, RlError> {
-        let bad = |message: String| RlError::Checkpoint {
+    ) -> Result<Self, PpoError> {
+        let bad = |message: String| PpoError::Checkpoint {
             path: dir.to_path_buf(),
             message,
         };
         let state_path = dir.join(STATE_FILE);
         let text = std::fs::read(&state_path).map_err(|e| match e.kind() {
             std::io::ErrorKind::NotFound => bad(format!("no {STATE_FILE}: not a FireCast PPO checkpoint")),
-            _ => RlError::io("reading the checkpoint", &state_path, e),
+            _ => PpoError::io("reading the checkpoint", &state_path, e),
         })?;
-        let state: TrainerState =
+        let state: TrainerState<C> =
             serde_json::from_slice(&text).map_err(|e| bad(format!("{STATE_FILE} is corrupt: {e}")))?;
         if state.format != CHECKPOINT_FORMAT {
             return Err(bad(format!(
@@ -743,10 +744,10 @@ impl Trainer {
                     .into(),
             ));
         }
-        let policy = Policy::new(&state.policy, state.space, state.num_actions, device)?;
+        let policy = state.policy.build(state.space, state.num_actions, device)?;
         let mut policy = policy;
         policy
-            .vs
+            .var_store_mut()
             .load(dir.join(POLICY_FILE))
             .map_err(|e| bad(format!("{POLICY_FILE}: {e}")))?;
         let (param_names, params) = trainable(&policy);
@@ -811,22 +812,22 @@ impl Trainer {
         t.normalize.normalize_obs(&mut t.last_obs.vector);
         Ok(t)
     }
+}
 
-    /// The latest `step-*` checkpoint in `dir`.
-    pub fn latest_checkpoint(dir: &Path) -> Option<PathBuf> {
-        let mut found: Vec<PathBuf> = std::fs::read_dir(dir)
-            .ok()?
-            .filter_map(Result::ok)
-            .map(|e| e.path())
-            .filter(|p| {
-                p.file_name()
-                    .is_some_and(|n| n.to_string_lossy().starts_with("step-"))
-                    && p.join(STATE_FILE).exists()
-            })
-            .collect();
-        found.sort();
-        found.pop()
-    }
+/// The latest `step-*` checkpoint in `dir`.
+pub fn latest_checkpoint(dir: &Path) -> Option<PathBuf> {
+    let mut found: Vec<PathBuf> = std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .filter(|p| {
+            p.file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with("step-"))
+                && p.join(STATE_FILE).exists()
+        })
+        .collect();
+    found.sort();
+    found.pop()
 }
 
 /// The mean, NaN for no values.
@@ -839,12 +840,13 @@ fn mean_or_nan(v: &[f64]) -> f64 {
 }
 
 /// Every labelled step of an imitation run. The images are kept plane by plane (a frame of the
-/// stack or the helicopter channel, `h × w` codes), each stored once: a frame stack shifts by
+/// stack or another channel, `h × w` codes), each stored once: a frame stack shifts by
 /// one frame a step, so a step's first three frames are the previous step's last three, and
 /// only the newest frame is new. Planes are stored canonically (a few nonzero cells as a
 /// list, codes below 16 two to a byte, else as they are), and a plane is reused only where its
 /// stored bytes are equal, so [`gather`](Self::gather) gives back exactly the images the
-/// rollouts held. On the paper's 240 × 160 fires that is about 19 KB a step instead of 192 KB.
+/// rollouts held. On 240 × 160 images of four frames and a one-cell channel that is about
+/// 19 KB a step instead of 192 KB.
 struct Demonstrations {
     space: ObsSpace,
     /// Channels of an image (0 without images).
@@ -869,7 +871,7 @@ struct Demonstrations {
 const PLANE_SPARSE: u8 = 0;
 const PLANE_NIBBLES: u8 = 1;
 const PLANE_RAW: u8 = 2;
-/// At most this many nonzero cells make a plane sparse (the helicopter channel has one).
+/// At most this many nonzero cells make a plane sparse (a channel marking one cell has one).
 const SPARSE_CELLS: usize = 16;
 
 /// The canonical encoding of one plane into `out`.
@@ -1010,13 +1012,13 @@ fn as_f32(flags: &[bool]) -> Vec<f32> {
 
 /// A recurrent policy trains on whole sequences: the rollout and the minibatch must hold a
 /// whole number of them.
-fn check_sequences(policy: &Policy, ppo: &PpoConfig) -> Result<(), RlError> {
+fn check_sequences(policy: &impl ActorCritic, ppo: &PpoConfig) -> Result<(), PpoError> {
     if !policy.is_recurrent() {
         return Ok(());
     }
     for (key, v) in [("ppo.n_steps", ppo.n_steps), ("ppo.batch_size", ppo.batch_size)] {
         if !v.is_multiple_of(SEQUENCE) {
-            return Err(RlError::config(
+            return Err(PpoError::config(
                 key,
                 format!("{v} is not a multiple of {SEQUENCE}, the sequence length of `memory: lstm`"),
             ));
@@ -1026,9 +1028,9 @@ fn check_sequences(policy: &Policy, ppo: &PpoConfig) -> Result<(), RlError> {
 }
 
 /// Trainable variables sorted by name.
-fn trainable(policy: &Policy) -> (Vec<String>, Vec<Tensor>) {
+fn trainable(policy: &impl ActorCritic) -> (Vec<String>, Vec<Tensor>) {
     let mut vars: Vec<(String, Tensor)> = policy
-        .vs
+        .var_store()
         .variables()
         .into_iter()
         .filter(|(_, t)| t.requires_grad())
@@ -1108,14 +1110,14 @@ fn sample(logp: &[f32], u: f64) -> usize {
 /// Greedy or sampled actions from a trained policy (evaluation), without a trainer; rows
 /// draw from `rng` in order when sampling.
 pub fn policy_actions(
-    policy: &Policy,
+    policy: &impl ActorCritic,
     obs: &ObsBatch,
     hidden: Option<&mut Hidden>,
     deterministic: bool,
     rng: &mut ChaCha8Rng,
 ) -> Vec<u8> {
     policy_log_probs(policy, obs, hidden)
-        .chunks(policy.num_actions)
+        .chunks(policy.num_actions())
         .map(|row| pick_action(row, deterministic, rng))
         .collect()
 }
@@ -1124,7 +1126,7 @@ pub fn policy_actions(
 /// (in order) and `hidden`, when the policy is recurrent, every environment's state; only
 /// those rows step.
 pub fn policy_log_probs_of(
-    policy: &Policy,
+    policy: &impl ActorCritic,
     obs: &ObsBatch,
     hidden: Option<&mut Hidden>,
     rows: &[usize],
@@ -1143,7 +1145,7 @@ pub fn policy_log_probs_of(
 /// Action log-probabilities of a batch, `n × num_actions` row-major. A recurrent policy
 /// steps from `hidden` (one row per observation; a new episode's row is zero) and leaves the
 /// next state there; without `hidden` it starts from zero.
-pub fn policy_log_probs(policy: &Policy, obs: &ObsBatch, hidden: Option<&mut Hidden>) -> Vec<f32> {
+pub fn policy_log_probs(policy: &impl ActorCritic, obs: &ObsBatch, hidden: Option<&mut Hidden>) -> Vec<f32> {
     let device = policy.device();
     let obs_t = ObsTensors::from_batch(obs, device);
     let starts = vec![0.0; obs.n];
@@ -1175,7 +1177,11 @@ pub fn pick_action(logp: &[f32], deterministic: bool, rng: &mut ChaCha8Rng) -> u
 }
 
 /// Log-probabilities and entropies under the policy (tests, diagnostics).
-pub fn evaluate_actions(policy: &Policy, obs: &ObsBatch, actions: &[u8]) -> (Tensor, Tensor, Tensor) {
+pub fn evaluate_actions(
+    policy: &impl ActorCritic,
+    obs: &ObsBatch,
+    actions: &[u8],
+) -> (Tensor, Tensor, Tensor) {
     let device = policy.device();
     let (logits, values) = policy.forward(&ObsTensors::from_batch(obs, device), true);
     let a = Tensor::from_slice(actions).to_kind(Kind::Int64).to_device(device);

@@ -4,9 +4,9 @@
 use serde::{Deserialize, Serialize};
 use tch::{Kind, Tensor};
 
-use crate::RlError;
+use crate::PpoError;
 use crate::normalize::NormalizeConfig;
-use crate::policy::{Hidden, ObsTensors, Policy};
+use crate::policy::{ActorCritic, Hidden, ObsTensors};
 
 /// A constant or linearly decaying value of the remaining progress p (1 → 0):
 /// `end + (start − end)·p` (RL-Zoo's `lin_<v>` is `{linear: v}`, ending at 0).
@@ -187,18 +187,18 @@ impl PpoConfig {
     pub fn resolve(
         preset: &str,
         overrides: &serde_json::Map<String, serde_json::Value>,
-    ) -> Result<Self, RlError> {
+    ) -> Result<Self, PpoError> {
         let base = Self::preset(preset).ok_or_else(|| {
-            RlError::config(
+            PpoError::config(
                 "ppo.preset",
                 format!("unknown preset `{preset}` (use one of {})", PRESETS.join(", ")),
             )
         })?;
-        let mut v = serde_json::to_value(&base).map_err(|e| RlError::config("ppo", e.to_string()))?;
+        let mut v = serde_json::to_value(&base).map_err(|e| PpoError::config("ppo", e.to_string()))?;
         if let serde_json::Value::Object(map) = &mut v {
             for (k, val) in overrides {
                 if !map.contains_key(k) {
-                    return Err(RlError::config(
+                    return Err(PpoError::config(
                         format!("ppo.{k}"),
                         "unknown hyper-parameter (see `PpoConfig` in firecast-rl)",
                     ));
@@ -218,7 +218,7 @@ impl PpoConfig {
             }
         }
         let cfg: Self = serde_path_to_error::deserialize(v)
-            .map_err(|e| RlError::config(format!("ppo.{}", e.path()), e.inner().to_string()))?;
+            .map_err(|e| PpoError::config(format!("ppo.{}", e.path()), e.inner().to_string()))?;
         cfg.validate()?;
         Ok(cfg)
     }
@@ -227,8 +227,8 @@ impl PpoConfig {
         self.n_envs * self.n_steps
     }
 
-    pub fn validate(&self) -> Result<(), RlError> {
-        let bad = |k: &str, m: String| Err(RlError::config(format!("ppo.{k}"), m));
+    pub fn validate(&self) -> Result<(), PpoError> {
+        let bad = |k: &str, m: String| Err(PpoError::config(format!("ppo.{k}"), m));
         if self.n_envs == 0 {
             return bad("n_envs", "must be at least 1".into());
         }
@@ -344,7 +344,7 @@ pub fn log_prob_entropy(logits: &Tensor, actions: &Tensor) -> (Tensor, Tensor) {
 /// ([`loss_gradients`]) and the parameters' gradient is that of [`Losses::surrogate`]: the
 /// same numbers, to the bit, as autograd through SB3's expression, without the ~130 small
 /// tensor operations of that graph.
-pub fn ppo_losses(policy: &Policy, mb: &PpoMinibatch, settings: &LossSettings) -> Losses {
+pub fn ppo_losses(policy: &impl ActorCritic, mb: &PpoMinibatch, settings: &LossSettings) -> Losses {
     let (logits, values) = match &mb.sequences {
         None => policy.forward(&mb.obs, true),
         Some(seq) => {
@@ -651,7 +651,7 @@ impl Adam {
     /// d loss / d params into the flat gradient buffer ([`Adam::gradient`]), without
     /// touching the parameters' `.grad`, so there is nothing to zero between steps. A
     /// parameter the loss does not use gets 0.
-    pub fn gradients(&mut self, loss: &Tensor) -> Result<(), RlError> {
+    pub fn gradients(&mut self, loss: &Tensor) -> Result<(), PpoError> {
         let grads = Tensor::f_run_backward(&[loss], &self.params, false, false)?;
         let parts: Vec<Tensor> = grads
             .iter()

@@ -2,7 +2,7 @@
 //! explicit terminal observation (SB3's `VecEnv` semantics), observations split into an
 //! optional u8 image part (cell codes, channel-first) and an f32 vector part.
 
-use crate::RlError;
+use crate::PpoError;
 
 /// Shapes of one observation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -69,7 +69,7 @@ pub trait VecEnvironment: Send {
     fn num_actions(&self) -> usize;
     /// Resets every environment; the stream of episodes is a function of `seed`.
     fn reset(&mut self, seed: u64);
-    fn step(&mut self, actions: &[u8]) -> Result<(), RlError>;
+    fn step(&mut self, actions: &[u8]) -> Result<(), PpoError>;
     /// Current observations into `out` (n = num_envs).
     fn observe(&self, out: &mut ObsBatch);
     /// Final observation of env `i`'s episode that ended in the last step, into row `row`.
@@ -78,12 +78,12 @@ pub trait VecEnvironment: Send {
     fn terminated(&self) -> &[bool];
     fn truncated(&self) -> &[bool];
     /// Extra per-episode numbers for env `i` when its episode ended in the last step
-    /// (for the helitack environment: cells burnt, drops, …); logged as `rollout/<name>`.
+    /// (an application's own measures of an episode); logged as `rollout/<name>`.
     fn episode_extras(&self, _i: usize) -> Vec<(&'static str, f64)> {
         Vec::new()
     }
     /// Everything needed to continue the exact same stream later (checkpoints).
     fn snapshot(&self) -> serde_json::Value;
     /// Restores a [`snapshot`](Self::snapshot) taken from an environment built the same way.
-    fn restore(&mut self, snapshot: &serde_json::Value) -> Result<(), RlError>;
+    fn restore(&mut self, snapshot: &serde_json::Value) -> Result<(), PpoError>;
 }

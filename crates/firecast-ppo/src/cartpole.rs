@@ -4,7 +4,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::RlError;
+use crate::PpoError;
 use crate::env::{ObsBatch, ObsSpace, VecEnvironment};
 
 const GRAVITY: f64 = 9.8;
@@ -133,16 +133,16 @@ impl VecEnvironment for CartPoleVec {
         self.truncated.fill(false);
         self.rewards.fill(0.0);
     }
-    fn step(&mut self, actions: &[u8]) -> Result<(), RlError> {
+    fn step(&mut self, actions: &[u8]) -> Result<(), PpoError> {
         if actions.len() != self.envs.len() {
-            return Err(RlError::config(
+            return Err(PpoError::config(
                 "actions",
                 format!("{} actions for {} environments", actions.len(), self.envs.len()),
             ));
         }
         for (i, env) in self.envs.iter_mut().enumerate() {
             if actions[i] > 1 {
-                return Err(RlError::config(
+                return Err(PpoError::config(
                     "actions",
                     format!("CartPole action {} is not 0 or 1", actions[i]),
                 ));
@@ -189,16 +189,16 @@ impl VecEnvironment for CartPoleVec {
             .collect();
         serde_json::json!({ "envs": states })
     }
-    fn restore(&mut self, snapshot: &serde_json::Value) -> Result<(), RlError> {
+    fn restore(&mut self, snapshot: &serde_json::Value) -> Result<(), PpoError> {
         let states: Vec<CartPoleState> = snapshot
             .get("envs")
             .cloned()
             .map(serde_json::from_value)
             .transpose()
-            .map_err(|e| RlError::config("env", format!("bad CartPole snapshot: {e}")))?
+            .map_err(|e| PpoError::config("env", format!("bad CartPole snapshot: {e}")))?
             .unwrap_or_default();
         if states.len() != self.envs.len() {
-            return Err(RlError::config(
+            return Err(PpoError::config(
                 "env.n_envs",
                 format!(
                     "the snapshot has {} environments, this run {}",
