@@ -1,5 +1,5 @@
-//! FireCast data sources: GRIDMET daily weather (NetCDF), IRWIN/WFIGS incidents (CSV, GeoJSON,
-//! Esri JSON), and a seeded generator of synthetic sources in those same formats.
+//! FireCast data sources: GRIDMET daily weather (NetCDF) and IRWIN/WFIGS incidents (CSV,
+//! GeoJSON, Esri JSON). The seeded generator of synthetic sources in those same formats is
+//! `firecast-synth`.
 pub mod gridmet;
 pub mod incidents;
-pub mod synth;

@@ -1,5 +1,6 @@
 //! From extracted windows to a finished dataset: a framing, leak-free splits, normalisation
-//! statistics on the training split, and a version id.
+//! statistics on the training split, and a version id; its manifest (`dataset.json`) and
+//! the folder read back against it. [`crate::folder`] writes the folder.
 
 use std::collections::BTreeMap;
 
@@ -7,7 +8,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::table::row_label;
+use crate::table::{DAYS_FILE, SAMPLES_FILE, StoredTable, read_window_files, row_label};
 use crate::time;
 use crate::windows::WindowTable;
 use crate::{DatasetError, Tier};
@@ -397,7 +398,7 @@ fn version_id(table: &WindowTable, splits: &[&str], cfg: &DatasetConfig) -> Resu
     Ok(format!("v{}", &h.finalize().to_hex()[..16]))
 }
 
-/// What [`write`] produced; also the content of `dataset.json`.
+/// What [`crate::folder::write`] produced; also the content of `dataset.json`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct DatasetManifest {
     pub name: String,
@@ -429,92 +430,6 @@ pub const CARD_FILE: &str = "card.md";
 pub const MAP_FILE: &str = "map.png";
 pub const NORMALIZATION_FILE: &str = "normalization.json";
 pub const STATS_FILE: &str = "stats.json";
-
-/// Writes a finished dataset into `dir`: the two Parquet tables (with the manifest in
-/// their key-value metadata), `normalization.json`, `stats.json`, `card.md`, `map.png`
-/// and `dataset.json` last — a reader that finds `dataset.json` finds everything.
-pub fn write(
-    dir: &std::path::Path,
-    ds: &BuiltDataset,
-    cfg: &DatasetConfig,
-    grid: &crate::card::MapGrid,
-    provenance: &BTreeMap<String, String>,
-    source_model: Option<&str>,
-) -> Result<DatasetManifest, DatasetError> {
-    std::fs::create_dir_all(dir).map_err(DatasetError::io("creating", dir))?;
-    let (stats, tiers) = crate::card::statistics(&ds.table, &ds.splits)?;
-    let norm = crate::card::normalization(&stats);
-    let mut per_split: BTreeMap<String, u64> = BTreeMap::new();
-    for s in &ds.splits {
-        *per_split.entry(s.to_string()).or_default() += 1;
-    }
-    let mut manifest = DatasetManifest {
-        name: cfg.name.clone(),
-        version: ds.version.clone(),
-        schema_version: crate::table::SCHEMA_VERSION.into(),
-        framing: cfg.framing,
-        day_offsets: ds.label_offsets,
-        features: ds.table.features.clone(),
-        samples: ds.table.samples.len() as u64,
-        positives: ds.table.samples.iter().filter(|s| s.label()).count() as u64,
-        day_rows: (ds.table.samples.len() * ds.table.n_days) as u64,
-        splits: per_split,
-        test_from: ds.test_from.map(time::format_date),
-        groups: ds.groups,
-        config: cfg.clone(),
-        provenance: provenance.clone(),
-        files: BTreeMap::new(),
-        true_probability: crate::truth::summarize(&ds.table),
-    };
-    let json = |v: &dyn erased::Json| v.to_json();
-    let mut kv = BTreeMap::new();
-    kv.insert("firecast.dataset.name".to_string(), cfg.name.clone());
-    kv.insert("firecast.dataset.version".to_string(), ds.version.clone());
-    kv.insert("firecast.dataset.manifest".to_string(), json(&manifest));
-    crate::table::write_window_table(dir, &ds.table, Some(&ds.splits), &kv)?;
-    firecast_fs::write_atomically(&dir.join(NORMALIZATION_FILE), json(&norm).as_bytes())?;
-    let stats_doc = serde_json::json!({ "features": stats, "tiers": tiers });
-    firecast_fs::write_atomically(&dir.join(STATS_FILE), stats_doc.to_string().as_bytes())?;
-    let card = crate::card::render_card(
-        ds,
-        &crate::card::CardContext {
-            config: cfg,
-            stats: &stats,
-            tiers: &tiers,
-            normalization: &norm,
-            provenance,
-            source_model,
-        },
-    );
-    firecast_fs::write_atomically(&dir.join(CARD_FILE), card.as_bytes())?;
-    crate::card::draw_map(&ds.table, grid, &dir.join(MAP_FILE))?;
-    for f in [
-        crate::table::SAMPLES_FILE,
-        crate::table::DAYS_FILE,
-        NORMALIZATION_FILE,
-        STATS_FILE,
-        CARD_FILE,
-        MAP_FILE,
-    ] {
-        manifest
-            .files
-            .insert(f.to_string(), crate::hash_file(&dir.join(f))?);
-    }
-    firecast_fs::write_atomically(&dir.join(MANIFEST_FILE), json(&manifest).as_bytes())?;
-    Ok(manifest)
-}
-
-mod erased {
-    /// Pretty JSON of anything serializable (serialization of these plain structs cannot fail).
-    pub trait Json {
-        fn to_json(&self) -> String;
-    }
-    impl<T: serde::Serialize> Json for T {
-        fn to_json(&self) -> String {
-            serde_json::to_string_pretty(self).unwrap_or_default()
-        }
-    }
-}
 
 /// Checks every file `dataset.json` lists against its BLAKE3 hash (the files are hashed
 /// in parallel, each once): a file that is missing, or whose bytes changed since the
@@ -563,4 +478,15 @@ pub fn read_manifest(dir: &std::path::Path) -> Result<DatasetManifest, DatasetEr
         line: e.line() as u64,
         message: e.to_string(),
     })
+}
+
+/// Reads a window table written by [`crate::table::write_window_table`]. In a dataset
+/// directory (one with `dataset.json`) every file is first checked against the manifest's
+/// hashes ([`verify_files`]), so a damaged file is named before it is parsed.
+pub fn read_window_table(dir: &std::path::Path) -> Result<StoredTable, DatasetError> {
+    if dir.join(MANIFEST_FILE).is_file() {
+        let manifest = read_manifest(dir)?;
+        verify_files(dir, &manifest)?;
+    }
+    read_window_files(&dir.join(SAMPLES_FILE), &dir.join(DAYS_FILE))
 }

@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 
 pub mod card;
 pub mod dataset;
+pub mod folder;
 pub mod geo;
 pub mod kaggle;
 pub mod land;

@@ -1170,7 +1170,7 @@ pub fn publish(
         });
     }
     // Checks every file against dataset.json first, so a damaged file is named.
-    let stored = crate::table::read_window_table(dataset_dir)?;
+    let stored = crate::dataset::read_window_table(dataset_dir)?;
     let Some(splits) = stored.splits.clone() else {
         return Err(DatasetError::Input {
             path: dataset_dir.join(crate::table::SAMPLES_FILE),
@@ -1583,7 +1583,7 @@ pub fn verify(folder: &Path, dataset_dir: Option<&Path>) -> Result<VerifyReport,
     let files_checked = verify_files(folder)?;
     let back = read_published(folder)?;
     if let Some(dir) = dataset_dir {
-        let stored = crate::table::read_window_table(dir)?;
+        let stored = crate::dataset::read_window_table(dir)?;
         compare(&stored, &back).map_err(|message| DatasetError::Input {
             path: folder.to_path_buf(),
             message: format!("does not equal the dataset {}: {message}", dir.display()),

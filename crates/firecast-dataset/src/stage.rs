@@ -320,7 +320,7 @@ pub fn run_dataset(
     cfg: &DatasetConfig,
     out_dir: &Path,
 ) -> Result<DatasetManifest, DatasetError> {
-    let stored = table::read_window_table(windows_dir)?;
+    let stored = crate::dataset::read_window_table(windows_dir)?;
     let wm = read_windows_manifest(windows_dir)?;
     let built = crate::dataset::build(&stored.table, cfg)?;
     let mut provenance = BTreeMap::new();
@@ -340,7 +340,7 @@ pub fn run_dataset(
         Some(p) => Some(std::fs::read_to_string(p).map_err(DatasetError::io("reading", p))?),
         None => None,
     };
-    crate::dataset::write(out_dir, &built, cfg, &wm.grid, &provenance, model.as_deref())
+    crate::folder::write(out_dir, &built, cfg, &wm.grid, &provenance, model.as_deref())
 }
 
 // ---------------------------------------------------------------------------------------
@@ -798,8 +798,8 @@ fn default_duplicates() -> f64 {
 
 impl SynthParams {
     /// The generator's configuration, checked.
-    pub fn to_config(&self) -> Result<firecast_data::synth::SynthConfig, DatasetError> {
-        use firecast_data::synth::{DimOrderChoice, Region, SynthConfig};
+    pub fn to_config(&self) -> Result<firecast_synth::SynthConfig, DatasetError> {
+        use firecast_synth::{DimOrderChoice, Region, SynthConfig};
         let region = match &self.region {
             RegionParam::Named(n) if n == "conus" => Region::Conus,
             RegionParam::Named(other) => {
@@ -874,14 +874,13 @@ pub fn run_synthesize_with(
 ) -> Result<SynthReport, DatasetError> {
     let mut cfg = params.to_config()?;
     cfg.write_truth = write_truth;
-    let summary =
-        firecast_data::synth::generate(&cfg, out_dir, progress).map_err(|e| DatasetError::Input {
-            path: out_dir.to_path_buf(),
-            message: e.to_string(),
-        })?;
+    let summary = firecast_synth::generate(&cfg, out_dir, progress).map_err(|e| DatasetError::Input {
+        path: out_dir.to_path_buf(),
+        message: e.to_string(),
+    })?;
     firecast_fs::write_atomically(
         &out_dir.join(SOURCE_MODEL_FILE),
-        firecast_data::synth::model_card().as_bytes(),
+        firecast_synth::model_card().as_bytes(),
     )?;
     Ok(SynthReport {
         gridmet_files: summary.gridmet_files.len(),
@@ -961,15 +960,13 @@ impl StageKind for SynthesizeStage {
         let mut moves = vec![
             (scratch.join("gridmet"), &gridmet),
             (
-                scratch
-                    .join("incidents")
-                    .join(firecast_data::synth::INCIDENTS_CSV),
+                scratch.join("incidents").join(firecast_synth::INCIDENTS_CSV),
                 &incidents,
             ),
             (scratch.join(SOURCE_MODEL_FILE), &model),
         ];
         if let Some(truth) = &truth {
-            moves.push((scratch.join(firecast_data::synth::TRUTH_DIR), truth));
+            moves.push((scratch.join(firecast_synth::TRUTH_DIR), truth));
         }
         for (from, to) in moves {
             std::fs::rename(&from, to)

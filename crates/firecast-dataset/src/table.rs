@@ -369,17 +369,6 @@ fn source_rows(batch: &RecordBatch, path: &Path) -> Result<Vec<Option<u64>>, Dat
     Err(bad(format!("type {} (expected uint64)", column.data_type())))
 }
 
-/// Reads a window table written by [`write_window_table`]. In a dataset directory (one
-/// with `dataset.json`) every file is first checked against the manifest's hashes
-/// ([`crate::dataset::verify_files`]), so a damaged file is named before it is parsed.
-pub fn read_window_table(dir: &Path) -> Result<StoredTable, DatasetError> {
-    if dir.join(crate::dataset::MANIFEST_FILE).is_file() {
-        let manifest = crate::dataset::read_manifest(dir)?;
-        crate::dataset::verify_files(dir, &manifest)?;
-    }
-    read_window_files(&dir.join(SAMPLES_FILE), &dir.join(DAYS_FILE))
-}
-
 /// The columns of a Parquet file as Arrow sees them (names, types, nullability), from its
 /// footer only.
 pub fn parquet_schema(path: &Path) -> Result<arrow::datatypes::SchemaRef, DatasetError> {

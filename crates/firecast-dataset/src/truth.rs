@@ -1,7 +1,7 @@
 //! The synthetic generator's true ignition probability (the "oracle"), looked up for each
 //! sample at its GRIDMET cell and event day.
 //!
-//! `firecast_data::synth` writes `truth/ignition_probability_<YYYY>.nc` on the GRIDMET grid:
+//! `firecast_synth` writes `truth/ignition_probability_<YYYY>.nc` on the GRIDMET grid:
 //! `1 − exp(−λ)` of the Poisson rate it drew the ignitions from. A forecasting experiment
 //! scores each sample by it to get the best skill any model can reach on those data. It is
 //! stored per sample ([`WindowSample::true_probability`], the nullable column
@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use firecast_data::gridmet::GridmetFile;
-use firecast_data::synth::{TRUTH_VARIABLE, truth_file_name, truth_file_year};
+use firecast_synth::{TRUTH_VARIABLE, truth_file_name, truth_file_year};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 

@@ -240,13 +240,12 @@ impl LandscapeSpec {
                 height,
                 cell_size_ft,
             } => {
-                let grid =
-                    firecast_data::synth::PlaceGrid::around(*lat, *lon, *width, *height, *cell_size_ft)
-                        .map_err(|e| EpisodeError::LandscapeSpec {
-                            spec: "synthetic".into(),
-                            reason: e.to_string(),
-                        })?;
-                let place = firecast_data::synth::place_landscape(*seed, grid);
+                let grid = firecast_synth::PlaceGrid::around(*lat, *lon, *width, *height, *cell_size_ft)
+                    .map_err(|e| EpisodeError::LandscapeSpec {
+                        spec: "synthetic".into(),
+                        reason: e.to_string(),
+                    })?;
+                let place = firecast_synth::place_landscape(*seed, grid);
                 Landscape::new(
                     grid.width,
                     grid.height,

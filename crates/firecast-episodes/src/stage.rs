@@ -476,7 +476,7 @@ fn scenario_of(
             })?;
             // The weather day's files when there is one, else every file of the folder.
             let year = weather_date.and_then(|d| d.get(..4)).and_then(|y| y.parse().ok());
-            let seed = firecast_data::synth::world_seed(dir, year)
+            let seed = firecast_synth::world_seed(dir, year)
                 .map_err(|e| StageError::msg(format!("landscape.synthetic: {e}")))?;
             LandscapeSpec::Synthetic {
                 seed,

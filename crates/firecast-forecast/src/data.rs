@@ -4,8 +4,7 @@
 use std::path::Path;
 
 use firecast_dataset::Tier;
-use firecast_dataset::dataset::{DatasetManifest, read_manifest};
-use firecast_dataset::table::read_window_table;
+use firecast_dataset::dataset::{DatasetManifest, read_manifest, read_window_table};
 
 use crate::ForecastError;
 

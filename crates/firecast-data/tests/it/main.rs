@@ -3,4 +3,3 @@
 
 mod gridmet;
 mod incidents;
-mod synth;

@@ -216,7 +216,7 @@ pub(crate) fn write_small_dataset(dir: &std::path::Path) {
         n_lon: 4,
         land_runs: Vec::new(),
     };
-    firecast_dataset::dataset::write(dir, &ds, &c, &grid, &Default::default(), None).unwrap();
+    firecast_dataset::folder::write(dir, &ds, &c, &grid, &Default::default(), None).unwrap();
 }
 
 /// Flips a few bytes in the middle of `path` (inside the data, not the footer).
@@ -231,7 +231,8 @@ fn damage(path: &std::path::Path) {
 
 #[test]
 fn a_damaged_file_is_refused_by_its_own_name() {
-    use firecast_dataset::table::{DAYS_FILE, SAMPLES_FILE, read_window_table};
+    use firecast_dataset::dataset::read_window_table;
+    use firecast_dataset::table::{DAYS_FILE, SAMPLES_FILE};
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("ds");
     write_small_dataset(&dir);

@@ -1,8 +1,8 @@
 //! Publishing: the three metadata files rendered from one `Publication` agree with each other
 //! and with the files, the folder reads back as the dataset, and damage is named.
 
+use firecast_dataset::dataset::read_window_table;
 use firecast_dataset::publish::{PublishConfig, compare, publish, read_published, table_file, verify};
-use firecast_dataset::table::read_window_table;
 use serde_json::{Value, json};
 
 fn config() -> PublishConfig {

@@ -6,14 +6,15 @@ use std::fs::File;
 use std::path::Path;
 
 use firecast_data::gridmet::GridmetFile;
-use firecast_data::synth::{TRUTH_VARIABLE, truth_file_name};
 use firecast_dataset::DatasetError;
+use firecast_dataset::dataset::read_window_table;
 use firecast_dataset::dataset::{DatasetConfig, DatasetManifest, Framing, FramingKind};
 use firecast_dataset::sampling::NegativeConfig;
 use firecast_dataset::stage::{self, IgnitionParams, SynthParams};
-use firecast_dataset::table::{SAMPLES_FILE, read_window_table};
+use firecast_dataset::table::SAMPLES_FILE;
 use firecast_dataset::truth::{TRUE_PROBABILITY_COLUMN, attach_truth};
 use firecast_dataset::windows::ExtractConfig;
+use firecast_synth::{TRUTH_VARIABLE, truth_file_name};
 use parquet::file::reader::{FileReader, SerializedFileReader};
 
 fn synth_params() -> SynthParams {

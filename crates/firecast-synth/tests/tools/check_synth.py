@@ -4,7 +4,7 @@
 Usage:
     check_synth.py OUT_DIR [--dump rust_reader_dump.json]
 
-OUT_DIR is a `firecast_data::synth::generate` output directory (`gridmet/<short>_<YYYY>.nc`,
+OUT_DIR is a `firecast_synth::generate` output directory (`gridmet/<short>_<YYYY>.nc`,
 `incidents/wfigs_incidents.csv`, and with `write_truth` `truth/ignition_probability_<YYYY>.nc`).
 For every NetCDF file the script
 
@@ -23,7 +23,7 @@ the GRIDMET files of its year.
 
 It also parses the incidents CSV (header, row count, date format) when present. Prints one line
 per file and `ALL OK` at the end; exits 1 on any mismatch. Run with the project's Python:
-    /work/main/.venv/bin/python crates/firecast-data/tests/tools/check_synth.py OUT_DIR
+    /work/main/.venv/bin/python crates/firecast-synth/tests/tools/check_synth.py OUT_DIR
 """
 import csv
 import glob

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use super::grid::{GRID_STEP, GridWindow};
 use super::netcdf3::{Attr, ClassicWriter, NcType, Schema, Version};
 use super::{MODEL_VERSION, SynthError, TRUTH_VARIABLE, truth_file_name};
-use crate::gridmet::GridmetVariable;
+use firecast_data::gridmet::GridmetVariable;
 
 /// What a yearly file holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -198,6 +198,8 @@ pub(crate) fn schema(
             "FireCast SYNTHETIC daily weather in GRIDMET format (not observations)"
         },
     ));
+    // Names the crate the generator was born in: written into every file, so kept as it is
+    // (the files' bytes are checked).
     g.push(Attr::text(
         "source",
         format!(

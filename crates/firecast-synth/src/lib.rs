@@ -10,7 +10,7 @@
 //! of a synthetic human-activity field. Nothing in these files is an observation.
 //!
 //! ```no_run
-//! use firecast_data::synth::{generate, Region, SynthConfig};
+//! use firecast_synth::{generate, Region, SynthConfig};
 //! let config = SynthConfig::new(42, Region::Box { lat_min: 39.0, lat_max: 40.0, lon_min: -117.0, lon_max: -116.0 }, (2018, 2019));
 //! let summary = generate(&config, std::path::Path::new("/tmp/synth"), &mut |_, _| {}).unwrap();
 //! println!("{} files, {} ignitions", summary.gridmet_files.len(), summary.ignitions);
@@ -45,7 +45,7 @@ pub use place::{
     PlaceClimate, PlaceError, PlaceGrid, PlaceLandscape, igbp, place_landscape, world_elevation_m, world_seed,
 };
 
-use crate::gridmet::{GridmetVariable, day_to_ymd, ymd_to_day};
+use firecast_data::gridmet::{GridmetVariable, day_to_ymd, ymd_to_day};
 
 /// Version of the synthetic model, written to every file (`firecast_synthetic_model_version`).
 pub const MODEL_VERSION: &str = "firecast-synth-1.0";

@@ -834,8 +834,8 @@ pub(crate) fn ignition_rates(c: &Cell, ctx: &DayCtx, w: Fire) -> [f32; 3] {
 
 /// Day-level multipliers and harmonics for `day`.
 pub(crate) fn day_ctx(day: i32, sample_ignitions: bool, rate_scale: f64) -> DayCtx {
-    let (y, m, d) = crate::gridmet::day_to_ymd(day);
-    let doy = (day - crate::gridmet::ymd_to_day(y, 1, 1).unwrap_or(day)) as u32 + 1;
+    let (y, m, d) = firecast_data::gridmet::day_to_ymd(day);
+    let doy = (day - firecast_data::gridmet::ymd_to_day(y, 1, 1).unwrap_or(day)) as u32 + 1;
     let x = std::f64::consts::TAU * (f64::from(doy) - 0.5) / YEAR_DAYS;
     let g = |t: f64, c: f64, w: f64| (-0.5 * ((t - c) / w).powi(2)).exp();
     let t = f64::from(doy);
@@ -900,7 +900,7 @@ mod tests {
     #[test]
     fn weekday_reference() {
         // 2023-07-04 was a Tuesday; 2023-07-08 a Saturday.
-        let tue = crate::gridmet::ymd_to_day(2023, 7, 4).expect("date");
+        let tue = firecast_data::gridmet::ymd_to_day(2023, 7, 4).expect("date");
         assert!(!matches!(tue.rem_euclid(7), 5 | 6));
         assert_eq!((tue + 4).rem_euclid(7), 5);
     }

@@ -1,7 +1,7 @@
 //! Generates synthetic sources and prints timing and summary statistics.
 //!
 //! ```text
-//! cargo run --release -p firecast-data --example synth_gen -- OUT_DIR [--years 2021 2021]
+//! cargo run --release -p firecast-synth --example synth_gen -- OUT_DIR [--years 2021 2021]
 //!     [--vars tmmx,pr|all|none] [--box LAT_MIN LAT_MAX LON_MIN LON_MAX] [--seed N]
 //!     [--order latlon|lonlat|vintage] [--warmup DAYS] [--no-incidents] [--cdf2] [--verify]
 //! ```
@@ -13,7 +13,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use firecast_data::gridmet::{GridmetFile, GridmetVariable};
-use firecast_data::synth::{DimOrderChoice, IgnitionCause, NcVersion, Region, SynthConfig, generate};
+use firecast_synth::{DimOrderChoice, IgnitionCause, NcVersion, Region, SynthConfig, generate};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();

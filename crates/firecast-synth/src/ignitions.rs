@@ -34,7 +34,7 @@ use super::files::temp_path;
 use super::grid::{GRID_STEP, gacc_of, grid_lat, grid_lon, state_of};
 use super::noise::{Stream, hash_with, key, mix64};
 use super::weather::{Candidate, gid_to_ji};
-use crate::gridmet::day_to_ymd;
+use firecast_data::gridmet::day_to_ymd;
 
 /// The header of a real 2023 WFIGS "Incident Locations to Date" CSV export (docs/spec/data.md §1.2).
 pub const WFIGS_HEADER: [&str; 97] = [

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use firecast_data::gridmet::{DimOrder, GridmetFile, GridmetVariable, day_to_ymd, ymd_to_day};
-use firecast_data::synth::{
+use firecast_synth::{
     DimOrderChoice, GridWindow, IgnitionCause, NcVersion, Region, SynthConfig, SynthSummary, TRUTH_VARIABLE,
     WFIGS_HEADER, generate, grid_lat, grid_lon, is_land, land_mask, packing, truth_file_name,
     truth_file_year,
@@ -163,7 +163,7 @@ fn small_box_round_trips_for_all_variables_and_both_vintages() {
         let g = nc.global_attribute("firecast_synthetic_model_version").unwrap();
         assert_eq!(
             g.value.as_string().as_deref(),
-            Some(firecast_data::synth::MODEL_VERSION)
+            Some(firecast_synth::MODEL_VERSION)
         );
         assert!(nc.global_attribute("note5").is_ok());
     }
@@ -657,7 +657,7 @@ fn python_netcdf4_and_xarray_read_the_same_values() {
 #[test]
 #[ignore = "writes a 2.2 GB file; run with --ignored"]
 fn auto_version_switches_to_cdf2_beyond_2_gib() {
-    use firecast_data::synth::netcdf3::{Attr, ClassicWriter, NcType, Schema, Version};
+    use firecast_synth::netcdf3::{Attr, ClassicWriter, NcType, Schema, Version};
     use netcdf_reader::{NcSliceInfo, NcSliceInfoElem};
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("big_2000.nc");

@@ -579,7 +579,7 @@ pub fn world_seed(dir: &std::path::Path, year: Option<i32>) -> Result<u64, Place
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synth::grid::{grid_lat, grid_lon};
+    use crate::grid::{grid_lat, grid_lon};
 
     fn land(lat: f64, lon: f64, w: usize, h: usize) -> PlaceLandscape {
         place_landscape(5, PlaceGrid::around(lat, lon, w, h, 500.0).expect("grid"))

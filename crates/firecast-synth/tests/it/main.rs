@@ -1,0 +1,4 @@
+//! Integration tests for firecast-synth.
+#![allow(clippy::unwrap_used)]
+
+mod synth;
