@@ -23,10 +23,10 @@ use std::time::Instant;
 
 use firecast_bench::ppo::phases as bench;
 use firecast_ppo::cartpole::CartPoleVec;
-use firecast_rl::policy::{Memory, PolicyConfig, PolicyKind, View};
-use firecast_rl::pool::HelitackPool;
 use firecast_ppo::ppo::PpoConfig;
 use firecast_ppo::train::{NoSink, Trainer};
+use firecast_rl::policy::{Memory, PolicyConfig, PolicyKind, View};
+use firecast_rl::pool::HelitackPool;
 use firecast_rl::{Device, RlError};
 
 struct Args {
