@@ -11,7 +11,8 @@
 
 use std::collections::BTreeMap;
 
-use firecast_pipeline::executor::{ObservedEvent, PendingArtifact};
+use firecast_pipeline::executor::ObservedEvent;
+use firecast_pipeline::stage::PendingArtifact;
 use firecast_store::ArtifactStore;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};

@@ -1,7 +1,8 @@
 //! A fitted model on disk: `model.json` (what it is, what it was trained on, its threshold
 //! and its non-neural parameters) and, for networks, `weights.safetensors`. Loading a bundle
 //! back gives the same predictions. Written into a temporary sibling and renamed, so a
-//! folder with `model.json` is always complete.
+//! folder with `model.json` is always complete. [`seed_bundles`] finds the bundles an
+//! experiment saved, one per seed.
 
 use std::path::{Path, PathBuf};
 
@@ -184,4 +185,88 @@ pub fn load(dir: &Path, device: tch::Device) -> Result<Bundle, ForecastError> {
         model,
         dir: dir.to_path_buf(),
     })
+}
+
+/// The seed bundles of `model` under `protocol`, as (seed, folder relative to the
+/// experiment), by seed: the runs results.json lists when it has them, else every
+/// `seed-<n>` folder holding a model.
+pub fn seed_bundles(
+    experiment: &std::path::Path,
+    results: Option<&serde_json::Value>,
+    protocol: &str,
+    model: &str,
+) -> Result<Vec<(u64, String)>, crate::ForecastError> {
+    let listed: Vec<(u64, String)> = results
+        .and_then(|r| r.get("results")?.as_array())
+        .into_iter()
+        .flatten()
+        .filter(|r| {
+            r.get("protocol").and_then(serde_json::Value::as_str) == Some(protocol)
+                && r.get("model").and_then(serde_json::Value::as_str) == Some(model)
+        })
+        .flat_map(|r| {
+            r.get("runs")
+                .and_then(serde_json::Value::as_array)
+                .into_iter()
+                .flatten()
+        })
+        .filter_map(|run| {
+            Some((
+                run.get("seed")?.as_u64()?,
+                run.get("model_dir")?.as_str()?.to_string(),
+            ))
+        })
+        .collect();
+    let mut found = if listed.is_empty() {
+        let dir = experiment.join("models").join(protocol).join(model);
+        sub_folders(&dir)?
+            .into_iter()
+            .filter_map(|name| {
+                let seed = name.strip_prefix("seed-")?.parse().ok()?;
+                dir.join(&name)
+                    .join(MODEL_FILE)
+                    .is_file()
+                    .then(|| (seed, format!("models/{protocol}/{model}/{name}")))
+            })
+            .collect()
+    } else {
+        listed
+    };
+    found.sort();
+    if found.is_empty() {
+        let models = sub_folders(&experiment.join("models").join(protocol))?;
+        return Err(crate::ForecastError::Config {
+            key: "model".into(),
+            message: format!(
+                "{}: no saved `{model}` model under protocol `{protocol}`; it has: {}",
+                experiment.display(),
+                if models.is_empty() {
+                    "none".to_string()
+                } else {
+                    models.join(", ")
+                }
+            ),
+        });
+    }
+    Ok(found)
+}
+
+/// Sorted names of the sub-folders of `dir` (none when it does not exist).
+pub(crate) fn sub_folders(dir: &std::path::Path) -> Result<Vec<String>, crate::ForecastError> {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(crate::ForecastError::io("reading", dir)(e)),
+    };
+    let mut names = Vec::new();
+    for entry in entries {
+        let entry = entry.map_err(crate::ForecastError::io("reading", dir))?;
+        if entry.path().is_dir()
+            && let Some(name) = entry.file_name().to_str()
+        {
+            names.push(name.to_string());
+        }
+    }
+    names.sort();
+    Ok(names)
 }

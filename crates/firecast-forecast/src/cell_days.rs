@@ -354,7 +354,7 @@ pub fn score(
             path: results_path.clone(),
             message: format!("no model under protocol `{protocol}`"),
         })?;
-        let bundles = crate::stage::seed_bundles(inputs.experiment, None, &protocol, &first_model.model)?;
+        let bundles = crate::bundle::seed_bundles(inputs.experiment, None, &protocol, &first_model.model)?;
         let (_, rel) = bundles.first().ok_or_else(|| ForecastError::Data {
             path: inputs.experiment.join("models").join(&protocol),
             message: format!("no saved model of `{}`", first_model.model),
@@ -477,7 +477,7 @@ pub fn score(
             models.len(),
         );
         let mut per_seed = Vec::new();
-        for (_, rel) in crate::stage::seed_bundles(inputs.experiment, None, &protocol, &m.model)? {
+        for (_, rel) in crate::bundle::seed_bundles(inputs.experiment, None, &protocol, &m.model)? {
             let bundle = crate::bundle::load(&inputs.experiment.join(&rel), device)?;
             let scores = bundle
                 .model

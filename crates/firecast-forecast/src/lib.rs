@@ -5,7 +5,7 @@
 //! - [`data`], [`split`], [`features`]: a dataset folder → protocols (the paper's random
 //!   split with days −60..+14, and the leak-free temporal split with inputs before the date)
 //!   → model inputs;
-//! - [`models`]: every model behind one interface — no-skill and cheap references
+//! - [`models`]: every model behind one interface ([`inputs`]) — no-skill and cheap references
 //!   (majority, climatology, the fire-danger index, MiniRocket, boosted window statistics),
 //!   the paper's flattened baselines (pure Rust in `firecast-baselines`, the real XGBoost in
 //!   `firecast-xgboost`), and the networks of [`neural`] in `tch`;
@@ -25,6 +25,7 @@ pub mod data;
 pub mod evaluate;
 pub mod experiment;
 pub mod features;
+pub mod inputs;
 pub mod minirocket;
 pub mod models;
 pub mod neural;

@@ -159,7 +159,7 @@ impl MiniRocket {
     pub fn transform(
         &self,
         block: &Block,
-        progress: crate::models::Progress<'_>,
+        progress: crate::inputs::Progress<'_>,
     ) -> Result<Matrix, ForecastError> {
         if block.n_days != self.days {
             return Err(ForecastError::Config {

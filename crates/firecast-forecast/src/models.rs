@@ -7,6 +7,9 @@ use crate::ForecastError;
 use crate::data::{Block, SampleMeta};
 use crate::features::{FeatureSet, window_statistics};
 use crate::neural::{NeuralConfig, NeuralKind, NeuralModel};
+// The interface lives below the models that implement it (neural, minirocket); callers
+// reach it here, beside the dispatcher.
+pub use crate::inputs::{FitContext, Inputs, Progress};
 use firecast_baselines::Standardizer as Scaler;
 
 /// Model kinds, in the order tables list them when an experiment does not say otherwise.
@@ -274,27 +277,33 @@ impl ModelConfig {
 
     /// The default threshold rule: the authors' fixed 0.5 for their own model, else chosen
     /// on validation by F1.
-    pub fn default_threshold(&self) -> crate::spec::ThresholdRule {
+    pub fn default_threshold(&self) -> ThresholdRule {
         match self {
             ModelConfig::Neural(n)
                 if n.kind == NeuralKind::CnnBilstm || n.kind == NeuralKind::CnnBilstmAttn =>
             {
-                crate::spec::ThresholdRule::Fixed(0.5)
+                ThresholdRule::Fixed(0.5)
             }
-            _ => crate::spec::ThresholdRule::MaxF1,
+            _ => ThresholdRule::MaxF1,
         }
     }
+}
+
+/// Threshold rules; all are decided before the test set is looked at.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum ThresholdRule {
+    /// A fixed threshold (the authors' 0.5).
+    Fixed(f64),
+    /// The threshold that maximises F1 on validation.
+    MaxF1,
+    /// Youden's J on validation.
+    Youden,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct EmptyParams {}
-
-/// What a model sees: the protocol's days of every dataset variable, plus sample facts.
-pub struct Inputs<'a> {
-    pub block: &'a Block,
-    pub meta: Vec<&'a SampleMeta>,
-}
 
 /// A fitted model.
 #[derive(Serialize, Deserialize)]
@@ -342,23 +351,6 @@ pub enum Trained {
     /// Saved as a header and safetensors weights by [`crate::bundle`].
     #[serde(skip)]
     Neural(NeuralModel),
-}
-
-/// Progress of a long fit: (done, total, what).
-pub type Progress<'a> = &'a (dyn Fn(u64, u64, &str) + Sync);
-
-/// Training context: the training side, the validation side (early stopping, plateau
-/// schedules) and the run's seed and device.
-pub struct FitContext<'a> {
-    pub train: Inputs<'a>,
-    pub train_labels: &'a [bool],
-    pub val: Inputs<'a>,
-    pub val_labels: &'a [bool],
-    pub seed: u64,
-    pub device: tch::Device,
-    pub progress: Progress<'a>,
-    /// Per-epoch curves (neural models) are reported here: (epoch, key, value).
-    pub curve: &'a (dyn Fn(i64, &str, f64) + Sync),
 }
 
 pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, ForecastError> {

@@ -20,7 +20,7 @@ use firecast_learn::layers::{Cell, Recurrent};
 use crate::ForecastError;
 use crate::data::Block;
 use crate::features::{FeatureSet, FeatureSetName};
-use crate::models::{FitContext, Inputs};
+use crate::inputs::{FitContext, Inputs};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

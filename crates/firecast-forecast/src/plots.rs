@@ -50,14 +50,17 @@ fn mean_scores(scores: &[Vec<f64>]) -> Vec<f64> {
 }
 
 /// The DVCLive plots written per model and protocol: (file stem, its plot).
-pub const DVC_PLOTS: [(&str, firecast_pipeline::dvc::SklearnPlot); 4] = [
-    ("roc", firecast_pipeline::dvc::SklearnPlot::Roc),
+pub const DVC_PLOTS: [(&str, firecast_pipeline::stage::SklearnPlot); 4] = [
+    ("roc", firecast_pipeline::stage::SklearnPlot::Roc),
     (
         "precision_recall",
-        firecast_pipeline::dvc::SklearnPlot::PrecisionRecall,
+        firecast_pipeline::stage::SklearnPlot::PrecisionRecall,
     ),
-    ("calibration", firecast_pipeline::dvc::SklearnPlot::Calibration),
-    ("confusion", firecast_pipeline::dvc::SklearnPlot::ConfusionMatrix),
+    ("calibration", firecast_pipeline::stage::SklearnPlot::Calibration),
+    (
+        "confusion",
+        firecast_pipeline::stage::SklearnPlot::ConfusionMatrix,
+    ),
 ];
 
 /// A model's DVCLive plot file under one protocol, relative to the experiment folder:

@@ -7,6 +7,9 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::ForecastError;
+// Defined beside the models' default rule (`ModelConfig::default_threshold`); experiment
+// files name it here.
+pub use crate::models::ThresholdRule;
 
 /// A whole experiment: one dataset, one or more protocols, models, seeds, evaluation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -180,18 +183,6 @@ impl ModelEntry {
     pub fn label(&self) -> String {
         self.name.clone().unwrap_or_else(|| self.kind.clone())
     }
-}
-
-/// Threshold rules; all are decided before the test set is looked at.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-pub enum ThresholdRule {
-    /// A fixed threshold (the authors' 0.5).
-    Fixed(f64),
-    /// The threshold that maximises F1 on validation.
-    MaxF1,
-    /// Youden's J on validation.
-    Youden,
 }
 
 /// Metrics and intervals.

@@ -9,7 +9,7 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use firecast_pipeline::dvc::MetricsAndPlots;
+use firecast_pipeline::stage::MetricsAndPlots;
 use firecast_pipeline::{ParamsError, Port, Ports, StageContext, StageError, StageKind, typed_params};
 
 use crate::experiment::Sink;
@@ -641,90 +641,6 @@ pub fn choose_protocol(
     Ok(chosen.to_string())
 }
 
-/// Sorted names of the sub-folders of `dir` (none when it does not exist).
-fn sub_folders(dir: &std::path::Path) -> Result<Vec<String>, crate::ForecastError> {
-    let entries = match std::fs::read_dir(dir) {
-        Ok(e) => e,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
-        Err(e) => return Err(crate::ForecastError::io("reading", dir)(e)),
-    };
-    let mut names = Vec::new();
-    for entry in entries {
-        let entry = entry.map_err(crate::ForecastError::io("reading", dir))?;
-        if entry.path().is_dir()
-            && let Some(name) = entry.file_name().to_str()
-        {
-            names.push(name.to_string());
-        }
-    }
-    names.sort();
-    Ok(names)
-}
-
-/// The seed bundles of `model` under `protocol`, as (seed, folder relative to the
-/// experiment), by seed: the runs results.json lists when it has them, else every
-/// `seed-<n>` folder holding a model.
-pub fn seed_bundles(
-    experiment: &std::path::Path,
-    results: Option<&serde_json::Value>,
-    protocol: &str,
-    model: &str,
-) -> Result<Vec<(u64, String)>, crate::ForecastError> {
-    let listed: Vec<(u64, String)> = results
-        .and_then(|r| r.get("results")?.as_array())
-        .into_iter()
-        .flatten()
-        .filter(|r| {
-            r.get("protocol").and_then(serde_json::Value::as_str) == Some(protocol)
-                && r.get("model").and_then(serde_json::Value::as_str) == Some(model)
-        })
-        .flat_map(|r| {
-            r.get("runs")
-                .and_then(serde_json::Value::as_array)
-                .into_iter()
-                .flatten()
-        })
-        .filter_map(|run| {
-            Some((
-                run.get("seed")?.as_u64()?,
-                run.get("model_dir")?.as_str()?.to_string(),
-            ))
-        })
-        .collect();
-    let mut found = if listed.is_empty() {
-        let dir = experiment.join("models").join(protocol).join(model);
-        sub_folders(&dir)?
-            .into_iter()
-            .filter_map(|name| {
-                let seed = name.strip_prefix("seed-")?.parse().ok()?;
-                dir.join(&name)
-                    .join(crate::bundle::MODEL_FILE)
-                    .is_file()
-                    .then(|| (seed, format!("models/{protocol}/{model}/{name}")))
-            })
-            .collect()
-    } else {
-        listed
-    };
-    found.sort();
-    if found.is_empty() {
-        let models = sub_folders(&experiment.join("models").join(protocol))?;
-        return Err(crate::ForecastError::Config {
-            key: "model".into(),
-            message: format!(
-                "{}: no saved `{model}` model under protocol `{protocol}`; it has: {}",
-                experiment.display(),
-                if models.is_empty() {
-                    "none".to_string()
-                } else {
-                    models.join(", ")
-                }
-            ),
-        });
-    }
-    Ok(found)
-}
-
 /// Predicts `params`' place and day with every seed of its model in `experiment` (a
 /// report folder of `forecast.experiment` / `experiment run`), weather from `gridmet`.
 pub fn forecast_point(
@@ -740,7 +656,7 @@ pub fn forecast_point(
         date: params.date.clone(),
     };
     let mut answers = Vec::new();
-    for (_, rel) in seed_bundles(experiment, results.as_ref(), &protocol, &params.model)? {
+    for (_, rel) in crate::bundle::seed_bundles(experiment, results.as_ref(), &protocol, &params.model)? {
         let bundle = crate::bundle::load(&experiment.join(&rel), device)?;
         let prediction = crate::predict::predict(&bundle, gridmet, std::slice::from_ref(&query), device)?
             .pop()
@@ -767,7 +683,7 @@ fn experiment_protocol(
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
         Err(e) => return Err(crate::ForecastError::io("reading", &results_path)(e)),
     };
-    let available = sub_folders(&experiment.join("models"))?;
+    let available = crate::bundle::sub_folders(&experiment.join("models"))?;
     let headline = results.as_ref().and_then(|r| r.get("headline")?.as_str());
     let protocol = choose_protocol(&available, headline, params.protocol.as_deref())?;
     Ok((results, protocol))
@@ -802,7 +718,7 @@ pub fn forecast_map(
     device: tch::Device,
 ) -> Result<ProbabilityMap, crate::ForecastError> {
     let (results, protocol) = experiment_protocol(experiment, params)?;
-    let bundles = seed_bundles(experiment, results.as_ref(), &protocol, &params.model)?;
+    let bundles = crate::bundle::seed_bundles(experiment, results.as_ref(), &protocol, &params.model)?;
     let queries: Vec<crate::predict::Query> = lats
         .iter()
         .flat_map(|&lat| {

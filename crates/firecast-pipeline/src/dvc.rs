@@ -4,114 +4,11 @@
 //! so `dvc metrics show` and `dvc plots show` find them.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
 
 use serde::Serialize;
 
 use crate::plan::{Plan, Source};
-use crate::stage::StageKinds;
-
-/// The metrics and plot files a stage writes inside its outputs.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct MetricsAndPlots {
-    /// JSON or YAML files of numbers (`dvc metrics`), relative to the project root.
-    pub metrics: Vec<PathBuf>,
-    pub plots: Vec<Plot>,
-}
-
-/// A `dvc plots` definition: one series per data file, as DVC 3's top-level `plots:` takes
-/// it (`y: {file: field}`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Plot {
-    /// Unique within the stage; the export prefixes the DVC stage name.
-    #[serde(skip)]
-    pub id: String,
-    /// A DVC template: `simple`, `linear`, `confusion`, …
-    pub template: String,
-    pub x: String,
-    /// Data file (relative to the project root) → the field plotted on y.
-    pub y: BTreeMap<String, String>,
-    pub title: String,
-    pub x_label: String,
-    pub y_label: String,
-}
-
-/// The plots DVCLive writes for a binary classifier (`dvclive.plots.sklearn`), with the
-/// template, axes, title and labels DVCLive gives them; the data files are DVCLive's too
-/// (`firecast_eval::dvc` writes them).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SklearnPlot {
-    /// `{"roc": [{"fpr", "tpr", "threshold"}, …]}`.
-    Roc,
-    /// `{"precision_recall": [{"precision", "recall", "threshold"}, …]}`.
-    PrecisionRecall,
-    /// `{"calibration": [{"prob_true", "prob_pred"}, …]}`.
-    Calibration,
-    /// `[{"actual", "predicted"}, …]`, one row per sample.
-    ConfusionMatrix,
-}
-
-impl SklearnPlot {
-    /// (template, x, y, title, x label, y label) as DVCLive sets them.
-    fn properties(self) -> [&'static str; 6] {
-        match self {
-            Self::Roc => [
-                "simple",
-                "fpr",
-                "tpr",
-                "Receiver operating characteristic (ROC)",
-                "False Positive Rate",
-                "True Positive Rate",
-            ],
-            Self::PrecisionRecall => [
-                "simple",
-                "recall",
-                "precision",
-                "Precision-Recall Curve",
-                "Recall",
-                "Precision",
-            ],
-            Self::Calibration => [
-                "simple",
-                "prob_pred",
-                "prob_true",
-                "Calibration Curve",
-                "Mean Predicted Probability",
-                "Fraction of Positives",
-            ],
-            Self::ConfusionMatrix => [
-                "confusion",
-                "actual",
-                "predicted",
-                "Confusion Matrix",
-                "True Label",
-                "Predicted Label",
-            ],
-        }
-    }
-
-    /// A plot of these files (one series, or one confusion matrix, per file), titled
-    /// `<DVCLive's title>, <what>`.
-    pub fn plot(self, id: impl Into<String>, what: &str, files: impl IntoIterator<Item = PathBuf>) -> Plot {
-        let [template, x, y, title, x_label, y_label] = self.properties();
-        Plot {
-            id: id.into(),
-            template: template.into(),
-            x: x.into(),
-            y: files
-                .into_iter()
-                .map(|f| (f.display().to_string(), y.to_string()))
-                .collect(),
-            title: if what.is_empty() {
-                title.into()
-            } else {
-                format!("{title}, {what}")
-            },
-            x_label: x_label.into(),
-            y_label: y_label.into(),
-        }
-    }
-}
+use crate::stage::{MetricsAndPlots, Plot, StageKinds};
 
 #[derive(Debug, Serialize)]
 struct DvcFile {
@@ -243,8 +140,9 @@ mod tests {
     use std::collections::BTreeMap;
     use std::path::{Path, PathBuf};
 
-    use super::{MetricsAndPlots, SklearnPlot};
-    use crate::stage::{ParamsError, Port, Ports, StageContext, StageKind, StageKinds};
+    use crate::stage::{
+        MetricsAndPlots, ParamsError, Port, Ports, SklearnPlot, StageContext, StageKind, StageKinds,
+    };
 
     /// Writes `score.json` and a ROC file per model named in its params.
     struct Scored;

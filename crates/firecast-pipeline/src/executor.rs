@@ -17,19 +17,7 @@ use crate::error::StageError;
 use crate::hash::{ContentHash, HashCache};
 use crate::observer::{DatasetRecord, ObserverError, RunObserver};
 use crate::plan::PlannedStage;
-use crate::stage::{SHARD_OUTPUT, Shard, StageContext, StageKind};
-
-/// An artifact a stage asked for from inside one of its outputs: uploaded by the runner
-/// after the output is published, from the finished file and under its final name.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct PendingArtifact {
-    /// The artifact name the stage gave.
-    pub name: String,
-    /// The output it lies in.
-    pub output: String,
-    /// Path inside a folder output; `None` when it is the output file itself.
-    pub rel: Option<String>,
-}
+use crate::stage::{PendingArtifact, SHARD_OUTPUT, Shard, StageContext, StageKind};
 
 /// What a stage reported to the registry while it ran somewhere else.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -10,6 +10,9 @@ use serde_yaml_ng::Value;
 
 use crate::error::SpecError;
 use crate::spec::{ExpandedPipeline, Override, scalar_to_string};
+// Moved to spec (which parses params with it); still reachable here for the callers that
+// name it by this path.
+pub use crate::spec::yaml_to_json;
 use crate::stage::StageKinds;
 
 /// Where an input's bytes come from.
@@ -509,39 +512,6 @@ fn type_name(v: &Value) -> &'static str {
         Value::Mapping(_) => "a mapping",
         Value::Tagged(_) => "a tagged value",
     }
-}
-
-/// YAML to JSON (for params): mapping keys must be strings, numbers must be finite.
-pub fn yaml_to_json(v: &Value) -> Result<serde_json::Value, String> {
-    Ok(match v {
-        Value::Null => serde_json::Value::Null,
-        Value::Bool(b) => serde_json::Value::Bool(*b),
-        Value::Number(n) => {
-            if let Some(i) = n.as_i64() {
-                serde_json::Value::from(i)
-            } else if let Some(u) = n.as_u64() {
-                serde_json::Value::from(u)
-            } else {
-                let f = n.as_f64().unwrap_or(f64::NAN);
-                serde_json::Number::from_f64(f)
-                    .map(serde_json::Value::Number)
-                    .ok_or_else(|| format!("number {f} is not finite"))?
-            }
-        }
-        Value::String(s) => serde_json::Value::String(s.clone()),
-        Value::Sequence(items) => {
-            serde_json::Value::Array(items.iter().map(yaml_to_json).collect::<Result<_, _>>()?)
-        }
-        Value::Mapping(map) => {
-            let mut out = serde_json::Map::new();
-            for (k, v) in map {
-                let key = scalar_to_string(k).ok_or("mapping keys must be scalars")?;
-                out.insert(key, yaml_to_json(v)?);
-            }
-            serde_json::Value::Object(out)
-        }
-        Value::Tagged(t) => yaml_to_json(&t.value)?,
-    })
 }
 
 /// Params flattened to dotted key paths (`env.sim.wind.speed_mph`) with their leaf values,

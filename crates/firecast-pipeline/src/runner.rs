@@ -12,12 +12,12 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 
 use crate::error::{PipelineError, StageError};
-use crate::executor::{Invocation, JobInput, PendingArtifact, StageExecutor, StageJob};
+use crate::executor::{Invocation, JobInput, StageExecutor, StageJob};
 use crate::hash::{ContentHash, HashCache, hash_json};
 use crate::lock::{CachedOutput, LockEntry, LockFile, LockedFile, RunCache};
 use crate::observer::{LineageRecord, PipelineRunInfo, RunObserver, RunStatus, StageRunInfo};
 use crate::plan::{Plan, PlannedStage, Source};
-use crate::stage::StageKinds;
+use crate::stage::{PendingArtifact, StageKinds};
 
 /// Everything a run needs besides the plan.
 pub struct Engine {

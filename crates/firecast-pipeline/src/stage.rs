@@ -1,13 +1,15 @@
 //! Stage kinds: what a `uses:` names. Crates register their kinds; the runner calls them
 //! with a [`StageContext`] that hands out input paths, temporary output paths, progress
-//! bars and the tracking hooks.
+//! bars and the tracking hooks. Also what a kind tells the others about its outputs: the
+//! metrics and plot files the DVC export declares ([`MetricsAndPlots`]) and the artifacts it
+//! asks the runner to upload ([`PendingArtifact`]).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
-use serde::Serialize;
 use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
 
 use crate::error::StageError;
 use crate::observer::{DatasetRecord, RunObserver};
@@ -86,9 +88,123 @@ pub trait StageKind: Send + Sync {
         &self,
         _params: &serde_json::Value,
         _outputs: &BTreeMap<String, PathBuf>,
-    ) -> crate::dvc::MetricsAndPlots {
-        crate::dvc::MetricsAndPlots::default()
+    ) -> MetricsAndPlots {
+        MetricsAndPlots::default()
     }
+}
+
+/// The metrics and plot files a stage writes inside its outputs.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MetricsAndPlots {
+    /// JSON or YAML files of numbers (`dvc metrics`), relative to the project root.
+    pub metrics: Vec<PathBuf>,
+    pub plots: Vec<Plot>,
+}
+
+/// A `dvc plots` definition: one series per data file, as DVC 3's top-level `plots:` takes
+/// it (`y: {file: field}`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Plot {
+    /// Unique within the stage; the export prefixes the DVC stage name.
+    #[serde(skip)]
+    pub id: String,
+    /// A DVC template: `simple`, `linear`, `confusion`, …
+    pub template: String,
+    pub x: String,
+    /// Data file (relative to the project root) → the field plotted on y.
+    pub y: BTreeMap<String, String>,
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+}
+
+/// The plots DVCLive writes for a binary classifier (`dvclive.plots.sklearn`), with the
+/// template, axes, title and labels DVCLive gives them; the data files are DVCLive's too
+/// (`firecast_eval::dvc` writes them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SklearnPlot {
+    /// `{"roc": [{"fpr", "tpr", "threshold"}, …]}`.
+    Roc,
+    /// `{"precision_recall": [{"precision", "recall", "threshold"}, …]}`.
+    PrecisionRecall,
+    /// `{"calibration": [{"prob_true", "prob_pred"}, …]}`.
+    Calibration,
+    /// `[{"actual", "predicted"}, …]`, one row per sample.
+    ConfusionMatrix,
+}
+
+impl SklearnPlot {
+    /// (template, x, y, title, x label, y label) as DVCLive sets them.
+    fn properties(self) -> [&'static str; 6] {
+        match self {
+            Self::Roc => [
+                "simple",
+                "fpr",
+                "tpr",
+                "Receiver operating characteristic (ROC)",
+                "False Positive Rate",
+                "True Positive Rate",
+            ],
+            Self::PrecisionRecall => [
+                "simple",
+                "recall",
+                "precision",
+                "Precision-Recall Curve",
+                "Recall",
+                "Precision",
+            ],
+            Self::Calibration => [
+                "simple",
+                "prob_pred",
+                "prob_true",
+                "Calibration Curve",
+                "Mean Predicted Probability",
+                "Fraction of Positives",
+            ],
+            Self::ConfusionMatrix => [
+                "confusion",
+                "actual",
+                "predicted",
+                "Confusion Matrix",
+                "True Label",
+                "Predicted Label",
+            ],
+        }
+    }
+
+    /// A plot of these files (one series, or one confusion matrix, per file), titled
+    /// `<DVCLive's title>, <what>`.
+    pub fn plot(self, id: impl Into<String>, what: &str, files: impl IntoIterator<Item = PathBuf>) -> Plot {
+        let [template, x, y, title, x_label, y_label] = self.properties();
+        Plot {
+            id: id.into(),
+            template: template.into(),
+            x: x.into(),
+            y: files
+                .into_iter()
+                .map(|f| (f.display().to_string(), y.to_string()))
+                .collect(),
+            title: if what.is_empty() {
+                title.into()
+            } else {
+                format!("{title}, {what}")
+            },
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+        }
+    }
+}
+
+/// An artifact a stage asked for from inside one of its outputs: uploaded by the runner
+/// after the output is published, from the finished file and under its final name.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PendingArtifact {
+    /// The artifact name the stage gave.
+    pub name: String,
+    /// The output it lies in.
+    pub output: String,
+    /// Path inside a folder output; `None` when it is the output file itself.
+    pub rel: Option<String>,
 }
 
 /// One shard of a sharded stage: `index` of `count` (`--shard 2/8`).
@@ -203,7 +319,7 @@ pub struct StageContext<'a> {
     pub(crate) store: Option<&'a firecast_store::ArtifactStore>,
     pub(crate) log: &'a Mutex<Vec<String>>,
     pub(crate) warnings: &'a Mutex<Vec<String>>,
-    pub(crate) pending_artifacts: &'a Mutex<Vec<crate::executor::PendingArtifact>>,
+    pub(crate) pending_artifacts: &'a Mutex<Vec<PendingArtifact>>,
     pub(crate) jobs: usize,
     pub(crate) shard: Option<Shard>,
 }
@@ -341,7 +457,7 @@ impl StageContext<'_> {
             self.pending_artifacts
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())
-                .push(crate::executor::PendingArtifact {
+                .push(PendingArtifact {
                     name: name.to_string(),
                     output: output.clone(),
                     rel,
