@@ -25,8 +25,9 @@ pub enum SavedModelError {
     Fetch {
         uri: String,
         run: String,
+        /// Boxed: the store's error is large and this one is rare.
         #[source]
-        source: firecast_store::StoreError,
+        source: Box<firecast_store::StoreError>,
     },
     #[error("{}: {source}", path.display())]
     Read {
@@ -122,7 +123,7 @@ pub fn fetch_saved_model(
             .map_err(|source| SavedModelError::Fetch {
                 uri: a.uri.clone(),
                 run: details.run.run_id.clone(),
-                source,
+                source: Box::new(source),
             })?;
         let bytes = std::fs::read(&dest).map_err(|source| SavedModelError::Read {
             path: dest.clone(),
