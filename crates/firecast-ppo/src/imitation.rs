@@ -1,5 +1,5 @@
 //! Imitation before PPO: the policy learns a rule-based teacher's actions (behaviour
-//! cloning on the teacher's own flights, then DAgger rounds in which the policy acts and the
+//! cloning on the teacher's own episodes, then DAgger rounds in which the policy acts and the
 //! teacher labels what it sees, every round's steps kept; Ross et al., 2011), and its value
 //! head learns the returns of whoever acted ([`Trainer::imitate`](crate::train::Trainer::imitate));
 //! kickstarting keeps the teacher's labels in PPO's loss. The teachers are the application's.
@@ -26,8 +26,8 @@ pub struct ImitationConfig<K> {
     /// `total_timesteps`).
     #[serde(default = "default_rounds")]
     pub rounds: u32,
-    /// The first this many rounds are flown by the teacher (behaviour cloning); in the rest
-    /// the policy flies, sampling its actions, and the teacher only labels (DAgger).
+    /// The first this many rounds are played by the teacher (behaviour cloning); in the rest
+    /// the policy plays, sampling its actions, and the teacher only labels (DAgger).
     #[serde(default = "default_teacher_rounds")]
     pub teacher_rounds: u32,
     /// Adam steps after each round, on minibatches drawn from every round so far.

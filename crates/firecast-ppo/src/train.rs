@@ -330,7 +330,7 @@ impl<C: PolicySpec> Trainer<C> {
             }
             if let Err(e) = self.env.step(&actions) {
                 self.last_obs = obs;
-                return Err(e.into());
+                return Err(e);
             }
             self.num_timesteps += n as u64;
             let raw = self.env.rewards().to_vec();
