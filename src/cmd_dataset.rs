@@ -499,7 +499,10 @@ fn synthesize(settings: &Settings, a: &SynthesizeArgs) -> anyhow::Result<ExitCod
     let region = a
         .region
         .as_deref()
-        .map(firecast_bench::gridmet::region_param)
+        .map(|r| {
+            let region: stage::RegionParam = r.parse().map_err(|e| anyhow::anyhow!("--region: {e}"))?;
+            anyhow::Ok(serde_json::to_value(region)?)
+        })
         .transpose()?;
     let p: stage::SynthParams = params(
         a.common.config.as_deref(),

@@ -1235,8 +1235,7 @@ pub fn publish(
             ("days", crate::table::DAYS_FILE),
         ] {
             let name = table_file(table, &s.name);
-            std::fs::rename(sub.join(from), tmp.join(&name))
-                .map_err(DatasetError::io("renaming into place", &tmp.join(&name)))?;
+            firecast_fs::publish(&sub.join(from), &tmp.join(&name))?;
             if !tables.iter().any(|x| x.name == table) {
                 let schema = crate::table::parquet_schema(&tmp.join(&name))?;
                 let columns = schema

@@ -747,6 +747,31 @@ impl Default for RegionParam {
     }
 }
 
+/// `conus` or `LAT_MIN,LAT_MAX,LON_MIN,LON_MAX`, as command lines write a region.
+impl std::str::FromStr for RegionParam {
+    type Err = String;
+
+    fn from_str(r: &str) -> Result<Self, String> {
+        if r == "conus" {
+            return Ok(Self::default());
+        }
+        let v: Vec<f64> = r
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("`{r}` is not `conus` or LAT_MIN,LAT_MAX,LON_MIN,LON_MAX"))?;
+        match v[..] {
+            [lat_min, lat_max, lon_min, lon_max] => Ok(Self::Box(crate::geo::GeoBox {
+                lat_min,
+                lat_max,
+                lon_min,
+                lon_max,
+            })),
+            _ => Err(format!("expected 4 numbers, got {}", v.len())),
+        }
+    }
+}
+
 /// Storage layout of the synthetic files by year.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -969,8 +994,7 @@ impl StageKind for SynthesizeStage {
             moves.push((scratch.join(firecast_synth::TRUTH_DIR), truth));
         }
         for (from, to) in moves {
-            std::fs::rename(&from, to)
-                .map_err(|e| StageError::msg(format!("moving {}: {e}", from.display())))?;
+            firecast_fs::publish(&from, to).map_err(|e| StageError::msg(e.to_string()))?;
         }
         drop(staged);
         ctx.metric("synthetic_ignitions", 0, report.ignitions as f64);

@@ -246,17 +246,10 @@ impl BenchGridmetReport {
 
 /// `--region`: `conus`, or `LAT_MIN,LAT_MAX,LON_MIN,LON_MAX`, as the synthesize params (also
 /// `firecast dataset synthesize --region`).
-pub fn region_param(r: &str) -> anyhow::Result<Value> {
-    if r == "conus" {
-        return Ok(json!("conus"));
-    }
-    let v: Vec<f64> = r
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--region: `{r}` is not `conus` or LAT_MIN,LAT_MAX,LON_MIN,LON_MAX"))?;
-    anyhow::ensure!(v.len() == 4, "--region: expected 4 numbers, got {}", v.len());
-    Ok(json!({"lat_min": v[0], "lat_max": v[1], "lon_min": v[2], "lon_max": v[3]}))
+fn region_param(r: &str) -> anyhow::Result<Value> {
+    let region: firecast_dataset::stage::RegionParam =
+        r.parse().map_err(|e| anyhow::anyhow!("--region: {e}"))?;
+    Ok(serde_json::to_value(region)?)
 }
 
 fn progress_bar(ctx: &Context, message: &'static str) -> indicatif::ProgressBar {
