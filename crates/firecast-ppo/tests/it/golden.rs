@@ -7,8 +7,8 @@
 //! gradient norm and the weights after Adam agree within 1e-5·max(1, |SB3|) (absolute below
 //! 1, relative above); GAE, returns and the rollout buffer within 1e-6 absolute.
 //!
-//! Python: `FIRECAST_PYTHON` if set, else `<workspace>/.venv/bin/python`; without it (or
-//! without stable_baselines3 in it) the tests print SKIP and pass.
+//! Python: the venv's (`firecast_testkit::python_with`); without it, or without
+//! stable_baselines3 in it, the tests fail and say to run `cargo xtask setup`.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -27,62 +27,32 @@ use tch::{Device, Kind, Tensor};
 const LOSS_TOL: f64 = 1e-5;
 const GAE_TOL: f64 = 1e-6;
 
-fn python() -> PathBuf {
-    if let Some(p) = std::env::var_os("FIRECAST_PYTHON") {
-        return PathBuf::from(p);
-    }
-    let venv = std::env::var_os("FIRECAST_VENV")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../.venv"));
-    venv.join("bin/python")
-}
-
-/// The fixtures of every case, generated once per test process (`None`: skipped).
-fn fixtures() -> Option<&'static Value> {
-    static FIXTURES: OnceLock<Option<Value>> = OnceLock::new();
-    FIXTURES
-        .get_or_init(|| {
-            let python = python();
-            if !python.exists() {
-                println!("SKIP golden: no Python at {}", python.display());
-                return None;
-            }
-            let ok = Command::new(&python)
-                .args(["-c", "import stable_baselines3, torch, gymnasium, numpy"])
-                .status()
-                .is_ok_and(|s| s.success());
-            if !ok {
-                println!(
-                    "SKIP golden: {} lacks stable_baselines3/torch/gymnasium",
-                    python.display()
-                );
-                return None;
-            }
-            let dir = tempfile::tempdir().expect("temp dir");
-            let out = dir.path().join("sb3.json");
-            let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/it/sb3_reference.py");
-            let res = Command::new(&python)
-                .arg(&script)
-                .arg(&out)
-                .env("OMP_NUM_THREADS", "1")
-                .output()
-                .expect("running sb3_reference.py");
-            assert!(
-                res.status.success(),
-                "sb3_reference.py failed:\n{}",
-                String::from_utf8_lossy(&res.stderr)
-            );
-            let text = std::fs::read(&out).expect("reading the fixtures");
-            Some(serde_json::from_slice(&text).expect("parsing the fixtures"))
-        })
-        .as_ref()
+/// The fixtures of every case, generated once per test process.
+fn fixtures() -> &'static Value {
+    static FIXTURES: OnceLock<Value> = OnceLock::new();
+    FIXTURES.get_or_init(|| {
+        let python = firecast_testkit::python_with(&["stable_baselines3", "torch", "gymnasium", "numpy"]);
+        let dir = tempfile::tempdir().expect("temp dir");
+        let out = dir.path().join("sb3.json");
+        let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/it/sb3_reference.py");
+        let res = Command::new(&python)
+            .arg(&script)
+            .arg(&out)
+            .env("OMP_NUM_THREADS", "1")
+            .output()
+            .expect("running sb3_reference.py");
+        assert!(
+            res.status.success(),
+            "sb3_reference.py failed:\n{}",
+            String::from_utf8_lossy(&res.stderr)
+        );
+        let text = std::fs::read(&out).expect("reading the fixtures");
+        serde_json::from_slice(&text).expect("parsing the fixtures")
+    })
 }
 
 fn cases(kind: &str) -> Vec<(&'static str, &'static Value)> {
-    let Some(f) = fixtures() else {
-        return Vec::new();
-    };
-    let cases = f["cases"].as_object().expect("cases");
+    let cases = fixtures()["cases"].as_object().expect("cases");
     let found: Vec<_> = cases
         .iter()
         .filter(|(_, c)| c["kind"] == kind)
