@@ -200,7 +200,7 @@ impl PpoConfig {
                 if !map.contains_key(k) {
                     return Err(PpoError::config(
                         format!("ppo.{k}"),
-                        "unknown hyper-parameter (see `PpoConfig` in firecast-rl)",
+                        "unknown hyper-parameter (see `PpoConfig` in firecast-ppo)",
                     ));
                 }
                 if k == "normalize" {

@@ -1060,8 +1060,12 @@ mod tests {
     /// dry fuel (crown fire), FBFM13.
     #[test]
     fn the_head_only_kernel_gives_the_full_kernels_grids() {
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../firecast-landscape/tests/fixtures/landfire-worcester/landfire");
+        // `cargo test` sets the variable at run time; the compiled-in value may name another
+        // clone that shared the target folder.
+        let crate_dir =
+            std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into());
+        let dir =
+            Path::new(&crate_dir).join("../firecast-landscape/tests/fixtures/landfire-worcester/landfire");
         let f40 = LandfireLandscape::read_dir(&dir, FuelLayer::Fbfm40).expect("Worcester FBFM40");
         let f13 = LandfireLandscape::read_dir(&dir, FuelLayer::Fbfm13).expect("Worcester FBFM13");
         let base: BehaviorParams = serde_json::from_value(serde_json::json!({

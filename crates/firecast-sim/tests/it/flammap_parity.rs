@@ -19,7 +19,9 @@ use firecast_sim::behavior::{
 use firecast_sim::crown::CrownMethod;
 
 fn fixture() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../firecast-landscape/tests/fixtures/landfire-worcester")
+    // `cargo test` sets the variable at run time; the compiled-in value may name another clone.
+    let crate_dir = std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into());
+    Path::new(&crate_dir).join("../firecast-landscape/tests/fixtures/landfire-worcester")
 }
 
 fn flammap(name: &str) -> Vec<f32> {
