@@ -126,10 +126,7 @@ pub enum DatasetError {
 impl DatasetError {
     /// An I/O error on `path` while `context` (`"reading"`, …), for `map_err`; public for the
     /// benchmark harness's reference runs.
-    pub fn io<'a>(
-        context: &'static str,
-        path: &'a Path,
-    ) -> impl FnOnce(std::io::Error) -> DatasetError + 'a {
+    pub fn io<'a>(context: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> DatasetError + 'a {
         move |source| DatasetError::Io {
             context,
             path: path.to_path_buf(),
