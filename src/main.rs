@@ -113,6 +113,33 @@ enum BenchCommand {
     Spread(firecast_bench::spread::Args),
 }
 
+/// libtorch's OpenMP runtime (libgomp) reads how long an idle worker thread busy-waits once,
+/// when it loads, before `main`. Its default (300,000 spins) made a training with 2 libtorch
+/// threads beside two busy processes on 2 cores 10.5× slower than alone; 10,000 spins kept
+/// its speed alone and made it 2.5× slower there (docs/results/performance.md, "Beside
+/// other load"). So the process starts once more, the same program and arguments, with
+/// `GOMP_SPINCOUNT=10000`, unless `GOMP_SPINCOUNT` or `OMP_WAIT_POLICY` is already set.
+#[cfg(unix)]
+fn with_short_openmp_spin() {
+    use std::os::unix::process::CommandExt as _;
+    if std::env::var_os("GOMP_SPINCOUNT").is_some() || std::env::var_os("OMP_WAIT_POLICY").is_some() {
+        return;
+    }
+    let Ok(exe) = std::env::current_exe() else {
+        return;
+    };
+    let mut args = std::env::args_os();
+    let mut command = std::process::Command::new(exe);
+    if let Some(arg0) = args.next() {
+        command.arg0(arg0);
+    }
+    // `exec` returns only when it failed: then this process carries on with libgomp's default.
+    let _failed = command.args(args).env("GOMP_SPINCOUNT", "10000").exec();
+}
+
+#[cfg(not(unix))]
+fn with_short_openmp_spin() {}
+
 /// Exit status of an error at this edge: the command could not be carried out (bad
 /// arguments, settings or inputs, or the environment refused: a file, the registry). `1` is
 /// returned by commands whose work ran and failed (a stage, a check, a benchmark's goals);
@@ -120,6 +147,7 @@ enum BenchCommand {
 const EXIT_ERROR: u8 = 2;
 
 fn main() -> ExitCode {
+    with_short_openmp_spin();
     let default_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
         default_hook(info);
