@@ -190,7 +190,7 @@ fn params<T: DeserializeOwned>(
                 std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
             let yaml: serde_yaml_ng::Value =
                 serde_yaml_ng::from_str(&text).with_context(|| format!("{}: not YAML", path.display()))?;
-            firecast_pipeline::plan::yaml_to_json(&yaml)
+            firecast_pipeline::spec::yaml_to_json(&yaml)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
         }
         None => json!({}),

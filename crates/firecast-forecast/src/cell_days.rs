@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 use crate::ForecastError;
 use crate::data::{Block, SampleMeta};
 use crate::experiment::ExperimentResult;
-use crate::models::Inputs;
+use crate::inputs::Inputs;
 
 /// How the cell-days are chosen and scored.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

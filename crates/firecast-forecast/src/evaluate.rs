@@ -17,7 +17,7 @@ use crate::data::{Block, Windows};
 use crate::experiment::{
     ExperimentResult, ModelScores, ProtocolInfo, ProtocolPredictions, SeedRun, Sink, TestSide,
 };
-use crate::models::Inputs;
+use crate::inputs::Inputs;
 use crate::spec::Evaluation;
 
 /// Which samples of the dataset are scored.

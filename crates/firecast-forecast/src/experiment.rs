@@ -16,8 +16,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::ForecastError;
 use crate::data::{Block, Windows};
-use crate::models::{FitContext, Inputs, ModelConfig, Trained};
-use crate::spec::{ClusterBy, Evaluation, ExperimentSpec, ThresholdRule};
+use crate::inputs::{FitContext, Inputs};
+use crate::models::{ModelConfig, ThresholdRule, Trained};
+use crate::spec::{ClusterBy, Evaluation, ExperimentSpec};
 
 /// The reported numbers of one model under one protocol, pooled over its seeds.
 #[derive(Debug, Clone, Serialize, Deserialize)]

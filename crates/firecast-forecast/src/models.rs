@@ -9,7 +9,7 @@ use crate::features::{FeatureSet, window_statistics};
 use crate::neural::{NeuralConfig, NeuralKind, NeuralModel};
 // The interface lives below the models that implement it (neural, minirocket); callers
 // reach it here, beside the dispatcher.
-pub use crate::inputs::{FitContext, Inputs, Progress};
+use crate::inputs::{FitContext, Inputs};
 use firecast_baselines::Standardizer as Scaler;
 
 /// Model kinds, in the order tables list them when an experiment does not say otherwise.

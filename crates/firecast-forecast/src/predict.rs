@@ -8,7 +8,7 @@ use serde::Serialize;
 use crate::ForecastError;
 use crate::bundle::Bundle;
 use crate::data::{Block, SampleMeta};
-use crate::models::Inputs;
+use crate::inputs::Inputs;
 
 /// A place and a date to score.
 #[derive(Debug, Clone, PartialEq)]

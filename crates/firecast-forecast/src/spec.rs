@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::ForecastError;
 // Defined beside the models' default rule (`ModelConfig::default_threshold`); experiment
 // files name it here.
-pub use crate::models::ThresholdRule;
+use crate::models::ThresholdRule;
 
 /// A whole experiment: one dataset, one or more protocols, models, seeds, evaluation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

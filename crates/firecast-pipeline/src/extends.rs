@@ -122,7 +122,7 @@ impl Layered {
     /// [`deserialize_mapping_enums`](crate::spec::deserialize_mapping_enums) reads them);
     /// an error names the file and line that wrote the key.
     pub fn deserialize<T: serde::de::DeserializeOwned>(&self) -> Result<T, SpecError> {
-        let json = crate::plan::yaml_to_json(&self.value).map_err(|m| SpecError::new(self.file(), "", m))?;
+        let json = crate::spec::yaml_to_json(&self.value).map_err(|m| SpecError::new(self.file(), "", m))?;
         crate::stage::deserialize_params(&json).map_err(|e| self.error(e.path.replace(".?", ""), e.message))
     }
 

@@ -12,7 +12,7 @@ use crate::error::SpecError;
 use crate::spec::{ExpandedPipeline, Override, scalar_to_string};
 // Moved to spec (which parses params with it); still reachable here for the callers that
 // name it by this path.
-pub use crate::spec::yaml_to_json;
+use crate::spec::yaml_to_json;
 use crate::stage::StageKinds;
 
 /// Where an input's bytes come from.

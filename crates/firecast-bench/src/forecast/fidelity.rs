@@ -27,9 +27,10 @@ use serde::{Deserialize, Serialize};
 
 use firecast_forecast::ForecastError;
 use firecast_forecast::data::{Block, Windows};
-use firecast_forecast::models::{FitContext, Inputs, ModelConfig, Trained};
+use firecast_forecast::inputs::{FitContext, Inputs};
+use firecast_forecast::models::{ModelConfig, ThresholdRule, Trained};
 use firecast_forecast::neural::{NeuralConfig, TrainingThroughput};
-use firecast_forecast::spec::{ExperimentSpec, ThresholdRule};
+use firecast_forecast::spec::ExperimentSpec;
 
 /// The scikit-learn / xgboost reference, embedded so an installed binary carries it.
 pub const BASELINES_SCRIPT: &str =
