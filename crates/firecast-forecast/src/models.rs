@@ -33,6 +33,7 @@ pub const KINDS: &[&str] = &[
     "cnn_bilstm_attn",
     "firecast",
     "climate_boost",
+    "climate_offset",
 ];
 
 /// Inputs shared by the flattened baselines: which variables, scaled or not.
@@ -59,6 +60,20 @@ pub struct ClimatologyParams {
     /// Pseudo-samples pulling a block's rate toward the region-wide seasonal rate.
     #[serde(default = "default_prior")]
     pub prior_strength: f64,
+    /// Pool places with a Gaussian kernel of this width (degrees of latitude; longitude
+    /// scaled by the cosine of the latitude) instead of square blocks.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kernel_degrees: Option<f64>,
+}
+
+/// One sample as the climatology sees it.
+#[derive(Debug, Clone, Copy)]
+struct Place {
+    doy: u32,
+    block: (i64, i64),
+    lat: f64,
+    lon: f64,
+    label: bool,
 }
 
 fn default_bandwidth() -> f64 {
@@ -122,6 +137,47 @@ impl XgbEntry {
     }
 }
 
+/// `climate_offset`: the booster's parameters and the fire history's kernel widths to choose
+/// from on validation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ClimateOffsetParams {
+    pub boost: XgbEntry,
+    /// Candidate widths (degrees) of the climatology's place kernel; the one with the lowest
+    /// validation log loss is used. Empty: the climatology's 0.25° blocks.
+    pub kernel_degrees: Vec<f64>,
+}
+
+impl ClimateOffsetParams {
+    fn parse(params: &serde_json::Value) -> Result<Self, ForecastError> {
+        let mut rest = params.as_object().cloned().unwrap_or_default();
+        let kernel_degrees = match rest.remove("kernel_degrees") {
+            None => vec![0.05, 0.1, 0.2, 0.3, 0.5],
+            Some(v) => {
+                let widths: Vec<f64> = serde_json::from_value(v).map_err(|e| ForecastError::Config {
+                    key: "kernel_degrees".into(),
+                    message: format!("a list of widths in degrees: {e}"),
+                })?;
+                if let Some(w) = widths.iter().find(|w| !(w.is_finite() && **w > 0.0)) {
+                    return Err(ForecastError::Config {
+                        key: "kernel_degrees".into(),
+                        message: format!("widths must be positive degrees, got {w}"),
+                    });
+                }
+                widths
+            }
+        };
+        let boost = if params.is_null() {
+            XgbEntry::parse(params)?
+        } else {
+            XgbEntry::parse(&serde_json::Value::Object(rest))?
+        };
+        Ok(Self {
+            boost,
+            kernel_degrees,
+        })
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MiniRocketParams {
@@ -163,6 +219,11 @@ pub enum ModelConfig {
     /// FireCast's blend of where and when: the window statistics and the climatology's rate
     /// (left out for each training sample's own label) in one boosted model.
     ClimateBoost(XgbEntry),
+    /// FireCast's weather-on-climatology forecaster: boosted window statistics that correct
+    /// the climatology's log-odds (XGBoost's `base_margin`), so the place's fire history
+    /// sets the starting point and the weather moves it; the number of trees is chosen on
+    /// validation log loss (zero trees leaves the climatology).
+    ClimateOffset(ClimateOffsetParams),
     MiniRocket(MiniRocketParams),
     Neural(NeuralConfig),
 }
@@ -239,6 +300,7 @@ impl ModelConfig {
             "xgboost" => ModelConfig::Xgboost(XgbEntry::parse(params)?),
             "window_stats_xgboost" => ModelConfig::WindowStatsXgboost(XgbEntry::parse(params)?),
             "climate_boost" => ModelConfig::ClimateBoost(XgbEntry::parse(params)?),
+            "climate_offset" => ModelConfig::ClimateOffset(ClimateOffsetParams::parse(params)?),
             "minirocket" => ModelConfig::MiniRocket(strict(params)?),
             "mlp" | "lstm2" | "lightts" | "cnn_bilstm" | "cnn_bilstm_attn" | "firecast" => {
                 let kind = NeuralKind::parse(kind)
@@ -252,8 +314,10 @@ impl ModelConfig {
     /// XGBoost's `nthread` from the experiment's `threads` when the model's `params` name
     /// none (the count can change the trees, so it must not be the machine's core count).
     pub fn with_threads(mut self, threads: usize, params: &serde_json::Value) -> Self {
-        if let ModelConfig::Xgboost(x) | ModelConfig::WindowStatsXgboost(x) | ModelConfig::ClimateBoost(x) =
-            &mut self
+        if let ModelConfig::Xgboost(x)
+        | ModelConfig::WindowStatsXgboost(x)
+        | ModelConfig::ClimateBoost(x)
+        | ModelConfig::ClimateOffset(ClimateOffsetParams { boost: x, .. }) = &mut self
             && params.get("nthread").is_none()
         {
             x.params.nthread = u32::try_from(threads).unwrap_or(u32::MAX);
@@ -268,7 +332,10 @@ impl ModelConfig {
             ModelConfig::Baseline { spec, .. } => {
                 matches!(spec, firecast_baselines::BaselineSpec::RandomForest(_))
             }
-            ModelConfig::Xgboost(e) | ModelConfig::WindowStatsXgboost(e) | ModelConfig::ClimateBoost(e) => {
+            ModelConfig::Xgboost(e)
+            | ModelConfig::WindowStatsXgboost(e)
+            | ModelConfig::ClimateBoost(e)
+            | ModelConfig::ClimateOffset(ClimateOffsetParams { boost: e, .. }) => {
                 e.params.subsample < 1.0 || e.params.colsample_bytree < 1.0
             }
             ModelConfig::MiniRocket(_) | ModelConfig::Neural(_) => true,
@@ -317,6 +384,10 @@ pub enum Trained {
         params: ClimatologyParams,
         /// Per training sample: (day of year, block row, block col, label).
         samples: Vec<(u32, i64, i64, bool)>,
+        /// Per training sample: (latitude, longitude), for the kernel (absent in models saved
+        /// before it existed, which pool by blocks).
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        coords: Vec<(f64, f64)>,
         prevalence: f64,
     },
     FireDangerIndex {
@@ -342,6 +413,16 @@ pub enum Trained {
         features: Vec<String>,
         model_json: String,
     },
+    ClimateOffset {
+        /// The climatology ([`Trained::Climatology`]) whose log-odds the trees correct.
+        climatology: Box<Trained>,
+        /// The offset: a·logit(climatology) + b, fitted on the training labels.
+        calibration: (f64, f64),
+        features: Vec<String>,
+        model_json: String,
+        /// Trees used (chosen on validation log loss); 0 is the climatology alone.
+        rounds: u32,
+    },
     MiniRocket {
         features: Vec<String>,
         rocket: crate::minirocket::MiniRocket,
@@ -359,12 +440,7 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
     Ok(match config {
         ModelConfig::Majority => Trained::Majority { prevalence },
         ModelConfig::Climatology(p) => {
-            let samples = climatology_samples(&ctx.train.meta, y, p.block_degrees);
-            Trained::Climatology {
-                params: p.clone(),
-                samples,
-                prevalence,
-            }
+            climatology_model(p.clone(), &places(&ctx.train.meta, y, p), prevalence)
         }
         ModelConfig::FireDangerIndex(p) => {
             let x = last_day_values(ctx.train.block, &p.feature)?;
@@ -416,8 +492,9 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
                 bandwidth_days: default_bandwidth(),
                 block_degrees: default_block(),
                 prior_strength: default_prior(),
+                kernel_degrees: None,
             };
-            let samples = climatology_samples(&ctx.train.meta, y, params.block_degrees);
+            let samples = places(&ctx.train.meta, y, &params);
             // Each training sample's climatology without its own label (else the booster
             // learns to read the answer from the rate).
             let rates = climatology_rates(&params, &samples, prevalence, &samples, true);
@@ -425,13 +502,87 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
             let x = with_rate(window_statistics(ctx.train.block, &features)?, &rates);
             let model_json = fit_booster(&x, y, e, ctx)?;
             Trained::ClimateBoost {
-                climatology: Box::new(Trained::Climatology {
-                    params,
-                    samples,
-                    prevalence,
-                }),
+                climatology: Box::new(climatology_model(params, &samples, prevalence)),
                 features,
                 model_json,
+            }
+        }
+        ModelConfig::ClimateOffset(o) => {
+            let e = &o.boost;
+            // The fire history: the climatology whose kernel width gives the lowest
+            // validation log loss. Each training sample's rate leaves out its own label (else
+            // the offset already holds the answer and the trees learn nothing about weather);
+            // left-out rates are shrunk a little more than the fitted climatology's, so the
+            // offset is the log-odds recalibrated on training labels: a·logit(rate) + b.
+            let mut candidates: Vec<Option<f64>> = o.kernel_degrees.iter().copied().map(Some).collect();
+            if candidates.is_empty() {
+                candidates.push(None);
+            }
+            let mut best: Option<(f64, ClimatologyParams, Vec<f32>, (f64, f64), Vec<Place>)> = None;
+            for kernel in candidates {
+                let params = ClimatologyParams {
+                    bandwidth_days: default_bandwidth(),
+                    block_degrees: default_block(),
+                    prior_strength: default_prior(),
+                    kernel_degrees: kernel,
+                };
+                let samples = places(&ctx.train.meta, y, &params);
+                let left_out = log_odds(&climatology_rates(&params, &samples, prevalence, &samples, true));
+                let (a, b) = crate::features::fit_logistic_1d(&left_out, y);
+                let score = if ctx.val_labels.is_empty() {
+                    0.0
+                } else {
+                    let queries = places(&ctx.val.meta, ctx.val_labels, &params);
+                    let val = log_odds(&climatology_rates(&params, &samples, prevalence, &queries, false));
+                    let p: Vec<f64> = recalibrate(&val, a, b)
+                        .iter()
+                        .map(|&z| 1.0 / (1.0 + (-f64::from(z)).exp()))
+                        .collect();
+                    log_loss(&p, ctx.val_labels)
+                };
+                if best.as_ref().is_none_or(|b| score < b.0) {
+                    best = Some((score, params, left_out, (a, b), samples));
+                }
+            }
+            let Some((_, params, left_out, (a, b), samples)) = best else {
+                unreachable!("at least one candidate")
+            };
+            let margin = recalibrate(&left_out, a, b);
+            let features = e.features.resolve(&ctx.train.block.features)?;
+            let x = window_statistics(ctx.train.block, &features)?;
+            let report = |done: u32, total: u32| (ctx.progress)(u64::from(done), u64::from(total), "boost");
+            let booster = firecast_xgboost::Booster::fit_with_margin(
+                &x.data, x.rows, x.cols, y, &margin, &e.params, ctx.seed, report,
+            )
+            .map_err(|e| ForecastError::Model(e.to_string()))?;
+            let climatology = climatology_model(params, &samples, prevalence);
+            // Early stopping on validation: the tree count with the lowest log loss.
+            let rounds = if ctx.val_labels.is_empty() {
+                e.params.n_estimators
+            } else {
+                let val_margin = recalibrate(&log_odds(&climatology.predict(&ctx.val, ctx.device)?), a, b);
+                let xv = window_statistics(ctx.val.block, &features)?;
+                let mut best = (f64::INFINITY, 0u32);
+                for k in 0..=e.params.n_estimators {
+                    let p = booster
+                        .predict_proba_with_margin(&xv.data, xv.rows, xv.cols, &val_margin, Some(k))
+                        .map_err(|e| ForecastError::Model(e.to_string()))?;
+                    let loss = log_loss(&p, ctx.val_labels);
+                    if loss < best.0 {
+                        best = (loss, k);
+                    }
+                }
+                best.1
+            };
+            let json = booster
+                .save_json()
+                .map_err(|e| ForecastError::Model(e.to_string()))?;
+            Trained::ClimateOffset {
+                climatology: Box::new(climatology),
+                calibration: (a, b),
+                features,
+                model_json: String::from_utf8_lossy(&json).into_owned(),
+                rounds,
             }
         }
         ModelConfig::MiniRocket(p) => {
@@ -484,16 +635,15 @@ fn last_day_values(block: &Block, feature: &str) -> Result<Vec<f32>, ForecastErr
     Ok((0..block.rows()).map(|s| block.sample(s)[d * nf + f]).collect())
 }
 
-/// Circular day-of-year distance.
-/// The climatology's rate at each query `(day of year, block row, block col, _)`: the
-/// region's seasonal rate (a Gaussian kernel over the day of the year), and the block's rate
-/// shrunk toward it. With `leave_out`, `queries` are the training `samples` themselves and
-/// each one's own label and weight are left out of its rate.
+/// The climatology's rate at each query: the region's seasonal rate (a Gaussian kernel over
+/// the day of the year), and the place's rate (its block's, or a Gaussian kernel over
+/// distance) shrunk toward it. With `leave_out`, `queries` are the training `samples`
+/// themselves and each one's own label and weight are left out of its rate.
 fn climatology_rates(
     params: &ClimatologyParams,
-    samples: &[(u32, i64, i64, bool)],
+    samples: &[Place],
     prevalence: f64,
-    queries: &[(u32, i64, i64, bool)],
+    queries: &[Place],
     leave_out: bool,
 ) -> Vec<f64> {
     let kernel = |a: u32, b: u32| {
@@ -503,21 +653,32 @@ fn climatology_rates(
     let n = samples.len() as f64;
     queries
         .iter()
-        .map(|&(qd, r, c, own)| {
-            let (mut gw, mut gp, mut bw, mut bp) = (0.0, 0.0, 0.0, 0.0);
-            for &(doy, sr, sc, l) in samples {
-                let k = kernel(qd, doy);
-                gw += k;
-                gp += k * f64::from(u8::from(l));
-                if sr == r && sc == c {
-                    bw += k;
-                    bp += k * f64::from(u8::from(l));
+        .map(|q| {
+            let cos_lat = q.lat.to_radians().cos();
+            let nearby = |s: &Place| -> f64 {
+                match params.kernel_degrees {
+                    None => f64::from(u8::from(s.block == q.block)),
+                    Some(width) => {
+                        let dx = (s.lon - q.lon) * cos_lat / width;
+                        let dy = (s.lat - q.lat) / width;
+                        (-0.5 * (dx * dx + dy * dy)).exp()
+                    }
                 }
+            };
+            let (mut gw, mut gp, mut bw, mut bp) = (0.0, 0.0, 0.0, 0.0);
+            for s in samples {
+                let k = kernel(q.doy, s.doy);
+                let l = f64::from(u8::from(s.label));
+                gw += k;
+                gp += k * l;
+                let w = k * nearby(s);
+                bw += w;
+                bp += w * l;
             }
             let mut prevalence = prevalence;
             if leave_out {
-                // The query's own sample: kernel weight 1 in the region and in its block.
-                let l = f64::from(u8::from(own));
+                // The query's own sample: weight 1 in the region and at its place.
+                let l = f64::from(u8::from(q.label));
                 (gw, gp, bw, bp) = (gw - 1.0, gp - l, bw - 1.0, bp - l);
                 prevalence = if n > 1.0 {
                     (prevalence * n - l) / (n - 1.0)
@@ -525,22 +686,38 @@ fn climatology_rates(
                     prevalence
                 };
             }
-            // Seasonal rate of the whole region, then the block's rate shrunk toward it.
+            // Seasonal rate of the whole region, then the place's rate shrunk toward it.
             let season = (gp + prevalence) / (gw + 1.0);
-            (bp + params.prior_strength * season) / (bw.max(0.0) + params.prior_strength)
+            (bp.max(0.0) + params.prior_strength * season) / (bw.max(0.0) + params.prior_strength)
         })
         .collect()
 }
 
-/// Per training sample: (day of year, block row, block col, label), the climatology's data.
-fn climatology_samples(meta: &[&SampleMeta], y: &[bool], block_degrees: f64) -> Vec<(u32, i64, i64, bool)> {
+/// Samples as the climatology sees them (labels `y`; queries may pass any).
+fn places(meta: &[&SampleMeta], y: &[bool], params: &ClimatologyParams) -> Vec<Place> {
     meta.iter()
-        .zip(y)
-        .map(|(m, &l)| {
-            let (r, c) = block_of(m, block_degrees);
-            (m.day_of_year, r, c, l)
+        .zip(y.iter().chain(std::iter::repeat(&false)))
+        .map(|(m, &label)| Place {
+            doy: m.day_of_year,
+            block: block_of(m, params.block_degrees),
+            lat: m.lat,
+            lon: m.lon,
+            label,
         })
         .collect()
+}
+
+/// A fitted climatology from its training places.
+fn climatology_model(params: ClimatologyParams, samples: &[Place], prevalence: f64) -> Trained {
+    Trained::Climatology {
+        params,
+        samples: samples
+            .iter()
+            .map(|p| (p.doy, p.block.0, p.block.1, p.label))
+            .collect(),
+        coords: samples.iter().map(|p| (p.lat, p.lon)).collect(),
+        prevalence,
+    }
 }
 
 /// Fits an XGBoost booster on `x` and returns its JSON model.
@@ -567,6 +744,34 @@ fn booster_proba(model_json: &str, x: &firecast_baselines::Matrix) -> Result<Vec
     booster
         .predict_proba(&x.data, x.rows, x.cols)
         .map_err(|e| ForecastError::Model(e.to_string()))
+}
+
+/// Probabilities as log-odds, kept off ±∞ (a block with no fire at all has rate 0 only
+/// without the prior; the clamp is a guard).
+fn log_odds(p: &[f64]) -> Vec<f32> {
+    p.iter()
+        .map(|&p| {
+            let p = p.clamp(1e-6, 1.0 - 1e-6);
+            (p / (1.0 - p)).ln() as f32
+        })
+        .collect()
+}
+
+fn recalibrate(logits: &[f32], a: f64, b: f64) -> Vec<f32> {
+    logits.iter().map(|&z| (a * f64::from(z) + b) as f32).collect()
+}
+
+/// Mean binary cross-entropy.
+fn log_loss(p: &[f64], y: &[bool]) -> f64 {
+    let total: f64 = p
+        .iter()
+        .zip(y)
+        .map(|(&p, &l)| {
+            let p = p.clamp(1e-12, 1.0 - 1e-12);
+            if l { -p.ln() } else { -(1.0 - p).ln() }
+        })
+        .sum();
+    total / y.len().max(1) as f64
 }
 
 /// `x` with one more column: the climatology's rate.
@@ -598,17 +803,36 @@ impl Trained {
             Trained::Climatology {
                 params,
                 samples,
+                coords,
                 prevalence,
             } => {
-                let queries: Vec<(u32, i64, i64, bool)> = inputs
-                    .meta
+                if params.kernel_degrees.is_some() && coords.len() != samples.len() {
+                    return Err(ForecastError::Model(
+                        "the climatology pools by kernel but the saved model has no sample coordinates"
+                            .into(),
+                    ));
+                }
+                let train: Vec<Place> = samples
                     .iter()
-                    .map(|m| {
-                        let (r, c) = block_of(m, params.block_degrees);
-                        (m.day_of_year, r, c, false)
+                    .enumerate()
+                    .map(|(i, &(doy, r, c, label))| {
+                        let (lat, lon) = coords.get(i).copied().unwrap_or((f64::NAN, f64::NAN));
+                        Place {
+                            doy,
+                            block: (r, c),
+                            lat,
+                            lon,
+                            label,
+                        }
                     })
                     .collect();
-                climatology_rates(params, samples, *prevalence, &queries, false)
+                climatology_rates(
+                    params,
+                    &train,
+                    *prevalence,
+                    &places(&inputs.meta, &[], params),
+                    false,
+                )
             }
             Trained::ClimateBoost {
                 climatology,
@@ -618,6 +842,21 @@ impl Trained {
                 let rates = climatology.predict(inputs, device)?;
                 let x = with_rate(window_statistics(inputs.block, features)?, &rates);
                 booster_proba(model_json, &x)?
+            }
+            Trained::ClimateOffset {
+                climatology,
+                calibration: (a, b),
+                features,
+                model_json,
+                rounds,
+            } => {
+                let margin = recalibrate(&log_odds(&climatology.predict(inputs, device)?), *a, *b);
+                let x = window_statistics(inputs.block, features)?;
+                let booster = firecast_xgboost::Booster::load_json(model_json.as_bytes())
+                    .map_err(|e| ForecastError::Model(e.to_string()))?;
+                booster
+                    .predict_proba_with_margin(&x.data, x.rows, x.cols, &margin, Some(*rounds))
+                    .map_err(|e| ForecastError::Model(e.to_string()))?
             }
             Trained::FireDangerIndex { feature, a, b } => last_day_values(inputs.block, feature)?
                 .into_iter()
@@ -673,38 +912,96 @@ impl Trained {
 mod tests {
     use super::*;
 
-    /// climate_boost's training input: each sample's climatology with its own label left out
-    /// equals the climatology fitted without that sample.
+    fn samples() -> Vec<Place> {
+        (0..40u32)
+            .map(|k| Place {
+                doy: 1 + (k * 37) % 365,
+                block: (i64::from(k % 3), i64::from(k % 2)),
+                lat: 38.5 + 0.1 * f64::from(k % 7),
+                lon: -108.0 + 0.13 * f64::from(k % 5),
+                label: k % 5 < 2,
+            })
+            .collect()
+    }
+
+    /// climate_boost's and climate_offset's training input: each sample's climatology with its
+    /// own label left out equals the climatology fitted without that sample, for blocks and
+    /// for the place kernel.
     #[test]
     fn a_left_out_rate_is_the_rate_without_the_sample() {
-        let params = ClimatologyParams {
-            bandwidth_days: default_bandwidth(),
-            block_degrees: default_block(),
-            prior_strength: default_prior(),
-        };
-        let samples: Vec<(u32, i64, i64, bool)> = (0..40u32)
-            .map(|k| (1 + (k * 37) % 365, i64::from(k % 3), i64::from(k % 2), k % 5 < 2))
-            .collect();
-        let prevalence =
-            |s: &[(u32, i64, i64, bool)]| s.iter().filter(|x| x.3).count() as f64 / s.len() as f64;
-        let left_out = climatology_rates(&params, &samples, prevalence(&samples), &samples, true);
-        for (i, &q) in samples.iter().enumerate() {
-            let mut rest = samples.clone();
-            rest.remove(i);
-            let without = climatology_rates(&params, &rest, prevalence(&rest), &[q], false)[0];
+        for kernel_degrees in [None, Some(0.2)] {
+            let params = ClimatologyParams {
+                bandwidth_days: default_bandwidth(),
+                block_degrees: default_block(),
+                prior_strength: default_prior(),
+                kernel_degrees,
+            };
+            let samples = samples();
+            let prevalence = |s: &[Place]| s.iter().filter(|x| x.label).count() as f64 / s.len() as f64;
+            let left_out = climatology_rates(&params, &samples, prevalence(&samples), &samples, true);
+            for (i, &q) in samples.iter().enumerate() {
+                let mut rest = samples.clone();
+                rest.remove(i);
+                let without = climatology_rates(&params, &rest, prevalence(&rest), &[q], false)[0];
+                assert!(
+                    (left_out[i] - without).abs() < 1e-12,
+                    "{kernel_degrees:?} sample {i}: {} vs {without}",
+                    left_out[i]
+                );
+            }
+            // Without leaving out, a positive sample's own label raises its rate.
+            let kept = climatology_rates(&params, &samples, prevalence(&samples), &samples, false);
             assert!(
-                (left_out[i] - without).abs() < 1e-12,
-                "sample {i}: {} vs {without}",
-                left_out[i]
+                samples
+                    .iter()
+                    .zip(kept.iter().zip(&left_out))
+                    .any(|(s, (k, l))| s.label && k > l)
             );
         }
-        // Without leaving out, a positive sample's own label raises its rate.
-        let kept = climatology_rates(&params, &samples, prevalence(&samples), &samples, false);
-        assert!(
-            samples
-                .iter()
-                .zip(kept.iter().zip(&left_out))
-                .any(|(s, (k, l))| s.3 && k > l)
-        );
+    }
+
+    /// A very wide kernel is the region's seasonal rate; a very narrow one is a place's own.
+    #[test]
+    fn the_place_kernel_spans_region_to_place() {
+        let samples = samples();
+        let prevalence = samples.iter().filter(|x| x.label).count() as f64 / samples.len() as f64;
+        let rate = |width: f64, q: Place| {
+            let params = ClimatologyParams {
+                bandwidth_days: 1e6,
+                block_degrees: default_block(),
+                prior_strength: 1e-9,
+                kernel_degrees: Some(width),
+            };
+            climatology_rates(&params, &samples, prevalence, &[q], false)[0]
+        };
+        let wide = rate(1e4, samples[3]);
+        assert!((wide - prevalence).abs() < 1e-6, "{wide} vs {prevalence}");
+        // Sample 0 is a positive; the samples at its place (k ≡ 0 mod 35) share its label.
+        let own = rate(1e-4, samples[0]);
+        assert!(own > 0.99, "{own}");
+    }
+
+    #[test]
+    fn climate_offset_params_are_checked() {
+        let ok = ModelConfig::parse(
+            "climate_offset",
+            &serde_json::json!({"kernel_degrees": [0.1, 0.3], "max_depth": 2}),
+        )
+        .expect("parses");
+        let ModelConfig::ClimateOffset(p) = ok else {
+            panic!("kind")
+        };
+        assert_eq!(p.kernel_degrees, vec![0.1, 0.3]);
+        assert_eq!(p.boost.params.max_depth, 2);
+        for (bad, key) in [
+            (serde_json::json!({"kernel_degrees": [0.0]}), "kernel_degrees"),
+            (serde_json::json!({"kernel_degrees": "wide"}), "kernel_degrees"),
+            (serde_json::json!({"max_dept": 2}), "max_dept"),
+        ] {
+            match ModelConfig::parse("climate_offset", &bad) {
+                Err(ForecastError::Config { key: k, .. }) => assert_eq!(k, key, "{bad}"),
+                other => panic!("{bad}: {other:?}"),
+            }
+        }
     }
 }

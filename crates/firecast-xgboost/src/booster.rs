@@ -54,6 +54,23 @@ fn check_matrix(x: &[f32], rows: usize, cols: usize) -> Result<(), XgbError> {
     Ok(())
 }
 
+/// A margin needs one finite log-odds per row.
+fn check_margin(margin: &[f32], rows: usize) -> Result<(), XgbError> {
+    if margin.len() != rows {
+        return Err(XgbError::Input(format!(
+            "margin has {} values but there are {rows} rows",
+            margin.len()
+        )));
+    }
+    if let Some(i) = margin.iter().position(|v| !v.is_finite()) {
+        return Err(XgbError::Input(format!(
+            "margin[{i}] is {} (log-odds must be finite)",
+            margin[i]
+        )));
+    }
+    Ok(())
+}
+
 impl Booster {
     /// Trains a booster on `x` (`rows x cols` row-major f32, NaN = missing) and labels `y`.
     /// `seed` is XGBoost's `seed` (row/column subsampling); it must fit in an `i64`.
@@ -74,6 +91,38 @@ impl Booster {
         rows: usize,
         cols: usize,
         y: &[bool],
+        params: &XgbParams,
+        seed: u64,
+        on_round: impl FnMut(u32, u32),
+    ) -> Result<Booster, XgbError> {
+        Booster::fit_inner(x, rows, cols, y, None, params, seed, on_round)
+    }
+
+    /// [`Booster::fit_with_progress`] starting every row from its own log-odds `margin`
+    /// (XGBoost's `base_margin`) instead of `base_score`: the trees learn a correction to
+    /// an offset model. Predict with [`Booster::predict_proba_with_margin`] and the new rows'
+    /// margins.
+    #[allow(clippy::too_many_arguments)] // the data, its offset, the parameters, the seed, progress
+    pub fn fit_with_margin(
+        x: &[f32],
+        rows: usize,
+        cols: usize,
+        y: &[bool],
+        margin: &[f32],
+        params: &XgbParams,
+        seed: u64,
+        on_round: impl FnMut(u32, u32),
+    ) -> Result<Booster, XgbError> {
+        Booster::fit_inner(x, rows, cols, y, Some(margin), params, seed, on_round)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn fit_inner(
+        x: &[f32],
+        rows: usize,
+        cols: usize,
+        y: &[bool],
+        margin: Option<&[f32]>,
         params: &XgbParams,
         seed: u64,
         mut on_round: impl FnMut(u32, u32),
@@ -99,6 +148,10 @@ impl Booster {
         let mut train = DMatrix::from_dense(api, x, rows, cols)?;
         let labels: Vec<f32> = y.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
         train.set_labels(&labels)?;
+        if let Some(margin) = margin {
+            check_margin(margin, rows)?;
+            train.set_base_margin(margin)?;
+        }
         let mut raw = RawBooster::create(api, &[&train])?;
         for (name, value) in &pairs {
             raw.set_param(name, value)?;
@@ -125,6 +178,31 @@ impl Booster {
     /// equal the number of features the booster was trained on. Zero rows give an empty
     /// vector.
     pub fn predict_proba(&self, x: &[f32], rows: usize, cols: usize) -> Result<Vec<f64>, XgbError> {
+        self.predict_inner(x, rows, cols, None, None)
+    }
+
+    /// P(y = 1) of a booster trained by [`Booster::fit_with_margin`]: each row starts from
+    /// its `margin` (log-odds). With `rounds`, only the first `rounds` trees are used (the
+    /// count early stopping chose); `None` uses them all.
+    pub fn predict_proba_with_margin(
+        &self,
+        x: &[f32],
+        rows: usize,
+        cols: usize,
+        margin: &[f32],
+        rounds: Option<u32>,
+    ) -> Result<Vec<f64>, XgbError> {
+        self.predict_inner(x, rows, cols, Some(margin), rounds)
+    }
+
+    fn predict_inner(
+        &self,
+        x: &[f32],
+        rows: usize,
+        cols: usize,
+        margin: Option<&[f32]>,
+        rounds: Option<u32>,
+    ) -> Result<Vec<f64>, XgbError> {
         if cols != self.n_features {
             return Err(XgbError::Input(format!(
                 "x has {cols} columns but the model was trained on {} features",
@@ -136,8 +214,35 @@ impl Booster {
             return Ok(Vec::new());
         }
         let api = ffi::api()?;
-        let data = DMatrix::from_dense(api, x, rows, cols)?;
-        let out = self.raw.predict(&data, PREDICT_CONFIG)?;
+        if rounds == Some(0) {
+            // No trees: the offset alone (XGBoost's iteration_end 0 would mean all of them).
+            return match margin {
+                Some(margin) => {
+                    check_margin(margin, rows)?;
+                    Ok(margin
+                        .iter()
+                        .map(|&m| 1.0 / (1.0 + (-f64::from(m)).exp()))
+                        .collect())
+                }
+                None => Err(XgbError::Input("rounds must be >= 1 without a margin".to_owned())),
+            };
+        }
+        let mut data = DMatrix::from_dense(api, x, rows, cols)?;
+        if let Some(margin) = margin {
+            check_margin(margin, rows)?;
+            data.set_base_margin(margin)?;
+        }
+        let out = match rounds {
+            None => self.raw.predict(&data, PREDICT_CONFIG)?,
+            Some(end) => {
+                let config = format!(
+                    "{{\"type\": 0, \"training\": false, \"iteration_begin\": 0, \"iteration_end\": {end}, \"strict_shape\": false}}"
+                );
+                let config =
+                    std::ffi::CString::new(config).map_err(|_| XgbError::Input("config".to_owned()))?;
+                self.raw.predict(&data, &config)?
+            }
+        };
         if out.len() != rows {
             return Err(XgbError::Api {
                 call: "XGBoosterPredictFromDMatrix",

@@ -226,14 +226,24 @@ impl DMatrix {
 
     /// `XGDMatrixSetFloatInfo(handle, "label", ...)`.
     pub(crate) fn set_labels(&mut self, labels: &[f32]) -> Result<(), XgbError> {
-        // SAFETY: `handle` is a live DMatrix; the field name is a NUL-terminated literal and
-        // `labels` is valid for labels.len() floats, which XGBoost copies.
+        self.set_float_info(c"label", labels)
+    }
+
+    /// `XGDMatrixSetFloatInfo(handle, "base_margin", ...)`: each row's starting log-odds,
+    /// used instead of `base_score` in training and prediction.
+    pub(crate) fn set_base_margin(&mut self, margin: &[f32]) -> Result<(), XgbError> {
+        self.set_float_info(c"base_margin", margin)
+    }
+
+    fn set_float_info(&mut self, field: &CStr, values: &[f32]) -> Result<(), XgbError> {
+        // SAFETY: `handle` is a live DMatrix; `field` is NUL-terminated and `values` is
+        // valid for values.len() floats, which XGBoost copies.
         let rc = unsafe {
             (self.api.dmatrix_set_float_info)(
                 self.handle,
-                c"label".as_ptr(),
-                labels.as_ptr(),
-                to_u64(labels.len()),
+                field.as_ptr(),
+                values.as_ptr(),
+                to_u64(values.len()),
             )
         };
         self.api.check("XGDMatrixSetFloatInfo", rc)

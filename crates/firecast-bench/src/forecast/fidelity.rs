@@ -456,7 +456,10 @@ fn columns(block: &Block, features: &[String]) -> Option<Vec<usize>> {
 fn resolved_params(config: &ModelConfig) -> Result<serde_json::Value, ForecastError> {
     let v = match config {
         ModelConfig::Baseline { spec, .. } => serde_json::to_value(spec),
-        ModelConfig::Xgboost(e) | ModelConfig::WindowStatsXgboost(e) | ModelConfig::ClimateBoost(e) => {
+        ModelConfig::Xgboost(e)
+        | ModelConfig::WindowStatsXgboost(e)
+        | ModelConfig::ClimateBoost(e)
+        | ModelConfig::ClimateOffset(firecast_forecast::models::ClimateOffsetParams { boost: e, .. }) => {
             serde_json::to_value(&e.params)
         }
         ModelConfig::Neural(n) => serde_json::to_value(n),

@@ -11,6 +11,15 @@ struct Config {
     name: &'static str,
     params: XgbParams,
     seed: u64,
+    /// Train and predict from a per-row log-odds offset, using this many trees.
+    offset: Option<u32>,
+}
+
+/// A per-row log-odds offset that carries part of the signal (as a climatology would).
+fn offset_of(x: &[f32], cols: usize) -> Vec<f32> {
+    x.chunks(cols)
+        .map(|row| 0.8 * row[0] - 0.3 + 0.1 * row[1].sin())
+        .collect()
 }
 
 fn configs() -> Vec<Config> {
@@ -32,6 +41,7 @@ fn configs() -> Vec<Config> {
                 ..XgbParams::default()
             },
             seed: 7,
+            offset: None,
         },
         Config {
             // XGBoost defaults, single-threaded (the "tuned" run covers nthread = 2).
@@ -41,6 +51,21 @@ fn configs() -> Vec<Config> {
                 ..XgbParams::default()
             },
             seed: 0,
+            offset: None,
+        },
+        Config {
+            // An offset model (base_margin), predicted with its first 23 of 40 trees.
+            name: "offset",
+            params: XgbParams {
+                n_estimators: 40,
+                max_depth: 3,
+                learning_rate: 0.05,
+                subsample: 0.8,
+                nthread: 2,
+                ..XgbParams::default()
+            },
+            seed: 3,
+            offset: Some(23),
         },
     ]
 }
@@ -97,11 +122,42 @@ fn predictions_match_python_xgboost() {
 
     let mut rust = Vec::new();
     let mut json_configs = Vec::new();
+    let (m_train, m_test) = (offset_of(&train.x, train.cols), offset_of(&test.x, test.cols));
+    write_npy_f32(&root.join("m_train.npy"), &m_train, &[train.rows]);
+    write_npy_f32(&root.join("m_test.npy"), &m_test, &[test.rows]);
     for c in configs() {
-        let model = Booster::fit(&train.x, train.rows, train.cols, &train.y, &c.params, c.seed).expect("fit");
-        let p = model
-            .predict_proba(&test.x, test.rows, test.cols)
-            .expect("predict");
+        let (model, p) = match c.offset {
+            None => {
+                let model =
+                    Booster::fit(&train.x, train.rows, train.cols, &train.y, &c.params, c.seed).expect("fit");
+                let p = model
+                    .predict_proba(&test.x, test.rows, test.cols)
+                    .expect("predict");
+                (model, p)
+            }
+            Some(rounds) => {
+                let model = Booster::fit_with_margin(
+                    &train.x,
+                    train.rows,
+                    train.cols,
+                    &train.y,
+                    &m_train,
+                    &c.params,
+                    c.seed,
+                    |_, _| {},
+                )
+                .expect("fit");
+                let p = model
+                    .predict_proba_with_margin(&test.x, test.rows, test.cols, &m_test, Some(rounds))
+                    .expect("predict");
+                // The offset is used: without it (all trees, base_score) predictions differ.
+                let plain = model
+                    .predict_proba(&test.x, test.rows, test.cols)
+                    .expect("predict");
+                assert!(max_abs_diff(&p, &plain) > 0.05, "the margin changed nothing");
+                (model, p)
+            }
+        };
         let model_file = format!("{}.json", c.name);
         std::fs::write(root.join(&model_file), model.save_json().expect("save")).expect("write");
         let pairs: serde_json::Map<String, Value> = c
@@ -111,13 +167,18 @@ fn predictions_match_python_xgboost() {
             .into_iter()
             .map(|(k, v)| (k, Value::String(v)))
             .collect();
-        json_configs.push(json!({
+        let mut config = json!({
             "name": c.name,
             "params": pairs,
             "num_boost_round": c.params.n_estimators,
             "sklearn": sklearn_kwargs(&c.params, c.seed),
             "model": model_file,
-        }));
+        });
+        if let Some(rounds) = c.offset {
+            config["margin"] = json!({"train": "m_train.npy", "test": "m_test.npy"});
+            config["iteration_end"] = json!(rounds);
+        }
+        json_configs.push(config);
         rust.push((c.name, p));
     }
     std::fs::write(

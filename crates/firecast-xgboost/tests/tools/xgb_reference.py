@@ -9,7 +9,9 @@ configs.json: a list of objects
                                                            # XGBoosterSetParam
      "num_boost_round": int,
      "sklearn": {XGBClassifier keyword: value, ...},
-     "model": "file name of the model Rust saved with save_json (optional)"}
+     "model": "file name of the model Rust saved with save_json (optional)",
+     "margin": {"train": "m_train.npy", "test": "m_test.npy"},  # optional base_margin
+     "iteration_end": int}                                      # optional, trees used
 
 Prints one JSON object on stdout:
     {"xgboost_version": "3.2.0",
@@ -44,20 +46,27 @@ def main() -> None:
     results = {}
     for config in configs:
         out = {}
-        dtrain = xgb.DMatrix(x_train, label=y_train, missing=np.nan)
+        m_train = m_test = None
+        if config.get("margin"):
+            m_train = np.load(os.path.join(root, config["margin"]["train"]))
+            m_test = np.load(os.path.join(root, config["margin"]["test"]))
+        rounds = (0, config.get("iteration_end", 0))
+        dtrain = xgb.DMatrix(x_train, label=y_train, missing=np.nan, base_margin=m_train)
         booster = xgb.train(
             dict(config["params"]), dtrain, num_boost_round=config["num_boost_round"]
         )
-        dtest = xgb.DMatrix(x_test, missing=np.nan)
-        out["train"] = bits(booster.predict(dtest))
+        dtest = xgb.DMatrix(x_test, missing=np.nan, base_margin=m_test)
+        out["train"] = bits(booster.predict(dtest, iteration_range=rounds))
 
         clf = xgb.XGBClassifier(**config["sklearn"])
-        clf.fit(x_train, y_train.astype(np.int64))
-        out["classifier"] = bits(clf.predict_proba(x_test)[:, 1])
+        clf.fit(x_train, y_train.astype(np.int64), base_margin=m_train)
+        out["classifier"] = bits(
+            clf.predict_proba(x_test, base_margin=m_test, iteration_range=rounds)[:, 1]
+        )
 
         if config.get("model"):
             loaded = xgb.Booster(model_file=os.path.join(root, config["model"]))
-            out["rust_model"] = bits(loaded.predict(dtest))
+            out["rust_model"] = bits(loaded.predict(dtest, iteration_range=rounds))
         results[config["name"]] = out
 
     print(json.dumps({"xgboost_version": xgb.__version__, "results": results}))
