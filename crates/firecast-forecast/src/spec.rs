@@ -242,6 +242,8 @@ impl Default for Evaluation {
 
 impl ExperimentSpec {
     /// Reads and checks an experiment file; `overrides` are `key.path=value` (value as YAML).
+    /// A file may start from another with `extends: FILE` (relative to its folder) and change
+    /// only what differs (mappings merge; see [`firecast_pipeline::extends`]).
     pub fn load(root: &Path, file: &Path, overrides: &[String]) -> Result<Self, ForecastError> {
         let path = root.join(file);
         let text = std::fs::read_to_string(&path).map_err(|e| ForecastError::Io {
@@ -249,6 +251,21 @@ impl ExperimentSpec {
             path: path.clone(),
             source: e,
         })?;
+        let extends = serde_yaml_ng::from_str::<serde_yaml_ng::Value>(&text)
+            .ok()
+            .is_some_and(|v| v.get("extends").is_some());
+        if extends {
+            let mut layered = firecast_pipeline::extends::load(root, file)?;
+            for o in overrides {
+                apply_override(&mut layered.value, o)?;
+            }
+            let spec: ExperimentSpec = layered.deserialize()?;
+            spec.validate().map_err(|e| match e {
+                ForecastError::Config { key, message } => ForecastError::from(layered.error(key, message)),
+                other => other,
+            })?;
+            return Ok(spec);
+        }
         let spec: ExperimentSpec = if overrides.is_empty() {
             firecast_pipeline::spec::deserialize_mapping_enums(file, &text)?
         } else {
