@@ -1005,3 +1005,95 @@ fn sharded_experiment_equals_unsharded_locally() {
         describe(&out)
     );
 }
+
+/// FireCast's `climate_offset`: the fire history's kernel width and the tree count are chosen
+/// on validation and saved with the model; an experiment file may extend another and change
+/// only what differs, and a mistake in it names that file and line.
+#[test]
+fn climate_offset_chooses_on_validation_and_experiments_extend_one_another() {
+    let p = project_with_dataset();
+    p.write(
+        "experiments/base.yaml",
+        r#"
+name: base
+dataset: data/a
+protocols:
+  leak_free:
+    days: [-30, -1]
+    split: {method: stratified_random, test: 0.3, val: 0.25, seed: 42, grouped: true}
+seeds: [0]
+evaluation: {bootstrap: 50}
+device: cpu
+models:
+  - {kind: climatology}
+  - {kind: climate_offset, params: {n_estimators: 30, max_depth: 2, subsample: 0.8, kernel_degrees: [0.2, 0.5], nthread: 1}}
+"#,
+    );
+    p.write(
+        "experiments/more/child.yaml",
+        "extends: ../base.yaml\nname: child\nseeds: [0, 1]\nevaluation: {bootstrap: 40}\n",
+    );
+    let out = p.ok(&["experiment", "run", "experiments/more/child.yaml"]);
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(stdout.contains("climate_offset"), "{stdout}");
+    let results: serde_json::Value =
+        serde_json::from_str(&p.read("experiments/runs/child/results.json")).unwrap();
+    assert_eq!(results["bootstrap"], 40, "the child's evaluation");
+    let offset = results["results"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["kind"] == "climate_offset")
+        .expect("climate_offset row");
+    assert_eq!(offset["family"], "firecast");
+    assert_eq!(
+        offset["runs"].as_array().unwrap().len(),
+        2,
+        "the child's seeds: {offset}"
+    );
+    for seed in 0..2 {
+        let model: serde_json::Value = serde_json::from_str(&p.read(&format!(
+            "experiments/runs/child/models/leak_free/climate_offset/seed-{seed}/model.json"
+        )))
+        .unwrap();
+        let model = &model["model"];
+        let width = model["climatology"]["params"]["kernel_degrees"].as_f64().unwrap();
+        assert!(width == 0.2 || width == 0.5, "{width}");
+        assert!(model["rounds"].as_u64().unwrap() <= 30, "{}", model["rounds"]);
+        let (a, _) = (
+            model["calibration"][0].as_f64().unwrap(),
+            model["calibration"][1].as_f64().unwrap(),
+        );
+        assert!(a > 0.0, "the fire history raises the odds: {a}");
+    }
+
+    // A typo in the extending file is placed there; a missing base where `extends` names it.
+    p.write(
+        "experiments/more/child.yaml",
+        "extends: ../base.yaml\nname: child\nseedz: [0, 1]\n",
+    );
+    let out = p
+        .firecast()
+        .args(["experiment", "run", "experiments/more/child.yaml"])
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && e.contains("experiments/more/child.yaml:3") && e.contains("seedz"),
+        "{e}"
+    );
+    p.write(
+        "experiments/more/child.yaml",
+        "extends: ../nowhere.yaml\nname: child\n",
+    );
+    let out = p
+        .firecast()
+        .args(["experiment", "run", "experiments/more/child.yaml"])
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && e.contains("experiments/more/child.yaml:1") && e.contains("nowhere.yaml"),
+        "{e}"
+    );
+}

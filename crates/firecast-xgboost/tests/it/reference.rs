@@ -17,8 +17,10 @@ struct Config {
 
 /// A per-row log-odds offset that carries part of the signal (as a climatology would).
 fn offset_of(x: &[f32], cols: usize) -> Vec<f32> {
+    // Missing values (NaN) count as 0.
+    let value = |v: f32| if v.is_nan() { 0.0 } else { v };
     x.chunks(cols)
-        .map(|row| 0.8 * row[0] - 0.3 + 0.1 * row[1].sin())
+        .map(|row| 0.8 * value(row[0]) - 0.3 + 0.1 * value(row[1]).sin())
         .collect()
 }
 

@@ -109,3 +109,58 @@ fn concurrent_predictions_agree_with_sequential_ones() {
         .expect("thread");
     assert_eq!(moved, 16);
 }
+
+/// An offset model: zero trees is the offset itself, the first k trees move away from it
+/// step by step, and margins of the wrong length or not finite are refused.
+#[test]
+fn margins_start_every_row_from_its_offset() {
+    let train = synthetic(600, 8, 5);
+    let margin: Vec<f32> = (0..train.rows).map(|i| ((i % 7) as f32 - 3.0) * 0.5).collect();
+    let model = Booster::fit_with_margin(
+        &train.x,
+        train.rows,
+        train.cols,
+        &train.y,
+        &margin,
+        &params(1),
+        3,
+        |_, _| {},
+    )
+    .expect("fit");
+    let at = |k: Option<u32>| {
+        model
+            .predict_proba_with_margin(&train.x, train.rows, train.cols, &margin, k)
+            .expect("predict")
+    };
+    let offset: Vec<f64> = margin
+        .iter()
+        .map(|&m| 1.0 / (1.0 + (-f64::from(m)).exp()))
+        .collect();
+    assert_eq!(at(Some(0)), offset, "no trees: the offset alone");
+    let (one, all) = (at(Some(1)), at(None));
+    assert!(max_abs_diff(&one, &offset) > 0.0 && max_abs_diff(&one, &offset) < max_abs_diff(&all, &offset));
+    assert_eq!(at(Some(30)), all, "all 30 trees");
+    // The saved model keeps the trees; the margin comes with the rows, as in XGBoost.
+    let loaded = Booster::load_json(&model.save_json().expect("save")).expect("load");
+    assert_eq!(
+        loaded
+            .predict_proba_with_margin(&train.x, train.rows, train.cols, &margin, Some(12))
+            .expect("predict"),
+        at(Some(12))
+    );
+    let short = model.predict_proba_with_margin(&train.x, train.rows, train.cols, &margin[1..], None);
+    assert!(format!("{:?}", short.expect_err("short margin")).contains("margin has 599 values"));
+    let mut bad = margin.clone();
+    bad[4] = f32::INFINITY;
+    let err = Booster::fit_with_margin(
+        &train.x,
+        train.rows,
+        train.cols,
+        &train.y,
+        &bad,
+        &params(1),
+        3,
+        |_, _| {},
+    );
+    assert!(format!("{:?}", err.expect_err("infinite margin")).contains("margin[4]"));
+}
