@@ -66,6 +66,16 @@ pub struct ClimatologyParams {
     pub kernel_degrees: Option<f64>,
 }
 
+/// A candidate fire history of `climate_offset`: its climatology, the training samples'
+/// left-out log-odds, their recalibration and its validation log loss.
+struct FireHistory {
+    val_loss: f64,
+    params: ClimatologyParams,
+    left_out: Vec<f32>,
+    calibration: (f64, f64),
+    samples: Vec<Place>,
+}
+
 /// One sample as the climatology sees it.
 #[derive(Debug, Clone, Copy)]
 struct Place {
@@ -518,7 +528,7 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
             if candidates.is_empty() {
                 candidates.push(None);
             }
-            let mut best: Option<(f64, ClimatologyParams, Vec<f32>, (f64, f64), Vec<Place>)> = None;
+            let mut best: Option<FireHistory> = None;
             for kernel in candidates {
                 let params = ClimatologyParams {
                     bandwidth_days: default_bandwidth(),
@@ -540,11 +550,24 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
                         .collect();
                     log_loss(&p, ctx.val_labels)
                 };
-                if best.as_ref().is_none_or(|b| score < b.0) {
-                    best = Some((score, params, left_out, (a, b), samples));
+                if best.as_ref().is_none_or(|b| score < b.val_loss) {
+                    best = Some(FireHistory {
+                        val_loss: score,
+                        params,
+                        left_out,
+                        calibration: (a, b),
+                        samples,
+                    });
                 }
             }
-            let Some((_, params, left_out, (a, b), samples)) = best else {
+            let Some(FireHistory {
+                params,
+                left_out,
+                calibration: (a, b),
+                samples,
+                ..
+            }) = best
+            else {
                 unreachable!("at least one candidate")
             };
             let margin = recalibrate(&left_out, a, b);
