@@ -30,8 +30,9 @@ pub struct ServeArgs {
     /// build/demo/table3].
     #[arg(long, value_name = "DIR")]
     pub forecaster: Option<PathBuf>,
-    /// The forecaster's model (its name in the experiment).
-    #[arg(long, default_value = "xgboost")]
+    /// The forecaster's model (its name in the experiment) [default: FireCast's recommended
+    /// forecaster, as the threat pipeline's report uses it].
+    #[arg(long, default_value = "climate_offset")]
     pub model: String,
     /// An `rl train` run folder: the PPO agent [default: build/threat/agent if trained, else
     /// build/demo/helitack_agent].
