@@ -86,8 +86,9 @@ pub struct CellDayRow {
     pub auprc_interval: Option<(f64, f64)>,
 }
 
-/// FireCast's recommended forecaster against the model with the best AUPRC (or the runner-up
-/// when it is the best itself), paired over cells and seeds.
+/// FireCast's recommended forecaster against the best other model by AUPRC that is not one of
+/// FireCast's own candidates (its other sizes and variants answer a different question),
+/// paired over cells and seeds.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct CellDayComparison {
     pub model: String,
@@ -515,10 +516,13 @@ pub fn score(
     progress("scored every model", models.len(), models.len());
     rows.sort_by(|a, b| b.auprc.total_cmp(&a.auprc).then(a.model.cmp(&b.model)));
     // FireCast's recommended forecaster (by validation, as Table III chooses it) against the
-    // best other model here.
+    // best model here that is not FireCast's own (else the best other of its own).
     let comparison =
         crate::experiment::recommended_forecaster(&protocol, &result.results).and_then(|focus| {
-            let other = rows.iter().find(|r| r.model != focus.model)?;
+            let other = rows
+                .iter()
+                .find(|r| r.model != focus.model && r.family != focus.family)
+                .or_else(|| rows.iter().find(|r| r.model != focus.model))?;
             let find = |name: &str| scores.iter().find(|s| s.0 == name).map(|s| &s.1);
             let (a, b) = (find(&focus.model)?, find(&other.model)?);
             let (a, b) = crate::experiment::seed_pairs(a, b);

@@ -35,7 +35,8 @@ impl StageKind for CellDaysStage {
     }
     fn version(&self) -> u32 {
         // 2: AUPRC intervals over cells and the recommended forecaster's paired comparison.
-        2
+        // 3: the comparison is against the best model that is not one of FireCast's own.
+        3
     }
     fn summary(&self) -> &'static str {
         "saved models -> every GRIDMET cell-day of a period at the true prevalence: AUPRC, Brier and reliability after the prior correction, beside the oracle"
