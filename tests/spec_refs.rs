@@ -32,7 +32,7 @@ const SKIPPED_DIRS: [&str; 4] = ["target", "node_modules", "__pycache__", "venv"
 const SPEC_DIR: &str = "docs/spec";
 
 fn repo_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()))
 }
 
 /// One section reference found in a scanned file.

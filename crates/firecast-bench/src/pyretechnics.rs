@@ -875,10 +875,12 @@ mod tests {
 
     fn worcester() -> LandfireLandscape {
         LandfireLandscape::read_dir(
-            &Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("..")
-                .join("..")
-                .join(WORCESTER),
+            &std::path::PathBuf::from(
+                std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+            )
+            .join("..")
+            .join("..")
+            .join(WORCESTER),
             firecast_landscape::landfire::FuelLayer::Fbfm40,
         )
         .expect("the Worcester fixture")
@@ -901,7 +903,10 @@ mod tests {
     /// Cruz et al.'s 2005 rate there). Skipped when pyretechnics' venv is missing.
     #[test]
     fn scott_reinhardt_crown_fire_under_wind_beside_pyretechnics_on_flat_cells() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let root = std::path::PathBuf::from(
+            std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+        )
+        .join("../..");
         let Ok(python) = crate::python::find_python(None, &root, crate::python::Venv::Peer(PEER)) else {
             eprintln!(
                 "skipped: pyretechnics is not installed in .venv-peers/{PEER} (`cargo xtask setup` installs it)"

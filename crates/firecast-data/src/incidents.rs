@@ -1842,7 +1842,10 @@ mod tests {
 
     #[test]
     fn json_streamed_and_in_memory_agree() {
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/incidents");
+        let dir = std::path::PathBuf::from(
+            std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+        )
+        .join("tests/fixtures/incidents");
         for name in ["wfigs.geojson", "wfigs_esri.json", "invalid.geojson"] {
             let path = dir.join(name);
             let filter = IncidentFilter::default();

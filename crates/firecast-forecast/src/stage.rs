@@ -1280,7 +1280,10 @@ mod tests {
     /// The GRIDMET fixture of firecast-dataset: tmmx = 300 + day of year + j/10 + i/100 on
     /// cells j = 224.., i = 474.. (2018 and 2019).
     fn fixture_gridmet() -> std::path::PathBuf {
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../firecast-dataset/tests/fixtures/gridmet")
+        std::path::PathBuf::from(
+            std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+        )
+        .join("../firecast-dataset/tests/fixtures/gridmet")
     }
 
     #[test]

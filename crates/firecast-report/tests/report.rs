@@ -513,7 +513,12 @@ fn gis_python() -> PathBuf {
 /// Runs `tests/gis_check.py` and fails with its findings.
 fn gis_check(args: &[&std::ffi::OsStr]) {
     let out = Command::new(gis_python())
-        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/gis_check.py"))
+        .arg(
+            std::path::PathBuf::from(
+                std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+            )
+            .join("tests/gis_check.py"),
+        )
         .args(args)
         .output()
         .expect("python");

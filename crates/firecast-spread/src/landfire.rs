@@ -252,7 +252,6 @@ pub fn landfire_arrival_lazy_h(
 
 #[cfg(test)]
 mod tests {
-    use std::path::Path;
     use std::time::Instant;
 
     use firecast_sim::FuelModel;
@@ -264,10 +263,12 @@ mod tests {
 
     fn worcester() -> LandfireLandscape {
         LandfireLandscape::read_dir(
-            &Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("..")
-                .join("..")
-                .join(WORCESTER),
+            &std::path::PathBuf::from(
+                std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+            )
+            .join("..")
+            .join("..")
+            .join(WORCESTER),
             firecast_landscape::landfire::FuelLayer::Fbfm40,
         )
         .expect("the Worcester fixture")

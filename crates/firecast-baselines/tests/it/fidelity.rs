@@ -52,7 +52,10 @@ fn cases() -> Vec<(&'static str, Value, bool, Option<f64>)> {
 #[test]
 fn agrees_with_scikit_learn() {
     let py = python();
-    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/tools/sklearn_baselines.py");
+    let script = PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("tests/tools/sklearn_baselines.py");
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("baselines-fidelity");
     std::fs::create_dir_all(&dir).unwrap();
 
@@ -319,7 +322,10 @@ fn tree_cases() -> Vec<(&'static str, Value)> {
 #[test]
 fn trees_equal_scikit_learns() {
     let py = python();
-    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/tools/sklearn_trees.py");
+    let script = PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("tests/tools/sklearn_trees.py");
     let random_states = [0u64, 12345];
     let datasets = [
         ("weather", split(900, 300, 8, 7)),

@@ -2,8 +2,6 @@
 //! FlamMap 6's, and their relative difference, as one PNG. Written to a temporary folder, or to
 //! `$FIRECAST_BEHAVIOR_PNG` (the docs' `docs/results/fire-behavior-ros.png` is made that way).
 
-use std::path::Path;
-
 use firecast_landscape::gridio::read_band_f32;
 use firecast_landscape::landfire::{FuelLayer, LandfireLandscape};
 use firecast_render::{RgbImage, draw_text, viridis, write_png};
@@ -34,8 +32,10 @@ fn diff_color(rel: f64) -> [u8; 3] {
 
 #[test]
 fn ros_beside_flammap_png() {
-    let fixtures =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../firecast-landscape/tests/fixtures/landfire-worcester");
+    let fixtures = std::path::PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("../firecast-landscape/tests/fixtures/landfire-worcester");
     let land = LandfireLandscape::read_dir(&fixtures.join("landfire"), FuelLayer::Fbfm40).unwrap();
     let params = BehaviorParams {
         fuel: FuelChoice::Fbfm40,

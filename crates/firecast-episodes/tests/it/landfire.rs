@@ -10,9 +10,11 @@ use firecast_episodes::{AgentKind, LandscapeSpec, Scenario};
 use firecast_landscape::Crs;
 
 fn fixture(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../firecast-landscape/tests/fixtures/landfire-worcester")
-        .join(rel)
+    std::path::PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("../firecast-landscape/tests/fixtures/landfire-worcester")
+    .join(rel)
 }
 
 /// Latitude and longitude of the centre of the clip's cell (`col`, `row`), row 0 north (the

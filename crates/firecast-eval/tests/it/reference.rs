@@ -70,7 +70,10 @@ fn run() -> Reference {
     });
     let input = std::env::temp_dir().join(format!("firecast-eval-reference-{}.json", std::process::id()));
     std::fs::write(&input, serde_json::to_vec(&spec).unwrap()).unwrap();
-    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/tools/sklearn_reference.py");
+    let script = format!(
+        "{}/tests/tools/sklearn_reference.py",
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into())
+    );
     let output = Command::new(python()).arg(script).arg(&input).output().unwrap();
     let _ = std::fs::remove_file(&input);
     assert!(

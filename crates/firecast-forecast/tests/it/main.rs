@@ -12,7 +12,8 @@ fn python() -> PathBuf {
 }
 
 fn reference() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("reference/forecast_torch.py")
+    PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()))
+        .join("reference/forecast_torch.py")
 }
 
 #[test]

@@ -7,7 +7,10 @@ use firecast_landscape::gridio::{GridPlacement, encode_geotiff_f32};
 use firecast_landscape::landfire::{FuelLayer, LandfireError, LandfireFiles, LandfireLandscape, LayerKind};
 
 fn worcester() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/landfire-worcester/landfire")
+    std::path::PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("tests/fixtures/landfire-worcester/landfire")
 }
 
 #[test]

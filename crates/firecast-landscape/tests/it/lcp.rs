@@ -11,7 +11,10 @@ use firecast_landscape::landfire::{FuelLayer, LandfireError, LandfireLandscape, 
 use firecast_landscape::lcp::{LCP_HEADER_BYTES, LcpHeader};
 
 fn fixtures() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")
+    std::path::PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("tests/fixtures")
 }
 
 fn worcester() -> PathBuf {

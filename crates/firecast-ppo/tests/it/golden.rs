@@ -34,7 +34,10 @@ fn fixtures() -> &'static Value {
         let python = firecast_testkit::python_with(&["stable_baselines3", "torch", "gymnasium", "numpy"]);
         let dir = tempfile::tempdir().expect("temp dir");
         let out = dir.path().join("sb3.json");
-        let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/it/sb3_reference.py");
+        let script = PathBuf::from(
+            std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+        )
+        .join("tests/it/sb3_reference.py");
         let res = Command::new(&python)
             .arg(&script)
             .arg(&out)

@@ -8,7 +8,8 @@ use firecast_rl::spec::{EnvSpec, FiresSpec, TrainSpec, fires_path};
 use firecast_sim::RewardWeights;
 
 fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+    PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()))
+        .join("../..")
 }
 
 /// Every YAML file under `experiments/rl/` that is a training spec (fire files hold `train:`).

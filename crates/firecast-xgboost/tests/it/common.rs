@@ -95,7 +95,10 @@ pub fn venv_python() -> PathBuf {
 
 /// `tests/tools/xgb_reference.py`.
 pub fn reference_script() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/tools/xgb_reference.py")
+    std::path::PathBuf::from(
+        std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| env!("CARGO_MANIFEST_DIR").into()),
+    )
+    .join("tests/tools/xgb_reference.py")
 }
 
 /// The largest absolute difference between two equally long vectors.
