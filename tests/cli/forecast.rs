@@ -1068,32 +1068,24 @@ models:
     }
 
     // A typo in the extending file is placed there; a missing base where `extends` names it.
-    p.write(
-        "experiments/more/child.yaml",
-        "extends: ../base.yaml\nname: child\nseedz: [0, 1]\n",
-    );
-    let out = p
-        .firecast()
-        .args(["experiment", "run", "experiments/more/child.yaml"])
-        .output()
-        .unwrap();
-    let e = String::from_utf8_lossy(&out.stderr);
+    let refused = |child: &str| {
+        p.write("experiments/more/child.yaml", child);
+        let out = p
+            .firecast()
+            .args(["experiment", "run", "experiments/more/child.yaml"])
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{child}");
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let e = refused("extends: ../base.yaml\nname: child\nseedz: [0, 1]\n");
     assert!(
-        !out.status.success() && e.contains("experiments/more/child.yaml:3") && e.contains("seedz"),
+        e.contains("experiments/more/child.yaml:3") && e.contains("seedz"),
         "{e}"
     );
-    p.write(
-        "experiments/more/child.yaml",
-        "extends: ../nowhere.yaml\nname: child\n",
-    );
-    let out = p
-        .firecast()
-        .args(["experiment", "run", "experiments/more/child.yaml"])
-        .output()
-        .unwrap();
-    let e = String::from_utf8_lossy(&out.stderr);
+    let e = refused("extends: ../nowhere.yaml\nname: child\n");
     assert!(
-        !out.status.success() && e.contains("experiments/more/child.yaml:1") && e.contains("nowhere.yaml"),
+        e.contains("experiments/more/child.yaml:1") && e.contains("nowhere.yaml"),
         "{e}"
     );
 }

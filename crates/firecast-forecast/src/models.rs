@@ -67,11 +67,13 @@ pub struct ClimatologyParams {
 }
 
 /// A candidate fire history of `climate_offset`: its climatology, the training samples'
-/// left-out log-odds, their recalibration and its validation log loss.
+/// left-out log-odds, their recalibration, the validation offsets and their log loss.
 struct FireHistory {
     val_loss: f64,
     params: ClimatologyParams,
     left_out: Vec<f32>,
+    /// The validation samples' offsets (the fitted climatology's, recalibrated).
+    val_margin: Vec<f32>,
     calibration: (f64, f64),
     samples: Vec<Place>,
 }
@@ -94,6 +96,18 @@ fn default_block() -> f64 {
 }
 fn default_prior() -> f64 {
     10.0
+}
+
+impl Default for ClimatologyParams {
+    /// The climatology's defaults: 15-day season kernel, 0.25° blocks, prior strength 10.
+    fn default() -> Self {
+        Self {
+            bandwidth_days: default_bandwidth(),
+            block_degrees: default_block(),
+            prior_strength: default_prior(),
+            kernel_degrees: None,
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -159,8 +173,9 @@ pub struct ClimateOffsetParams {
 
 impl ClimateOffsetParams {
     fn parse(params: &serde_json::Value) -> Result<Self, ForecastError> {
-        let mut rest = params.as_object().cloned().unwrap_or_default();
-        let kernel_degrees = match rest.remove("kernel_degrees") {
+        // `kernel_degrees` is ours; the rest are the booster's (a non-mapping is XgbEntry's error).
+        let mut rest = params.as_object().cloned();
+        let kernel_degrees = match rest.as_mut().and_then(|r| r.remove("kernel_degrees")) {
             None => vec![0.05, 0.1, 0.2, 0.3, 0.5],
             Some(v) => {
                 let widths: Vec<f64> = serde_json::from_value(v).map_err(|e| ForecastError::Config {
@@ -176,10 +191,9 @@ impl ClimateOffsetParams {
                 widths
             }
         };
-        let boost = if params.is_null() {
-            XgbEntry::parse(params)?
-        } else {
-            XgbEntry::parse(&serde_json::Value::Object(rest))?
+        let boost = match rest {
+            Some(rest) => XgbEntry::parse(&serde_json::Value::Object(rest))?,
+            None => XgbEntry::parse(params)?,
         };
         Ok(Self {
             boost,
@@ -498,12 +512,7 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
             }
         }
         ModelConfig::ClimateBoost(e) => {
-            let params = ClimatologyParams {
-                bandwidth_days: default_bandwidth(),
-                block_degrees: default_block(),
-                prior_strength: default_prior(),
-                kernel_degrees: None,
-            };
+            let params = ClimatologyParams::default();
             let samples = places(&ctx.train.meta, y, &params);
             // Each training sample's climatology without its own label (else the booster
             // learns to read the answer from the rate).
@@ -531,20 +540,22 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
             let mut best: Option<FireHistory> = None;
             for kernel in candidates {
                 let params = ClimatologyParams {
-                    bandwidth_days: default_bandwidth(),
-                    block_degrees: default_block(),
-                    prior_strength: default_prior(),
                     kernel_degrees: kernel,
+                    ..ClimatologyParams::default()
                 };
                 let samples = places(&ctx.train.meta, y, &params);
                 let left_out = log_odds(&climatology_rates(&params, &samples, prevalence, &samples, true));
                 let (a, b) = crate::features::fit_logistic_1d(&left_out, y);
+                let queries = places(&ctx.val.meta, ctx.val_labels, &params);
+                let val_margin = recalibrate(
+                    &log_odds(&climatology_rates(&params, &samples, prevalence, &queries, false)),
+                    a,
+                    b,
+                );
                 let score = if ctx.val_labels.is_empty() {
                     0.0
                 } else {
-                    let queries = places(&ctx.val.meta, ctx.val_labels, &params);
-                    let val = log_odds(&climatology_rates(&params, &samples, prevalence, &queries, false));
-                    let p: Vec<f64> = recalibrate(&val, a, b)
+                    let p: Vec<f64> = val_margin
                         .iter()
                         .map(|&z| 1.0 / (1.0 + (-f64::from(z)).exp()))
                         .collect();
@@ -555,6 +566,7 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
                         val_loss: score,
                         params,
                         left_out,
+                        val_margin,
                         calibration: (a, b),
                         samples,
                     });
@@ -563,6 +575,7 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
             let Some(FireHistory {
                 params,
                 left_out,
+                val_margin,
                 calibration: (a, b),
                 samples,
                 ..
@@ -583,7 +596,6 @@ pub fn fit(config: &ModelConfig, ctx: &FitContext<'_>) -> Result<Trained, Foreca
             let rounds = if ctx.val_labels.is_empty() {
                 e.params.n_estimators
             } else {
-                let val_margin = recalibrate(&log_odds(&climatology.predict(&ctx.val, ctx.device)?), a, b);
                 let xv = window_statistics(ctx.val.block, &features)?;
                 let mut best = (f64::INFINITY, 0u32);
                 for k in 0..=e.params.n_estimators {
@@ -954,10 +966,8 @@ mod tests {
     fn a_left_out_rate_is_the_rate_without_the_sample() {
         for kernel_degrees in [None, Some(0.2)] {
             let params = ClimatologyParams {
-                bandwidth_days: default_bandwidth(),
-                block_degrees: default_block(),
-                prior_strength: default_prior(),
                 kernel_degrees,
+                ..ClimatologyParams::default()
             };
             let samples = samples();
             let prevalence = |s: &[Place]| s.iter().filter(|x| x.label).count() as f64 / s.len() as f64;
@@ -1020,6 +1030,7 @@ mod tests {
             (serde_json::json!({"kernel_degrees": [0.0]}), "kernel_degrees"),
             (serde_json::json!({"kernel_degrees": "wide"}), "kernel_degrees"),
             (serde_json::json!({"max_dept": 2}), "max_dept"),
+            (serde_json::json!("wide"), ""),
         ] {
             match ModelConfig::parse("climate_offset", &bad) {
                 Err(ForecastError::Config { key: k, .. }) => assert_eq!(k, key, "{bad}"),
