@@ -129,7 +129,7 @@ impl BehaviorReport {
             "  fire type equal on {} of {} cells; none/surface/passive/active: FireCast {:?}, pyretechnics {:?}",
             a.fire_type_equal_cells, r.cells, a.firecast_fire_types, a.pyretechnics_fire_types
         )?;
-        let mut table = crate::table(&["engine (1 thread)", "best s", "grid cells/s", "ratio"]);
+        let mut table = crate::table(&["engine (1 thread)", "repeats", "best s", "grid cells/s", "ratio"]);
         table.add_row(timing_row(
             format!(
                 "pyretechnics {}: burn_all_cells_as_head_fire",

@@ -264,8 +264,14 @@ fn one_thread<T: Send>(f: impl FnOnce() -> T + Send) -> Result<T, BenchError> {
     Ok(pool.install(f))
 }
 
-/// Run FireCast's timed `ours` `repeats` times around the peer's run (half before, half
-/// after), so that both engines' best times come from the same stretch of the machine's load.
+/// Most timed repeats of FireCast's side (a bound for very short calls).
+const MAX_REPEATS: usize = 10_000;
+
+/// Run FireCast's timed `ours` around the peer's run (half of `repeats` before, the rest after),
+/// so that both engines' best times come from the same stretch of the machine's load. After
+/// the peer it goes on until it has run `repeats` times *and* spent at least the peer's timed
+/// seconds (at most [`MAX_REPEATS`]): both sides' best is then taken over the same wall time
+/// of samples, where five repeats of a millisecond call would leave its best to chance.
 /// Returns FireCast's seconds, its last result, and the peer's report.
 fn around_peer<T>(
     repeats: usize,
@@ -281,7 +287,9 @@ fn around_peer<T>(
         last = Some(r);
     }
     let peer = peer()?;
-    for _ in before..repeats {
+    let peer_total: f64 = peer.seconds.iter().sum();
+    while seconds.len() < MAX_REPEATS && (seconds.len() < repeats || seconds.iter().sum::<f64>() < peer_total)
+    {
         let (s, r) = ours()?;
         seconds.push(s);
         last = Some(r);
@@ -297,7 +305,8 @@ pub struct BenchOptions {
     pub landscape: PathBuf,
     /// Fuel moistures, wind, foliar moisture, crown method (behaviour), wind limit.
     pub params: BehaviorParams,
-    /// Timed repeats per engine; the best counts.
+    /// Timed repeats per engine, the least (FireCast's side also runs until it has spent the
+    /// peer's timed seconds); the best counts.
     pub repeats: usize,
     /// The peer's Python.
     pub python: PathBuf,
@@ -754,7 +763,8 @@ pub struct FireBenchArgs {
     /// Direction the wind comes from, degrees clockwise from north.
     #[arg(long, default_value_t = 225.0, value_name = "DEG")]
     pub wind_from_deg: f64,
-    /// Timed repeats of each engine (the best counts).
+    /// Timed repeats of each engine, the least: FireCast's side goes on until it has spent as
+    /// many seconds as pyretechnics' repeats (the best counts).
     #[arg(long, default_value_t = 5, value_name = "N")]
     pub repeats: usize,
     /// A small window of cells and one repeat (for tests).
@@ -838,6 +848,7 @@ pub fn inputs_line(p: &firecast_sim::behavior::BehaviorParams) -> String {
 pub fn timing_row(name: String, t: &Timing, unit: &str, ratio: f64) -> Vec<String> {
     vec![
         name,
+        t.seconds.len().to_string(),
         format!("{:.4}", t.best_seconds),
         format!("{:.0} {unit}", t.cells_per_second),
         format!("{ratio:.1}x"),
@@ -857,6 +868,33 @@ mod tests {
     use firecast_sim::behavior::surface_behavior_grids;
 
     use super::*;
+
+    #[test]
+    fn firecast_side_samples_at_least_the_peers_seconds() {
+        let peer = |seconds: Vec<f64>| {
+            move || {
+                Ok(PeerRun {
+                    rows: 1,
+                    cols: 1,
+                    seconds,
+                    pyretechnics: String::new(),
+                    python: String::new(),
+                    numpy: String::new(),
+                    stop_time_min: None,
+                    stop_condition: None,
+                })
+            }
+        };
+        // A 1 ms call beside a peer that timed 2 × 10 ms: 20 repeats, not 2.
+        let (seconds, _, _) = around_peer(2, || Ok((0.001, ())), peer(vec![0.01, 0.01])).expect("runs");
+        assert_eq!(seconds.len(), 20);
+        // A call slower than the peer's: the repeats asked for, no fewer.
+        let (seconds, _, _) = around_peer(5, || Ok((0.5, ())), peer(vec![0.01])).expect("runs");
+        assert_eq!(seconds.len(), 5);
+        // A call too short to measure stops at the bound.
+        let (seconds, _, _) = around_peer(1, || Ok((0.0, ())), peer(vec![1.0])).expect("runs");
+        assert_eq!(seconds.len(), MAX_REPEATS);
+    }
 
     #[test]
     fn comparable_cells_follow_the_two_models() {

@@ -152,7 +152,13 @@ impl SpreadReport {
             a.jaccard,
             a.mean_abs_arrival_difference_h
         )?;
-        let mut table = crate::table(&["engine (1 thread)", "best wall s", "burnt cells/s", "ratio"]);
+        let mut table = crate::table(&[
+            "engine (1 thread)",
+            "repeats",
+            "best wall s",
+            "burnt cells/s",
+            "ratio",
+        ]);
         table.add_row(timing_row(
             format!("pyretechnics {}: spread_fire_with_phi_field", r.peer.pyretechnics),
             &r.pyretechnics,

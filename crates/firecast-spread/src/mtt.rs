@@ -368,8 +368,60 @@ trait Rates {
     /// does not spread that way (no rate, or not a number), which drops the move (below).
     fn inverse_rate(&mut self, i: usize, l: usize, k: usize, m: &Move) -> f64;
     fn burnable(&mut self, i: usize, l: usize) -> bool;
+    /// The cost of move `k` (`m`) from cell `i` (window index `il`) whose pieces lie in `pieces`
+    /// (each piece's cell as offsets from `i` in the grid and the window): the sum of the
+    /// pieces' 1/rate in order along the segment, or `None` as soon as the partial sum passes
+    /// `limit` (every later piece only adds, so the move cannot come under it).
+    #[inline]
+    fn move_cost(
+        &mut self,
+        i: usize,
+        il: usize,
+        k: usize,
+        m: &Move,
+        pieces: &[(isize, isize)],
+        limit: f64,
+    ) -> Option<f64> {
+        let mut cost = 0.0;
+        for &(offset, local) in pieces {
+            cost += self.inverse_rate(i.wrapping_add_signed(offset), il.wrapping_add_signed(local), k, m);
+            if cost > limit {
+                return None;
+            }
+        }
+        Some(cost)
+    }
     /// The engine's window grew from `old` to `new`: per-cell state kept by window index moves.
     fn rewindow(&mut self, old: &Window, new: &Window);
+}
+
+/// `cost` plus each piece's 1/rate along move `k`, in order, from [`LazyEllipses`]' tables,
+/// until the sum passes `limit` or a piece's cell is not evaluated: (the number of pieces added,
+/// their sum), or (`usize::MAX`, the sum) when it passed the limit. Kept out of line: inside
+/// the engine's loop the compiler held the running sum in memory (the evaluation's call
+/// clobbers every float register), one store-to-load more on each piece's chain; a pair comes
+/// back in registers.
+#[inline(never)]
+fn sum_evaluated(
+    slot: &[usize],
+    inverse: &[f64],
+    il: usize,
+    k: usize,
+    pieces: &[(isize, isize)],
+    mut cost: f64,
+    limit: f64,
+) -> (usize, f64) {
+    for (at, &(_, local)) in pieces.iter().enumerate() {
+        let slot = slot[il.wrapping_add_signed(local)];
+        if slot == 0 {
+            return (at, cost);
+        }
+        cost += inverse[slot + k];
+        if cost > limit {
+            return (usize::MAX, cost);
+        }
+    }
+    (pieces.len(), cost)
 }
 
 /// 1/r, or `None` where r is not a positive number.
@@ -399,12 +451,13 @@ impl Rates for &MttGrid {
 
 /// Ellipses computed on first use, each kept as its 1/rate along every move of the stencil
 /// (computed by [`MttGrid::ros_toward_ftmin`]'s formula, so the same bits; +∞ where the fire
-/// does not spread that way), in the order they were first needed; `slot[l]` is 1 + the place
-/// of window cell `l`'s (0: not yet evaluated). The engine reads a cell's 1/rate along a move
-/// many times (once for each source whose move crosses it), here one load each.
+/// does not spread that way), in the order they were first needed after one unused table;
+/// `slot[l]` is where window cell `l`'s table starts in `inverse` (0, the unused table: not yet
+/// evaluated). The engine reads a cell's 1/rate along a move many times (once for each source
+/// whose move crosses it), here one load each.
 struct LazyEllipses<F> {
     ellipse: F,
-    slot: Vec<u32>,
+    slot: Vec<usize>,
     /// Head rate of each evaluated cell (0: it does not burn).
     heads: Vec<f64>,
     /// 1/rate along every move, `moves` values for each evaluated cell.
@@ -414,14 +467,13 @@ struct LazyEllipses<F> {
 }
 
 impl<F: FnMut(usize) -> Ellipse> LazyEllipses<F> {
-    /// Cell `i`'s place (window index `l`), its ellipse evaluated the first time.
+    /// Where cell `i`'s table (window index `l`) starts, its ellipse evaluated the first time.
     #[inline]
     fn get(&mut self, i: usize, l: usize) -> usize {
-        let slot = self.slot[l] as usize;
-        if slot > 0 {
-            return slot - 1;
+        match self.slot[l] {
+            0 => self.evaluate(i, l),
+            slot => slot,
         }
-        self.evaluate(i, l)
     }
 
     #[inline(never)]
@@ -438,22 +490,28 @@ impl<F: FnMut(usize) -> Ellipse> LazyEllipses<F> {
         // there.
         let numerator = head * (1.0 - ecc);
         let base = self.inverse.len();
-        self.inverse.resize(base + self.ux.len(), 0.0);
-        for ((out, &ux), &uy) in self.inverse[base..].iter_mut().zip(&self.ux).zip(&self.uy) {
-            let r = numerator / (1.0 - ecc * (ux * s + uy * c));
-            *out = inverse_of(r).unwrap_or(f64::INFINITY);
+        // A cell that does not burn stops every move (+∞ each way, as the formula gives it).
+        self.inverse.resize(base + self.ux.len(), f64::INFINITY);
+        if head > 0.0 {
+            for ((out, &ux), &uy) in self.inverse[base..].iter_mut().zip(&self.ux).zip(&self.uy) {
+                let r = numerator / (1.0 - ecc * (ux * s + uy * c));
+                // inverse_of(r), +∞ where None, as a select the compiler can vectorise.
+                *out = if r > 0.0 { 1.0 / r } else { f64::INFINITY };
+            }
         }
         self.heads.push(head);
-        self.slot[l] = self.heads.len() as u32;
-        self.heads.len() - 1
+        self.slot[l] = base;
+        base
     }
 }
 
 impl<F: FnMut(usize) -> Ellipse> Rates for LazyEllipses<F> {
     fn prepare(&mut self, moves: &[Move], window: &Window) {
         self.slot = vec![0; window.cells()];
-        // Room for a few hundred cells' tables (pages are touched only as they fill).
+        // Room for a few hundred cells' tables (pages are touched only as they fill), after the
+        // unused one that slot 0 names.
         self.inverse = Vec::with_capacity(512 * moves.len());
+        self.inverse.resize(moves.len(), f64::INFINITY);
         self.ux = moves.iter().map(|m| m.ux).collect();
         self.uy = moves.iter().map(|m| m.uy).collect();
     }
@@ -461,16 +519,44 @@ impl<F: FnMut(usize) -> Ellipse> Rates for LazyEllipses<F> {
     #[inline]
     fn inverse_rate(&mut self, i: usize, l: usize, k: usize, _m: &Move) -> f64 {
         let slot = self.get(i, l);
-        self.inverse[slot * self.ux.len() + k]
+        self.inverse[slot + k]
     }
 
     fn burnable(&mut self, i: usize, l: usize) -> bool {
         let slot = self.get(i, l);
-        self.heads[slot] > 0.0
+        self.heads[slot / self.ux.len() - 1] > 0.0
+    }
+
+    #[inline]
+    fn move_cost(
+        &mut self,
+        i: usize,
+        il: usize,
+        k: usize,
+        _m: &Move,
+        pieces: &[(isize, isize)],
+        limit: f64,
+    ) -> Option<f64> {
+        // [`Rates::move_cost`]'s loop, left for a cell not yet evaluated and resumed after it.
+        let mut cost = 0.0;
+        let mut rest = pieces;
+        loop {
+            let (at, sum) = sum_evaluated(&self.slot, &self.inverse, il, k, rest, cost, limit);
+            if at == usize::MAX {
+                return None;
+            }
+            if at == rest.len() {
+                return Some(sum);
+            }
+            cost = sum;
+            rest = &rest[at..];
+            let (offset, local) = rest[0];
+            self.evaluate(i.wrapping_add_signed(offset), il.wrapping_add_signed(local));
+        }
     }
 
     fn rewindow(&mut self, old: &Window, new: &Window) {
-        self.slot = old.moved(&self.slot, new);
+        self.slot = old.moved(&self.slot, new, 0);
     }
 }
 
@@ -513,9 +599,9 @@ impl Window {
         x0 >= self.x0 && y0 >= self.y0 && x1 < self.x0 + self.width && y1 < self.y0 + self.height
     }
 
-    /// Per-cell values of this window placed in `new` (which holds it), zero elsewhere.
-    fn moved<T: Copy + Default>(&self, values: &[T], new: &Window) -> Vec<T> {
-        let mut out = vec![T::default(); new.cells()];
+    /// Per-cell values of this window placed in `new` (which holds it), `fill` elsewhere.
+    fn moved<T: Copy>(&self, values: &[T], new: &Window, fill: T) -> Vec<T> {
+        let mut out = vec![fill; new.cells()];
         for row in 0..self.height {
             let at = new.local(self.x0, self.y0 + row);
             out[at..at + self.width].copy_from_slice(&values[row * self.width..(row + 1) * self.width]);
@@ -542,9 +628,9 @@ fn dijkstra<R: Rates>(
     stencil_radius: u32,
     max_time_h: f64,
 ) -> Result<Vec<(usize, f64)>, MttError> {
-    const UNREACHED: u8 = 0;
-    const TENTATIVE: u8 = 1;
-    const DONE: u8 = 2;
+    // A final cell's time: below every time the search writes (one load and one comparison
+    // tell a final cell, a reached one and one not reached: +∞).
+    const DONE: f64 = -1.0;
     if !(1..=8).contains(&stencil_radius) {
         return Err(MttError::StencilRadius(stencil_radius));
     }
@@ -563,40 +649,18 @@ fn dijkstra<R: Rates>(
         }
     }
     let r = stencil_radius as usize;
-    // The moves by angle, so that consecutive moves cross mostly the same cells and read
-    // neighbouring entries of a cell's 1/rate table ([`LazyEllipses`]). The order of a cell's
-    // moves changes no arrival time: each move ends at a different cell, whose time the others do
-    // not read, and the queue orders its entries by (time, index) alone.
-    let mut moves = stencil(stencil_radius as i32);
-    moves.sort_by_cached_key(|m| {
-        let angle = f64::from(m.dy).atan2(f64::from(m.dx));
-        // total_cmp's order as an integer key.
-        let bits = angle.to_bits() as i64;
-        bits ^ (((bits >> 63) as u64) >> 1) as i64
-    });
-    // The cells each move crosses, as (dx, dy) offsets with the pieces in each, all moves' in one
-    // list (`spans[k]` is move k's part); as index offsets in the grid and in the window.
-    let mut crossed_xy: Vec<(i32, i32, u32)> = Vec::new();
-    let mut spans = Vec::with_capacity(moves.len());
-    for m in &moves {
-        let start = crossed_xy.len();
-        crossed_xy.extend(m.crossed_cells());
-        spans.push(start..crossed_xy.len());
-    }
-    // A move's pieces change cells at least every second piece along its longer axis, so a
-    // cell holds one or two of them (the loop below adds 1/rate once or twice).
-    assert!(
-        crossed_xy.iter().all(|c| (1..=2).contains(&c.2)),
-        "one or two pieces a cell"
-    );
-    let offsets = |width: usize| -> Vec<(isize, isize, u32)> {
+    let Stencil {
+        moves,
+        pieces_xy: crossed_xy,
+        spans,
+    } = Stencil::of_radius(stencil_radius);
+    let offsets = |width: usize| -> Vec<(isize, isize)> {
         crossed_xy
             .iter()
-            .map(|&(ox, oy, n)| {
+            .map(|&(ox, oy)| {
                 (
                     oy as isize * w as isize + ox as isize,
                     oy as isize * width as isize + ox as isize,
-                    n,
                 )
             })
             .collect()
@@ -630,17 +694,28 @@ fn dijkstra<R: Rates>(
             height: 1,
         },
     };
-    rates.prepare(&moves, &win);
+    rates.prepare(moves, &win);
     let mut crossed = offsets(win.width);
-    // Arrival times in minutes, read only where the state is not UNREACHED; by window index.
-    let mut t = vec![0.0f64; win.cells()];
-    let mut state = vec![UNREACHED; win.cells()];
+    // Each move's end cell as index offsets in the grid and in the window.
+    let targets = |width: usize| -> Vec<(isize, isize)> {
+        moves
+            .iter()
+            .map(|m| {
+                (
+                    m.dy as isize * w as isize + m.dx as isize,
+                    m.dy as isize * width as isize + m.dx as isize,
+                )
+            })
+            .collect()
+    };
+    let mut ends = targets(win.width);
+    // Arrival times in minutes by window index: +∞ not reached yet, DONE once final.
+    let mut t = vec![f64::INFINITY; win.cells()];
     let mut heap = BinaryHeap::new();
     for &(x, y) in ignitions {
         let (i, l) = (y * w + x, win.local(x, y));
         if rates.burnable(i, l) {
             t[l] = 0.0;
-            state[l] = TENTATIVE;
             heap.push(Entry { t: 0.0, i });
         }
     }
@@ -648,10 +723,11 @@ fn dijkstra<R: Rates>(
     while let Some(Entry { t: ti, i }) = heap.pop() {
         let (x, y) = (i % w, i / w);
         let il = win.local(x, y);
-        if state[il] == DONE || ti > t[il] {
+        // A final cell (DONE < ti), or an entry an earlier time replaced.
+        if ti != t[il] {
             continue;
         }
-        state[il] = DONE;
+        t[il] = DONE;
         if ti > max_min {
             break;
         }
@@ -668,49 +744,40 @@ fn dijkstra<R: Rates>(
                 win.width.max(win.height) / 2 + r,
                 &grid,
             );
-            t = win.moved(&t, &grown);
-            state = win.moved(&state, &grown);
+            t = win.moved(&t, &grown, f64::INFINITY);
             rates.rewindow(&win, &grown);
             win = grown;
             crossed = offsets(win.width);
+            ends = targets(win.width);
         }
         let il = win.local(x, y);
+        // Away from the grid's edges every move stays on it.
+        let inside = x >= r && y >= r && x + r < w && y + r < h;
         let (x, y) = (x as i32, y as i32);
-        'moves: for (k, ((m, span), &inverse_scale)) in
-            moves.iter().zip(&spans).zip(&inverse_scale).enumerate()
+        'moves: for (k, (((m, span), &inverse_scale), &(end, end_local))) in
+            moves.iter().zip(spans).zip(&inverse_scale).zip(&ends).enumerate()
         {
-            let (nx, ny) = (x + m.dx, y + m.dy);
-            if nx < 0 || ny < 0 || nx >= w as i32 || ny >= h as i32 {
+            if !inside {
+                let (nx, ny) = (x + m.dx, y + m.dy);
+                if nx < 0 || ny < 0 || nx >= w as i32 || ny >= h as i32 {
+                    continue;
+                }
+            }
+            let (j, jl) = (i.wrapping_add_signed(end), il.wrapping_add_signed(end_local));
+            let bound = t[jl];
+            if bound == DONE {
                 continue;
             }
-            let j = ny as usize * w + nx as usize;
-            let jl = win.local(nx as usize, ny as usize);
-            let bound = match state[jl] {
-                DONE => continue,
-                UNREACHED => f64::INFINITY,
-                _ => t[jl],
-            };
             // Past this cost the move cannot give j an earlier time, or gives one past the limit
             // (the margin covers the few roundings between this and the time's formula).
             let cost_limit = (margin(bound.min(max_min)) - ti) * inverse_scale;
-            let mut cost = 0.0;
-            for &(offset, local, pieces) in &crossed[span.clone()] {
-                // +∞ (no spread that way) makes the cost pass any limit: the move is dropped.
-                let inverse =
-                    rates.inverse_rate(i.wrapping_add_signed(offset), il.wrapping_add_signed(local), k, m);
-                // `for _ in 0..pieces { cost += inverse }` for one or two pieces, without a
-                // branch on their number.
-                let once = cost + inverse;
-                let twice = once + inverse;
-                cost = if pieces == 2 { twice } else { once };
-                if cost > cost_limit {
-                    continue 'moves;
-                }
-            }
+            // +∞ (no spread that way) makes the cost pass any limit: the move is dropped.
+            let Some(cost) = rates.move_cost(i, il, k, m, &crossed[span.clone()], cost_limit) else {
+                continue 'moves;
+            };
             let tj = ti + cost * m.len_cells * grid.cell_size_ft / f64::from(m.pieces);
             if tj < bound {
                 t[jl] = tj;
-                state[jl] = TENTATIVE;
                 heap.push(Entry { t: tj, i: j });
             }
         }
@@ -725,6 +792,53 @@ pub fn arrival_times_h(
     ignitions: &[(usize, usize)],
 ) -> Result<Vec<f64>, MttError> {
     MttGrid::new(landscape, cfg)?.arrival_times_h(ignitions, cfg.stencil_radius, cfg.max_time_h)
+}
+
+/// The stencil's moves and the cells their pieces lie in, computed once per radius.
+struct Stencil {
+    moves: Vec<Move>,
+    /// The cell each piece of each move lies in, as a (dx, dy) offset, in order along the
+    /// segment (a cell holding two consecutive pieces is listed twice), all moves' in one list.
+    pieces_xy: Vec<(i32, i32)>,
+    /// Move k's part of `pieces_xy`.
+    spans: Vec<std::ops::Range<usize>>,
+}
+
+impl Stencil {
+    /// The stencil of radius `r` (1..=8).
+    fn of_radius(r: u32) -> &'static Stencil {
+        static BY_RADIUS: [std::sync::OnceLock<Stencil>; 8] = [const { std::sync::OnceLock::new() }; 8];
+        BY_RADIUS[(r - 1) as usize].get_or_init(|| Stencil::new(r))
+    }
+
+    fn new(r: u32) -> Self {
+        // The moves by angle, so that consecutive moves cross mostly the same cells and read
+        // neighbouring entries of a cell's 1/rate table ([`LazyEllipses`]). The order of a cell's
+        // moves changes no arrival time: each move ends at a different cell, whose time the
+        // others do not read, and the queue orders its entries by (time, index) alone.
+        let mut moves = stencil(r as i32);
+        moves.sort_by_cached_key(|m| {
+            let angle = f64::from(m.dy).atan2(f64::from(m.dx));
+            // total_cmp's order as an integer key.
+            let bits = angle.to_bits() as i64;
+            bits ^ (((bits >> 63) as u64) >> 1) as i64
+        });
+        // One entry a piece keeps the sum's loop free of a branch on a cell's number of pieces.
+        let mut pieces_xy: Vec<(i32, i32)> = Vec::new();
+        let mut spans = Vec::with_capacity(moves.len());
+        for m in &moves {
+            let start = pieces_xy.len();
+            for (ox, oy, n) in m.crossed_cells() {
+                pieces_xy.extend(std::iter::repeat_n((ox, oy), n as usize));
+            }
+            spans.push(start..pieces_xy.len());
+        }
+        Self {
+            moves,
+            pieces_xy,
+            spans,
+        }
+    }
 }
 
 struct Move {
