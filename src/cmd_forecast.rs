@@ -389,15 +389,25 @@ fn map(settings: &Settings, args: &MapArgs) -> anyhow::Result<ExitCode> {
     firecast_forecast::stage::map_png(&map, &staged.path().join("map.png"))?;
     staged.publish()?;
     let values: Vec<f64> = map.probability.iter().flatten().flatten().copied().collect();
+    let daily: Vec<f64> = map
+        .daily_probability
+        .iter()
+        .flatten()
+        .flatten()
+        .flatten()
+        .copied()
+        .collect();
     let above = values.iter().filter(|&&p| p >= map.threshold).count();
     if settings.json {
         output::print_json(&serde_json::json!({
             "out": out, "cells": values.len(), "above_threshold": above, "threshold": map.threshold,
             "max": values.iter().copied().fold(0.0, f64::max),
+            "max_daily_probability": (!daily.is_empty()).then(|| daily.iter().copied().fold(0.0, f64::max)),
+            "usual_daily": map.usual_daily,
         }))?;
     } else {
         println!(
-            "{} on {}: {} cells ({} x {}), {} at or above the threshold {:.3}, max {:.3} -> {}/map.png, map.json",
+            "{} on {}: {} cells ({} x {}), {} with a score at or above the alert threshold {:.3}, max score {:.3} -> {}/map.png, map.json",
             map.model,
             map.date,
             values.len(),
@@ -408,6 +418,14 @@ fn map(settings: &Settings, args: &MapArgs) -> anyhow::Result<ExitCode> {
             values.iter().copied().fold(0.0, f64::max),
             args.out.display()
         );
+        if let Some(u) = map.usual_daily {
+            println!(
+                "the day's chance of an ignition per cell: up to {:.3} % ({:.1} x the training area's usual {:.3} % a cell-day)",
+                daily.iter().copied().fold(0.0, f64::max) * 100.0,
+                daily.iter().copied().fold(0.0, f64::max) / u,
+                u * 100.0
+            );
+        }
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -475,16 +493,23 @@ fn predict(settings: &Settings, args: &PredictArgs) -> anyhow::Result<ExitCode> 
         "lat",
         "lon",
         "date",
-        "P(ignition)",
-        "threshold",
-        "ignition expected",
+        "P(ignition) that day",
+        "x usual day",
+        "model score",
+        "alert threshold",
+        "score above it",
         "GRIDMET cell",
     ]);
+    let pct = |p: Option<f64>| p.map_or_else(|| "-".to_string(), |p| format!("{:.3} %", p * 100.0));
     for a in &answers {
         table.add_row(vec![
             format!("{:.4}", a.lat),
             format!("{:.4}", a.lon),
             a.date.clone(),
+            pct(a.daily_probability),
+            a.daily_probability
+                .zip(a.usual_daily)
+                .map_or_else(|| "-".to_string(), |(d, u)| format!("{:.1}", d / u)),
             format!("{:.3}", a.probability),
             format!("{:.3}", a.threshold),
             if a.ignition_expected { "yes" } else { "no" }.to_string(),
@@ -497,6 +522,17 @@ fn predict(settings: &Settings, args: &PredictArgs) -> anyhow::Result<ExitCode> 
             "model {} ({}, protocol {}, inputs days {}..{}), dataset {} {}",
             a.model, a.kind, a.protocol, a.input_days.0, a.input_days.1, a.dataset, a.dataset_version
         );
+        match a.usual_daily {
+            Some(u) => println!(
+                "the model score is on the training samples' scale (not a daily chance); P(ignition) that day is \
+                 it corrected to the training area's usual {:.3} % a cell-day",
+                u * 100.0
+            ),
+            None => println!(
+                "the model score is on the training samples' scale, not a daily chance; this model does not \
+                 record its training fires, so no daily probability (retrain it to get one)"
+            ),
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -514,6 +514,39 @@ stages:
         }
         assert_eq!(answers[0]["model"], name);
         assert_eq!(answers[0]["input_days"], serde_json::json!([-60, 14]));
+        // The day's chance beside the score: far below it (the samples are ~40 % fires, the
+        // area's cell-days a fraction of a percent), in the same order, and at the score of the
+        // training share exactly the usual day.
+        let usual = answers[0]["usual_daily"].as_f64().expect("usual_daily");
+        assert!(usual > 0.0 && usual < 0.05, "{usual}");
+        let daily: Vec<f64> = answers
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|a| a["daily_probability"].as_f64().expect("daily_probability"))
+            .collect();
+        for (d, g) in daily.iter().zip(&got) {
+            assert!(*d < *g && *d > 0.0, "{name}: daily {d} vs score {g}");
+        }
+        for i in 0..got.len() {
+            for j in 0..got.len() {
+                if got[i] < got[j] {
+                    assert!(daily[i] < daily[j], "{name}: the correction keeps the order");
+                }
+            }
+        }
+    }
+    let map: serde_json::Value = serde_json::from_str(&p.read("build/map/map.json")).unwrap();
+    let usual = map["usual_daily"].as_f64().expect("the map's usual_daily");
+    let daily = map["daily_probability"]
+        .as_array()
+        .expect("the map's daily_probability");
+    assert_eq!(daily.len(), map["lats"].as_array().unwrap().len());
+    for (row, scores) in daily.iter().zip(map["probability"].as_array().unwrap()) {
+        for (d, s) in row.as_array().unwrap().iter().zip(scores.as_array().unwrap()) {
+            let (d, s) = (d.as_f64().unwrap(), s.as_f64().unwrap());
+            assert!(d < s && d > 0.0 && usual > 0.0, "{d} vs {s}");
+        }
     }
     let out = p
         .firecast()

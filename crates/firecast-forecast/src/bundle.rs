@@ -52,11 +52,20 @@ pub struct TrainingExtent {
     pub first_date: String,
     pub last_date: String,
     pub samples: usize,
+    /// The fires among them, and the distinct GRIDMET cell-days those lie in: with the area's
+    /// cells they give the usual daily rate a score is corrected to ([`crate::daily`]). None in
+    /// bundles written before 2026-11-28's daily probabilities.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub positives: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ignition_cell_days: Option<usize>,
 }
 
 impl TrainingExtent {
     /// The extent of these windows (None when there are none).
-    pub fn of<'a>(meta: impl IntoIterator<Item = &'a crate::data::SampleMeta>) -> Option<Self> {
+    pub fn of<'a>(meta: impl IntoIterator<Item = &'a crate::data::SampleMeta> + Clone) -> Option<Self> {
+        let positives = meta.clone().into_iter().filter(|m| m.tier.is_positive()).count();
+        let fired = crate::daily::ignition_cell_days(meta.clone());
         let mut it = meta.into_iter();
         let first = it.next()?;
         let mut e = Self {
@@ -67,6 +76,8 @@ impl TrainingExtent {
             first_date: String::new(),
             last_date: String::new(),
             samples: 1,
+            positives: Some(positives),
+            ignition_cell_days: Some(fired),
         };
         let (mut d0, mut d1) = (first.event_day, first.event_day);
         for m in it {

@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 
 pub mod bundle;
 pub mod cell_days;
+pub mod daily;
 pub mod data;
 pub mod evaluate;
 pub mod experiment;

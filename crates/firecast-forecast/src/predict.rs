@@ -25,7 +25,17 @@ pub struct Prediction {
     pub lat: f64,
     pub lon: f64,
     pub date: String,
+    /// The model's score, on the training samples' scale (about 40 % fires by the paper's
+    /// design): not a daily chance.
     pub probability: f64,
+    /// The day's probability of an ignition in the GRIDMET cell: the score corrected to the
+    /// training area's usual daily rate ([`crate::daily`]); None where the bundle does not
+    /// record its training fires.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub daily_probability: Option<f64>,
+    /// That usual daily rate.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub usual_daily: Option<f64>,
     pub threshold: f64,
     pub ignition_expected: bool,
     /// The GRIDMET cell whose weather was read.
@@ -47,7 +57,20 @@ pub fn predict(
     queries: &[Query],
     device: tch::Device,
 ) -> Result<Vec<Prediction>, ForecastError> {
-    let (answers, dropped) = predict_available(bundle, gridmet, queries, device)?;
+    let (mut answers, dropped) = predict_available(bundle, gridmet, queries, device)?;
+    if let Some(base) = match &bundle.info.training_extent {
+        Some(e) => crate::daily::daily_base(e, gridmet)?,
+        None => None,
+    } {
+        for a in answers.iter_mut().flatten() {
+            a.daily_probability = Some(crate::cell_days::prior_corrected(
+                a.probability,
+                base.sampled_prevalence,
+                base.usual,
+            ));
+            a.usual_daily = Some(base.usual);
+        }
+    }
     let missing: Vec<String> = queries
         .iter()
         .zip(&answers)
@@ -146,6 +169,8 @@ pub fn predict_available(
                 lon: q.lon,
                 date: q.date.clone(),
                 probability: prob,
+                daily_probability: None,
+                usual_daily: None,
                 threshold: bundle.info.threshold,
                 ignition_expected: prob > bundle.info.threshold,
                 cell_lat: s.cell_lat,

@@ -212,7 +212,8 @@ impl StageKind for ExperimentStage {
     }
     fn version(&self) -> u32 {
         // 2: DVCLive plot files per model and protocol.
-        2
+        // 3: bundles record their training fires and ignition cell-days (daily probabilities).
+        3
     }
     fn summary(&self) -> &'static str {
         "ignition dataset -> Table III: every model x protocol x seed, intervals, paired tests, plots, saved models"
@@ -502,6 +503,11 @@ pub struct PointForecast {
     /// (None when the bundle does not say): outside it the forecast is an extrapolation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub inside_training_extent: Option<bool>,
+    /// The day's probability of an ignition in the cell: the seeds' scores corrected from the
+    /// training samples' fire share to the training area's usual daily rate (None for bundles
+    /// that do not record their training fires).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub daily: Option<crate::daily::DailyForecast>,
 }
 
 /// How far outside its training windows' box a place may lie and still count as inside: one
@@ -598,6 +604,7 @@ pub fn assemble_forecast(answers: &[SeedAnswer]) -> Result<PointForecast, crate:
             .training_extent
             .as_ref()
             .map(|e| e.contains(first.lat, first.lon, EXTENT_MARGIN_DEG)),
+        daily: None,
     })
 }
 
@@ -664,7 +671,23 @@ pub fn forecast_point(
             .ok_or_else(|| crate::ForecastError::Model(format!("{rel}: the model gave no prediction")))?;
         answers.push((prediction, bundle.info, rel));
     }
-    assemble_forecast(&answers)
+    let mut forecast = assemble_forecast(&answers)?;
+    if let Some(base) = daily_base_of(forecast.training_extent.as_ref(), gridmet)? {
+        let scores: Vec<f64> = forecast.per_seed.iter().map(|s| s.probability).collect();
+        forecast.daily = Some(crate::daily::daily_forecast(&scores, &base));
+    }
+    Ok(forecast)
+}
+
+/// The usual daily rate of a model's training area (None when its bundle does not say).
+fn daily_base_of(
+    extent: Option<&crate::bundle::TrainingExtent>,
+    gridmet: &std::path::Path,
+) -> Result<Option<crate::daily::DailyBase>, crate::ForecastError> {
+    match extent {
+        Some(e) => crate::daily::daily_base(e, gridmet),
+        None => Ok(None),
+    }
 }
 
 /// An experiment's `results.json` (None when it has none) and the protocol a prediction
@@ -704,8 +727,16 @@ pub struct ProbabilityMap {
     pub lats: Vec<f64>,
     pub lons: Vec<f64>,
     /// `lats.len()` rows of `lons.len()` values (0–1, mean over seeds); `null` where a cell
-    /// has no complete weather window (masked or outside the files).
+    /// has no complete weather window (masked or outside the files). The models' score, on the
+    /// training samples' scale (about 40 % fires), not a daily chance.
     pub probability: Vec<Vec<Option<f64>>>,
+    /// The day's probability of an ignition per cell (mean over seeds of each seed's corrected
+    /// score, [`crate::daily`]); absent for bundles that do not record their training fires.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub daily_probability: Option<Vec<Vec<Option<f64>>>>,
+    /// The training area's usual daily probability the cells are corrected to.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub usual_daily: Option<f64>,
 }
 
 /// The probability at every (lat, lon) of `lats` × `lons` on `params.date`, by every saved
@@ -731,30 +762,43 @@ pub fn forecast_map(
         })
         .collect();
     let mut sum = vec![0.0; queries.len()];
+    let mut daily_sum = vec![0.0; queries.len()];
     let mut count = vec![0usize; queries.len()];
     let mut threshold = 0.0;
-    for (_, rel) in &bundles {
+    // The usual daily rate, from the first seed's training extent (the seeds share the split).
+    let mut base = None;
+    for (k, (_, rel)) in bundles.iter().enumerate() {
         let bundle = crate::bundle::load(&experiment.join(rel), device)?;
+        if k == 0 {
+            base = daily_base_of(bundle.info.training_extent.as_ref(), gridmet)?;
+        }
         threshold += bundle.info.threshold;
         let (answers, _) = crate::predict::predict_available(&bundle, gridmet, &queries, device)?;
         for (i, a) in answers.iter().enumerate() {
             if let Some(p) = a {
                 sum[i] += p.probability;
+                if let Some(b) = &base {
+                    daily_sum[i] +=
+                        crate::cell_days::prior_corrected(p.probability, b.sampled_prevalence, b.usual);
+                }
                 count[i] += 1;
             }
         }
     }
     let n_lon = lons.len();
-    let probability = (0..lats.len())
-        .map(|r| {
-            (0..n_lon)
-                .map(|c| {
-                    let i = r * n_lon + c;
-                    (count[i] == bundles.len() && count[i] > 0).then(|| sum[i] / count[i] as f64)
-                })
-                .collect()
-        })
-        .collect();
+    let grid = |values: &[f64]| -> Vec<Vec<Option<f64>>> {
+        (0..lats.len())
+            .map(|r| {
+                (0..n_lon)
+                    .map(|c| {
+                        let i = r * n_lon + c;
+                        (count[i] == bundles.len() && count[i] > 0).then(|| values[i] / count[i] as f64)
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    let probability = grid(&sum);
     Ok(ProbabilityMap {
         date: params.date.clone(),
         model: params.model.clone(),
@@ -764,6 +808,8 @@ pub fn forecast_map(
         lats: lats.to_vec(),
         lons: lons.to_vec(),
         probability,
+        daily_probability: base.as_ref().map(|_| grid(&daily_sum)),
+        usual_daily: base.map(|b| b.usual),
     })
 }
 
@@ -840,9 +886,11 @@ pub fn region_map(
     forecast_map(experiment, gridmet, params, &lats, &lons, device)
 }
 
-/// Draws a probability map as a PNG: each cell coloured by its probability class (five equal
-/// classes up to the map's maximum), north up; the cells at or above the threshold dotted when
-/// they are fewer than half.
+/// Draws a probability map as a PNG, north up. With the day's probabilities, each cell is
+/// coloured by its chance relative to the training area's usual day (below ½, ½–1, 1–2, 2–4,
+/// 4 times or more); otherwise by its model score (five equal classes up to the map's
+/// maximum). The cells whose score is at or above the alert threshold are dotted when they are
+/// fewer than half.
 pub fn map_png(map: &ProbabilityMap, path: &std::path::Path) -> Result<(), crate::ForecastError> {
     use firecast_render::chart::{Chart, LegendPosition, Series};
     let step = |v: &[f64]| {
@@ -862,8 +910,30 @@ pub fn map_png(map: &ProbabilityMap, path: &std::path::Path) -> Result<(), crate
         .fold(0.0f64, f64::max)
         .max(map.threshold)
         .max(1e-9);
-    // Five classes up to the map's maximum, the threshold marked in the legend.
-    let edges: Vec<f64> = (0..=5).map(|k| max * f64::from(k) / 5.0).collect();
+    // The day's chance relative to the usual day where it is known, else five equal classes
+    // of the score up to the map's maximum.
+    let relative = map.daily_probability.as_ref().zip(map.usual_daily);
+    let (edges, labels): (Vec<f64>, Vec<String>) = match relative {
+        Some(_) => (
+            vec![0.0, 0.5, 1.0, 2.0, 4.0, f64::INFINITY],
+            [
+                "below ½ the usual day",
+                "½–1 x usual",
+                "1–2 x usual",
+                "2–4 x usual",
+                "4 x usual or more",
+            ]
+            .map(String::from)
+            .to_vec(),
+        ),
+        None => {
+            let edges: Vec<f64> = (0..=5).map(|k| max * f64::from(k) / 5.0).collect();
+            let labels = (0..5)
+                .map(|k| format!("score {:.2}–{:.2}", edges[k], edges[k + 1]))
+                .collect();
+            (edges, labels)
+        }
+    };
     let colors: [[u8; 3]; 5] = [
         [255, 247, 188],
         [254, 217, 118],
@@ -882,18 +952,23 @@ pub fn map_png(map: &ProbabilityMap, path: &std::path::Path) -> Result<(), crate
         map.lats.first().copied().unwrap_or(0.0) - pad,
         map.lats.last().copied().unwrap_or(0.0) + pad,
     );
-    let mut chart = Chart::new(820, 660)
-        .title(format!(
-            "Model probability on {}: {} ({}, {} seed{}), threshold {:.2}",
+    let seeds = format!("{} seed{}", map.seeds, if map.seeds == 1 { "" } else { "s" });
+    let title = match relative {
+        Some((_, usual)) => format!(
+            "Chance of an ignition on {} vs the usual day ({:.3} %/cell): {} ({}, {seeds})",
             map.date,
+            usual * 100.0,
             map.model,
-            map.protocol,
-            map.seeds,
-            if map.seeds == 1 { "" } else { "s" },
-            map.threshold
-        ))
-        // "Model probability": at the training data's prevalence, not a daily rate (a label
-        // saying so did not fit under the map).
+            map.protocol
+        ),
+        // The score is on the training samples' scale, not a daily chance.
+        None => format!(
+            "Model score on {}: {} ({}, {seeds}), threshold {:.2}",
+            map.date, map.model, map.protocol, map.threshold
+        ),
+    };
+    let mut chart = Chart::new(820, 660)
+        .title(title)
         .x_label("longitude, degrees east")
         .y_label("latitude, degrees north")
         .x_range(x0, x1)
@@ -912,7 +987,16 @@ pub fn map_png(map: &ProbabilityMap, path: &std::path::Path) -> Result<(), crate
                 .flatten()
             {
                 Some(p) => {
-                    let k = edges[1..].iter().position(|&e| p <= e).unwrap_or(4);
+                    let value = match relative {
+                        Some((daily, usual)) => daily
+                            .get(r)
+                            .and_then(|row| row.get(c))
+                            .copied()
+                            .flatten()
+                            .map_or(0.0, |d| d / usual),
+                        None => p,
+                    };
+                    let k = edges[1..].iter().position(|&e| value < e).unwrap_or(4);
                     classes[k].push((lon, lat));
                     if p >= map.threshold {
                         above.push((lon, lat));
@@ -927,7 +1011,7 @@ pub fn map_png(map: &ProbabilityMap, path: &std::path::Path) -> Result<(), crate
             Series::cells(cells, size)
                 .color(colors[k])
                 .alpha(1.0)
-                .label(format!("{:.2}–{:.2}", edges[k], edges[k + 1])),
+                .label(labels[k].clone()),
         );
     }
     if !missing.is_empty() {
@@ -944,7 +1028,10 @@ pub fn map_png(map: &ProbabilityMap, path: &std::path::Path) -> Result<(), crate
             Series::scatter(above)
                 .color([90, 0, 0])
                 .marker(firecast_render::chart::Marker::Circle, 2.5)
-                .label(format!("at or above the threshold {:.2}", map.threshold)),
+                .label(format!(
+                    "score at or above the alert threshold {:.2}",
+                    map.threshold
+                )),
         );
     }
     chart.save_png(path).map_err(|e| crate::ForecastError::Data {
@@ -973,7 +1060,8 @@ impl StageKind for PredictStage {
         "forecast.predict"
     }
     fn version(&self) -> u32 {
-        1
+        // 2: the day's probability beside the model's score (`daily`, `daily_probability`).
+        2
     }
     fn summary(&self) -> &'static str {
         "ignition probability of a place and day from an experiment's model: mean and range over its seeds"
@@ -1071,8 +1159,18 @@ impl StageKind for PredictStage {
                 ));
             }
             ctx.metric("probability", 0, f.probability);
+            if let Some(d) = &f.daily {
+                ctx.metric("daily_probability", 0, d.probability);
+                ctx.log(format!(
+                    "the day's chance of an ignition in the cell: {:.3} % ({:.1}x the usual {:.3} %); {}",
+                    d.probability * 100.0,
+                    d.relative_to_usual,
+                    d.usual * 100.0,
+                    d.method
+                ));
+            }
             ctx.log(format!(
-            "{} ({}, protocol {}): P(ignition) at ({}, {}) on {} = {:.3} [{:.3}, {:.3}] over {} seeds, threshold {:.3}: {}",
+            "{} ({}, protocol {}): score at ({}, {}) on {} = {:.3} [{:.3}, {:.3}] over {} seeds (training samples' scale), threshold {:.3}: {}",
             f.model,
             f.kind,
             f.protocol,
@@ -1127,6 +1225,8 @@ mod tests {
                 first_date: "2016-03-01".into(),
                 last_date: "2019-04-30".into(),
                 samples: 10,
+                positives: Some(4),
+                ignition_cell_days: Some(4),
             }),
         }
     }
@@ -1138,6 +1238,8 @@ mod tests {
             lon: -105.0,
             date: "2018-06-15".into(),
             probability,
+            daily_probability: None,
+            usual_daily: None,
             threshold,
             ignition_expected: probability > threshold,
             cell_lat: 40.025,

@@ -102,6 +102,18 @@ pub struct ForecastFile {
     pub training_extent: Option<ForecastExtent>,
     #[serde(default)]
     pub inside_training_extent: Option<bool>,
+    /// The day's probability (absent in forecasts of older bundles).
+    #[serde(default)]
+    pub daily: Option<ForecastDaily>,
+}
+
+/// `forecast.predict`'s `daily`.
+#[derive(Debug, Clone, Deserialize)]
+pub struct ForecastDaily {
+    pub probability: f64,
+    pub interval: [f64; 2],
+    pub usual: f64,
+    pub method: String,
 }
 
 /// `forecast.predict`'s `training_extent` (the report reads the file, not the forecasting
@@ -461,12 +473,23 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
             first.perturbation.dead_moisture_frac * 100.0
         ),
         format!(
-            "Forecast: model `{}` trained on `{}` ({}), probability averaged over {} training seeds; the interval is \
-             their range, not a calibrated predictive interval.",
+            "Forecast: model `{}` trained on `{}` ({}), averaged over {} training seeds; the interval is their range, \
+             not a calibrated predictive interval. {}",
             forecast.model,
             forecast.dataset,
             short(&forecast.dataset_version),
-            forecast.per_seed.len()
+            forecast.per_seed.len(),
+            match &forecast.daily {
+                Some(d) => format!(
+                    "The model scores on its training samples' scale (about 40 % fires); the day's probability is \
+                     {}. Its calibration over all cell-days is measured by forecast.cell_days (docs/results/table3.md).",
+                    d.method
+                ),
+                None =>
+                    "The model scores on its training samples' scale (about 40 % fires), not a daily chance; \
+                         it does not record its training fires, so no daily probability is given."
+                        .to_string(),
+            }
         ),
         if spread.is_some() {
             "Times are hours after ignition; areas are acres and hectares. Evacuation bands use the earliest \
@@ -533,13 +556,12 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
         "Suppression resources other than the simulated helicopter (drops of 800 gal, one per step at most).".into(),
     ];
     if fc.ignition_expected {
-        what_would_change.push(
-            "Rain or higher humidity on the day would lower the ignition probability of the next forecast."
-                .into(),
-        );
+        what_would_change
+            .push("Rain or higher humidity on the day would lower the score of the next forecast.".into());
     } else {
         what_would_change.push(format!(
-            "The forecast is below its threshold ({:.2}); the simulations show what happens if a fire starts anyway.",
+            "The forecast's score is below its alert threshold ({:.2}); the simulations show what happens if a fire \
+             starts anyway.",
             fc.threshold
         ));
     }
@@ -642,6 +664,10 @@ fn forecast_block(f: &ForecastFile) -> Forecast {
         interval_method,
         threshold: f.threshold,
         ignition_expected: f.probability > f.threshold,
+        daily_probability: f.daily.as_ref().map(|d| d.probability),
+        daily_interval: f.daily.as_ref().map(|d| d.interval),
+        usual_daily_probability: f.daily.as_ref().map(|d| d.usual),
+        daily_method: f.daily.as_ref().map(|d| d.method.clone()),
         model: f.model.clone(),
         kind: f.kind.clone(),
         protocol: f.protocol.clone(),

@@ -136,8 +136,10 @@ pub fn build(c: &Computed) -> Result<Value, ReportError> {
     features.push(feature(
         point(ilat, ilon),
         json!({"kind": "ignition", "date": r.header.date,
-               "ignition_probability_pct": r.forecast.probability * 100.0,
-               "ignition_threshold_pct": r.forecast.threshold * 100.0}),
+               "ignition_score_pct": r.forecast.probability * 100.0,
+               "ignition_threshold_pct": r.forecast.threshold * 100.0,
+               "daily_ignition_probability_pct": r.forecast.daily_probability.map(|p| p * 100.0),
+               "usual_daily_ignition_probability_pct": r.forecast.usual_daily_probability.map(|p| p * 100.0)}),
     ));
     Ok(json!({
         "type": "FeatureCollection",

@@ -412,41 +412,71 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         )?;
     }
     w(&mut h, "</ul>");
-    let spread = if r.forecast.interval[1] - r.forecast.interval[0] > 1e-9 {
-        format!(
-            "{:.0}–{:.0} % over {} model seeds",
-            r.forecast.interval[0] * 100.0,
-            r.forecast.interval[1] * 100.0,
-            r.forecast.seeds
-        )
-    } else if r.forecast.seeds <= 1 {
-        "one trained model, no interval".to_string()
+    let f = &r.forecast;
+    let alert = if f.ignition_expected {
+        "<b>alert</b> (above it)"
     } else {
-        format!("the {} trained models agree", r.forecast.seeds)
+        "no alert (below it)"
+    };
+    let chance = match (f.daily_probability, f.usual_daily_probability) {
+        (Some(d), Some(u)) => format!(
+            "Chance of an ignition in this cell on the day: <b>{}</b>, <b>{}</b> the usual day ({}){}. The model's \
+             score, {:.0} % on its training samples' scale (about 40 % fires, not a daily chance), against its \
+             alert threshold {:.0} %: {alert}.",
+            daily_pct(d),
+            times_usual(d / u),
+            daily_pct(u),
+            f.daily_interval
+                .filter(|i| i[1] - i[0] > 1e-12)
+                .map_or_else(String::new, |i| format!(
+                    "; {}–{} over {} model seeds",
+                    daily_pct(i[0]),
+                    daily_pct(i[1]),
+                    f.seeds
+                )),
+            f.probability * 100.0,
+            f.threshold * 100.0,
+        ),
+        _ => format!(
+            "Model score <b>{:.0} %</b> on its training samples' scale (about 40 % fires): not a daily chance (the \
+             model does not record its training fires); against its alert threshold {:.0} %: {alert}.",
+            f.probability * 100.0,
+            f.threshold * 100.0,
+        ),
     };
     write!(
         h,
-        "<h3>Will a fire start?</h3><p>Ignition probability <b>{:.0} %</b> ({spread}; alert threshold {:.0} %): {}.</p>{}\
-         <p class=muted>Risk {}: {}</p></div></section>",
-        r.forecast.probability * 100.0,
-        r.forecast.threshold * 100.0,
-        if r.forecast.ignition_expected {
-            "<b>a fire is expected</b>"
-        } else {
-            "below the alert threshold"
-        },
-        extrapolation_warning(&r.forecast).unwrap_or_default(),
+        "<h3>Will a fire start?</h3><p>{chance}</p>{}<p class=muted>Risk {}: {}</p></div></section>",
+        extrapolation_warning(f).unwrap_or_default(),
         r.risk.level.as_str(),
         esc(&r.risk.rule)
     )?;
 
     // Forecast.
-    let f = &r.forecast;
+    let daily_rows = match (f.daily_probability, f.usual_daily_probability) {
+        (Some(d), Some(u)) => format!(
+            "<tr><th>Chance of an ignition that day</th><td class=n><b>{}</b>{}</td><td class=muted>{}</td></tr>\
+             <tr><th>The usual day</th><td class=n>{}</td><td class=muted>the day's chance is {} this</td></tr>",
+            daily_pct(d),
+            f.daily_interval.map_or_else(String::new, |i| format!(
+                " <span class=ci>[{}, {}]</span>",
+                daily_pct(i[0]),
+                daily_pct(i[1])
+            )),
+            esc(f.daily_method.as_deref().unwrap_or("")),
+            daily_pct(u),
+            times_usual(d / u)
+        ),
+        _ => "<tr><th>Chance of an ignition that day</th><td class=n>—</td><td class=muted>the model does not record \
+              its training fires (retrain it to get the day's probability)</td></tr>"
+            .to_string(),
+    };
     write!(
         h,
-        "<h2>1. Ignition forecast</h2><table><tr><th>Ignition probability</th><td class=n><b>{:.1} %</b> \
-         <span class=ci>[{:.1}, {:.1}]</span></td><td class=muted>{}</td></tr>\
-         <tr><th>Decision threshold</th><td class=n>{:.1} %</td><td class=muted>chosen on validation data; {}</td></tr>\
+        "<h2>1. Ignition forecast</h2><table>{daily_rows}<tr><th>Model score</th><td class=n>{:.1} % \
+         <span class=ci>[{:.1}, {:.1}]</span></td><td class=muted>on the training samples' scale (about 40 % fires), \
+         not a daily chance; {}</td></tr>\
+         <tr><th>Alert threshold</th><td class=n>{:.1} %</td><td class=muted>on the score, chosen on validation data; {}</td></tr>\
          <tr><th>Model</th><td colspan=2>{} ({}) under the <i>{}</i> protocol, inputs from day {} to {} relative to the date</td></tr>\
          <tr><th>Validation skill</th><td colspan=2>AUROC {} · AUPRC {} · test AUROC {}</td></tr>\
          <tr><th>Trained on</th><td colspan=2>{} <code>{}</code>{}</td></tr></table>{}",
@@ -456,9 +486,9 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
         esc(&f.interval_method),
         f.threshold * 100.0,
         if f.ignition_expected {
-            "the probability is above it"
+            "the score is above it: alert"
         } else {
-            "the probability is below it"
+            "the score is below it: no alert"
         },
         esc(&f.model),
         esc(&f.kind),
@@ -983,17 +1013,51 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
 
 /// The forecasted ignition pattern: one square per GRIDMET cell coloured by the day's
 /// probability, the cells at or above the threshold outlined, the place starred.
+/// A small daily probability (0–1) as a percent people can read: 0.036 %, 1.2 %.
+fn daily_pct(p: f64) -> String {
+    let pct = p * 100.0;
+    if pct >= 10.0 {
+        format!("{pct:.0} %")
+    } else if pct >= 1.0 {
+        format!("{pct:.1} %")
+    } else {
+        // Two significant digits.
+        let digits = (1.0 - pct.max(1e-9).log10().floor()) as usize;
+        format!("{pct:.digits$} %")
+    }
+}
+
+/// A ratio to the usual day: "2.3×".
+fn times_usual(r: f64) -> String {
+    if r < 10.0 {
+        format!("{r:.1}×")
+    } else {
+        format!("{r:.0}×")
+    }
+}
+
+/// Where a ratio to the usual day lies on the colour scale: ¼× at its start, 8× at its end
+/// (a log scale: doubling is one equal step).
+fn relative_position(r: f64) -> f64 {
+    if r > 0.0 {
+        ((r / 0.25).log2() / 32f64.log2()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
 fn ignition_pattern_figure(p: &IgnitionPattern, lat: f64, lon: f64) -> String {
     let threshold = p.threshold_pct / 100.0;
     let (rows, cols) = (p.lats.len(), p.lons.len());
     if rows == 0 || cols == 0 {
         return String::new();
     }
+    let relative = p.relative_to_usual.as_ref().zip(p.usual_daily_pct);
     let cell = (460.0 / cols.max(rows) as f64).min(40.0);
     let (pw, ph) = (cols as f64 * cell, rows as f64 * cell);
     let mut svg = format!(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"-2 -2 {:.0} {:.0}\" width=\"{:.0}\" height=\"{:.0}\" \
-         role=img aria-label=\"Ignition probability around the place\" font-family=\"DejaVu Sans, Arial, sans-serif\">",
+         role=img aria-label=\"The day's chance of an ignition around the place\" font-family=\"DejaVu Sans, Arial, sans-serif\">",
         pw + 4.0,
         ph + 4.0,
         pw + 4.0,
@@ -1002,23 +1066,39 @@ fn ignition_pattern_figure(p: &IgnitionPattern, lat: f64, lon: f64) -> String {
     for (r, row) in p.probability_pct.iter().enumerate() {
         for (c, v) in row.iter().enumerate() {
             let (x, y) = (c as f64 * cell, (rows - 1 - r) as f64 * cell);
-            let (fill, stroke) = match v {
+            let rel = relative.and_then(|(m, _)| m.get(r)?.get(c).copied().flatten());
+            let (fill, stroke, title) = match v {
                 Some(v) => (
-                    hex(figures::probability_color(v / 100.0)),
+                    hex(figures::probability_color(match relative {
+                        Some(_) => relative_position(rel.unwrap_or(0.0)),
+                        None => v / 100.0,
+                    })),
                     if *v >= threshold * 100.0 {
                         " stroke=\"#000\" stroke-width=\"1.5\""
                     } else {
                         " stroke=\"#fff\" stroke-width=\"0.5\""
                     },
+                    match (rel, relative) {
+                        (Some(q), Some((_, usual))) => {
+                            format!(
+                                "{} chance ({} the usual day), score {v:.0} %",
+                                daily_pct(q * usual / 100.0),
+                                times_usual(q)
+                            )
+                        }
+                        _ => format!("score {v:.0} %"),
+                    },
                 ),
-                None => ("#e0e0e0".to_string(), " stroke=\"#fff\" stroke-width=\"0.5\""),
+                None => (
+                    "#e0e0e0".to_string(),
+                    " stroke=\"#fff\" stroke-width=\"0.5\"",
+                    "no weather window".to_string(),
+                ),
             };
             let _ = write!(
                 svg,
-                "<rect x=\"{x:.1}\" y=\"{y:.1}\" width=\"{cell:.1}\" height=\"{cell:.1}\" fill=\"{fill}\"{stroke}><title>{:.4}° N, {:.4}° E: {}</title></rect>",
-                p.lats[r],
-                p.lons[c],
-                v.map_or("no weather window".into(), |v| format!("{v:.0} %"))
+                "<rect x=\"{x:.1}\" y=\"{y:.1}\" width=\"{cell:.1}\" height=\"{cell:.1}\" fill=\"{fill}\"{stroke}><title>{:.4}° N, {:.4}° E: {title}</title></rect>",
+                p.lats[r], p.lons[c],
             );
         }
     }
@@ -1034,21 +1114,60 @@ fn ignition_pattern_figure(p: &IgnitionPattern, lat: f64, lon: f64) -> String {
     let (sx, sy) = (frac(lon, &p.lons) * pw, (1.0 - frac(lat, &p.lats)) * ph);
     svg.push_str(&crate::maps::star(sx, sy, 9.0, "the place"));
     svg.push_str("</svg>");
-    let swatches = crate::maps::probability_swatches(&[0.1, 0.3, 0.5, 0.7, 0.9]);
-    format!(
-        "<h3>Forecasted ignition pattern</h3><figure class=keep style=\"max-width:480px\">{svg}<figcaption>The day's \
-         ignition probability at each of the {} GRIDMET cells from {:.3}° to {:.3}° N and {:.3}° to {:.3}° E by the same \
-         model (north up; the star is the place): {} at or above the {:.0} % threshold (outlined), highest {}.\
-         </figcaption></figure><div class=legend>{swatches}<span><i class=swf style=\"background:#e0e0e0\"></i>no weather \
-         window</span></div>",
+    let extent = format!(
+        "the {} GRIDMET cells from {:.3}° to {:.3}° N and {:.3}° to {:.3}° E by the same model (north up; the star is \
+         the place)",
         p.cells,
         p.lats[0],
         p.lats[rows - 1],
         p.lons[0],
-        p.lons[cols - 1],
+        p.lons[cols - 1]
+    );
+    let alert = format!(
+        "{} cells with a score at or above the {:.0} % alert threshold (outlined)",
         p.cells_above_threshold,
-        threshold * 100.0,
-        p.max_pct.map_or("—".into(), |m| format!("{m:.0} %"))
+        threshold * 100.0
+    );
+    let (caption, swatches) = match relative {
+        Some((m, usual_pct)) => {
+            let highest = m.iter().flatten().flatten().copied().reduce(f64::max);
+            (
+                format!(
+                    "The day's chance of an ignition at each of {extent}, relative to the usual day of the training area \
+                     ({} a cell): highest {}; {alert}.",
+                    daily_pct(usual_pct / 100.0),
+                    highest.map_or("—".into(), times_usual)
+                ),
+                [0.25, 0.5, 1.0, 2.0, 4.0, 8.0]
+                    .iter()
+                    .map(|&q| {
+                        format!(
+                            "<span><i class=swf style=\"background:{}\"></i>{}{}</span>",
+                            hex(figures::probability_color(relative_position(q))),
+                            match q {
+                                0.25 => "¼×".to_string(),
+                                0.5 => "½×".to_string(),
+                                _ => format!("{q:.0}×"),
+                            },
+                            if q == 1.0 { " usual" } else { "" }
+                        )
+                    })
+                    .collect::<String>(),
+            )
+        }
+        None => (
+            format!(
+                "The model's score at each of {extent}, on its training samples' scale (not a daily chance): {alert}, \
+                 highest {}.",
+                p.max_pct.map_or("—".into(), |m| format!("{m:.0} %"))
+            ),
+            crate::maps::probability_swatches(&[0.1, 0.3, 0.5, 0.7, 0.9]),
+        ),
+    };
+    format!(
+        "<h3>Forecasted ignition pattern</h3><figure class=keep style=\"max-width:480px\">{svg}<figcaption>{caption}\
+         </figcaption></figure><div class=legend>{swatches}<span><i class=swf style=\"background:#e0e0e0\"></i>no weather \
+         window</span></div>"
     )
 }
 
@@ -1166,7 +1285,7 @@ fn extrapolation_warning(f: &Forecast) -> Option<String> {
     let a = f.training_area.as_ref().filter(|a| !a.place_inside)?;
     Some(format!(
         "<p class=warn><b>Outside the model's experience:</b> the forecaster was trained on {} and this place \
-         lies outside that area, so the probability is an extrapolation; weigh it below local knowledge.</p>",
+         lies outside that area, so the forecast is an extrapolation; weigh it below local knowledge.</p>",
         esc(&training_area_text(a))
     ))
 }

@@ -12,7 +12,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Version of the JSON layout (semantic: a new field is a minor bump).
-pub const SCHEMA_VERSION: &str = "1.3.0";
+pub const SCHEMA_VERSION: &str = "1.4.0";
 /// `$id` of the schema.
 pub const SCHEMA_ID: &str = "https://firecast.dev/schemas/threat-report-1.schema.json";
 
@@ -157,21 +157,39 @@ pub struct Weather {
 }
 
 /// The ignition forecast at the point on the day (from `forecast.predict`). Probabilities
-/// here are 0–1 fractions, as that stage writes them.
+/// here are 0–1 fractions, as that stage writes them. The model's score is on its training
+/// samples' scale (about 40 % fires by the paper's design), not a daily chance; the day's
+/// chance is `daily_probability`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Forecast {
-    /// Probability of an ignition at the point on the day, 0–1 fraction (mean over the
-    /// model's training seeds).
+    /// The model's score at the point on the day, 0–1 fraction (mean over the model's training
+    /// seeds): on the training samples' scale (about 40 % fires), not a daily chance.
     pub probability: f64,
-    /// Lowest and highest probability over the training seeds, 0–1 fractions.
+    /// Lowest and highest score over the training seeds, 0–1 fractions.
     pub interval: [f64; 2],
     /// How the interval was obtained, and why it is empty when it is.
     pub interval_method: String,
-    /// Decision threshold chosen on validation data, 0–1 fraction.
+    /// Alert threshold on the score, chosen on validation data, 0–1 fraction.
     pub threshold: f64,
-    /// Whether the probability is above the threshold.
+    /// Whether the score is above the threshold (the alert).
     pub ignition_expected: bool,
+    /// The day's probability of an ignition in the place's GRIDMET cell, 0–1 fraction: each
+    /// seed's score corrected from the training samples' fire share to the training area's
+    /// usual daily rate (King & Zeng's prior correction), mean over seeds (null: the model does
+    /// not record its training fires).
+    #[serde(default)]
+    pub daily_probability: Option<f64>,
+    /// Lowest and highest daily probability over the training seeds, 0–1 fractions.
+    #[serde(default)]
+    pub daily_interval: Option<[f64; 2]>,
+    /// The training area's usual daily probability of an ignition in a cell, 0–1 fraction
+    /// (ignition cell-days over cell-days of the training area and period).
+    #[serde(default)]
+    pub usual_daily_probability: Option<f64>,
+    /// How the daily probability was obtained.
+    #[serde(default)]
+    pub daily_method: Option<String>,
     /// Name of the model in the forecasting experiment.
     pub model: String,
     /// Kind of the model, e.g. "xgboost".
@@ -232,9 +250,17 @@ pub struct IgnitionPattern {
     pub lats: Vec<f64>,
     /// Longitudes of the cells' centres, west to east, degrees east.
     pub lons: Vec<f64>,
-    /// Probability per cell, rows south to north and columns west to east, percent (0–100);
-    /// null where the cell has no complete weather window.
+    /// The model's score per cell (the training samples' scale, not a daily chance), rows
+    /// south to north and columns west to east, percent (0–100); null where the cell has no
+    /// complete weather window.
     pub probability_pct: Vec<Vec<Option<f64>>>,
+    /// The day's probability of an ignition per cell relative to the training area's usual
+    /// day (1 = usual), same layout (null: the model does not record its training fires).
+    #[serde(default)]
+    pub relative_to_usual: Option<Vec<Vec<Option<f64>>>>,
+    /// The training area's usual daily probability of an ignition in a cell, percent (0–100).
+    #[serde(default)]
+    pub usual_daily_pct: Option<f64>,
     /// Cells with a probability.
     pub cells: usize,
     /// The map's decision threshold (the mean of its seeds' thresholds, as `forecast.threshold`),

@@ -150,6 +150,10 @@ struct IgnitionMapFile {
     lats: Vec<f64>,
     lons: Vec<f64>,
     probability: Vec<Vec<Option<f64>>>,
+    #[serde(default)]
+    daily_probability: Option<Vec<Vec<Option<f64>>>>,
+    #[serde(default)]
+    usual_daily: Option<f64>,
 }
 
 /// The ignition pattern of a `map` file, checked against the report's day.
@@ -178,7 +182,30 @@ fn ignition_pattern(
         ));
     }
     let values: Vec<f64> = m.probability.iter().flatten().flatten().copied().collect();
+    let relative = match (&m.daily_probability, m.usual_daily) {
+        (Some(daily), Some(usual)) if usual > 0.0 => {
+            if daily.len() != m.lats.len() || daily.iter().any(|row| row.len() != m.lons.len()) {
+                return Err(ReportError::input(
+                    rel(root, path),
+                    format!(
+                        "`daily_probability` is not {} rows of {} cells",
+                        m.lats.len(),
+                        m.lons.len()
+                    ),
+                ));
+            }
+            Some(
+                daily
+                    .iter()
+                    .map(|row| row.iter().map(|p| p.map(|p| p / usual)).collect())
+                    .collect(),
+            )
+        }
+        _ => None,
+    };
     Ok(crate::model::IgnitionPattern {
+        relative_to_usual: relative,
+        usual_daily_pct: m.usual_daily.map(|u| u * 100.0),
         cells: values.len(),
         threshold_pct: m.threshold * 100.0,
         cells_above_threshold: values.iter().filter(|&&p| p >= m.threshold).count(),
@@ -413,6 +440,9 @@ impl StageKind for ReportStage {
             &|line| ctx.log(line),
         )?;
         ctx.metric("ignition_probability", 0, report.forecast.probability);
+        if let Some(d) = report.forecast.daily_probability {
+            ctx.metric("daily_ignition_probability", 0, d);
+        }
         for s in &report.strategies {
             ctx.metric(&format!("burned_acres_{}", s.strategy), 0, s.burned_acres.value);
         }

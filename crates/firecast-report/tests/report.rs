@@ -490,7 +490,7 @@ fn renders_in_chromium_and_prints_to_pdf() {
         "Fire threat assessment",
         "Where it goes and how fast",
         "Evacuation advisories",
-        "Ignition probability",
+        "Model score",
     ] {
         assert!(all.contains(needle), "PDF text lacks {needle}");
     }
@@ -972,8 +972,58 @@ fn the_ignition_pattern_is_drawn_from_the_forecast_map() {
     assert!((p.max_pct.expect("max") - 70.0).abs() < 1e-9);
     let html = std::fs::read_to_string(out.join("report.html")).expect("html");
     assert!(
-        html.contains("Forecasted ignition pattern") && html.contains("2 at or above the 50 % threshold")
+        html.contains("Forecasted ignition pattern")
+            && html.contains("2 cells with a score at or above the 50 % alert threshold"),
+        "{html}"
     );
+    // A model that records its training fires: the day's chance, and the map relative to the
+    // usual day.
+    assert!(
+        html.contains("not a daily chance"),
+        "a score is not called a chance"
+    );
+    let mut forecast: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&f.forecast).expect("forecast")).expect("json");
+    forecast["daily"] = serde_json::json!({
+        "probability": 0.0012, "interval": [0.0009, 0.0016], "usual": 0.0004, "relative_to_usual": 3.0,
+        "base": {"sampled_prevalence": 0.4, "usual": 0.0004, "ignition_cell_days": 40, "cells": 100, "days": 1000},
+        "method": "each seed's score corrected (test)"
+    });
+    let daily_forecast = f.dir.join("forecast-daily.json");
+    std::fs::write(&daily_forecast, serde_json::to_vec(&forecast).expect("json")).expect("write");
+    let doc = serde_json::json!({
+        "date": "2019-08-01", "model": "m", "protocol": "leak_free", "threshold": 0.5, "seeds": 1,
+        "lats": [39.25, 39.3, 39.35], "lons": [-107.45, -107.4],
+        "probability": [[0.1, 0.6], [null, 0.7], [0.2, 0.4]],
+        "daily_probability": [[0.0001, 0.0016], [null, 0.0032], [0.0002, 0.0008]],
+        "usual_daily": 0.0004
+    });
+    std::fs::write(&map, serde_json::to_vec(&doc).expect("json")).expect("write map");
+    let report = build(
+        &f.dir,
+        &f.settings,
+        ReportFiles {
+            forecast: &daily_forecast,
+            ..files(Some(&map))
+        },
+        "test-run",
+        &outputs,
+        &|_| {},
+    )
+    .expect("report");
+    assert_eq!(report.forecast.daily_probability, Some(0.0012));
+    assert_eq!(report.forecast.usual_daily_probability, Some(0.0004));
+    let p = report.forecast.pattern.expect("pattern");
+    let rel = p.relative_to_usual.expect("relative");
+    assert!((rel[1][1].expect("cell") - 8.0).abs() < 1e-9 && rel[1][0].is_none());
+    let html = std::fs::read_to_string(out.join("report.html")).expect("html");
+    for needle in [
+        "Chance of an ignition in this cell on the day: <b>0.12 %</b>, <b>3.0×</b> the usual day (0.040 %)",
+        "Chance of an ignition that day",
+        "relative to the usual day of the training area (0.040 % a cell): highest 8.0×",
+    ] {
+        assert!(html.contains(needle), "no `{needle}` in the page");
+    }
     write("2019-08-02");
     let err = build(
         &f.dir,

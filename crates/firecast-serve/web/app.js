@@ -667,6 +667,32 @@ function probCss(p, alpha = 1) {
 function probTextCss(p) {
   return p < 0.35 ? '#8a5a00' : probCss(Math.max(p, 0.6));
 }
+// The day's chance relative to the usual day, on the colour scale: ¼× at its start, 8× at its
+// end, the usual day (1×) at 0.4 (a log scale: doubling is one equal step).
+const REL_MIN = 0.25, REL_MAX = 8;
+function relPosition(rel) {
+  if (!(rel > 0)) return 0;
+  return clamp(Math.log2(rel / REL_MIN) / Math.log2(REL_MAX / REL_MIN), 0, 1);
+}
+function fmtTimes(rel) {
+  if (!Number.isFinite(rel)) return '—';
+  return `${rel < 10 ? rel.toFixed(1) : rel.toFixed(0)}×`;
+}
+/** A small daily probability as a percent people can read (0.036 %, 1.2 %). */
+function fmtDailyPct(p) {
+  if (!Number.isFinite(p)) return '—';
+  const pct = p * 100;
+  if (pct >= 10) return `${pct.toFixed(0)} %`;
+  if (pct >= 1) return `${pct.toFixed(1)} %`;
+  return `${pct.toPrecision(2)} %`;
+}
+/** The map's values to colour: the day's chance relative to the usual day where the map has it. */
+function mapValues(map) {
+  if (map && Array.isArray(map.daily_probability) && Number.isFinite(map.usual_daily) && map.usual_daily > 0) {
+    return { rows: map.daily_probability, relative: true, usual: map.usual_daily };
+  }
+  return { rows: map ? map.probability : null, relative: false };
+}
 
 function defaultDate(cov) {
   const last = cov.last_date;
@@ -778,7 +804,7 @@ function pageForecast(root, params, scope) {
   const readout = h('div', { class: 'map-readout', id: 'map-readout' }, 'Click the map to pick a place.');
   const legendCanvas = h('canvas', { width: 200, height: 14, style: { width: '200px', height: '14px' } });
   const legend = h('div', { class: 'map-legend', id: 'map-legend' },
-    h('strong', null, 'ignition probability'), h('span', null, '0 %'), legendCanvas, h('span', null, '100 %'),
+    h('strong', { id: 'legend-title' }, 'ignition chance'), h('span', { id: 'legend-min' }, ''), legendCanvas, h('span', { id: 'legend-max' }, ''),
     h('span', { class: 'muted', id: 'legend-note' }, ''));
   const covStatus = h('div', { id: 'coverage-status' }, loading('Loading the data coverage…'));
 
@@ -872,7 +898,8 @@ function pageForecast(root, params, scope) {
 
     // Probability cells.
     const c = st.cov;
-    if (st.map && Array.isArray(st.map.probability)) {
+    const values = mapValues(st.map);
+    if (st.map && Array.isArray(values.rows)) {
       const cell = c.cell_deg || 1 / 24;
       const lats = st.map.lats || c.lats;
       const lons = st.map.lons || c.lons;
@@ -882,12 +909,13 @@ function pageForecast(root, params, scope) {
       layer.height = canvas.height;
       const lctx = layer.getContext('2d');
       lctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-      for (let r = 0; r < st.map.probability.length; r++) {
-        const rowVals = st.map.probability[r];
+      for (let r = 0; r < values.rows.length; r++) {
+        const rowVals = values.rows[r];
         if (!rowVals) continue;
         for (let k = 0; k < rowVals.length; k++) {
-          const p = rowVals[k];
-          if (p === null || p === undefined || !Number.isFinite(p)) continue;
+          const v = rowVals[k];
+          if (v === null || v === undefined || !Number.isFinite(v)) continue;
+          const p = values.relative ? relPosition(v / values.usual) : v;
           const x0 = Math.floor(X(lons[k] - cell / 2));
           const x1 = Math.ceil(X(lons[k] + cell / 2));
           const y0 = Math.floor(Y(lats[r] + cell / 2));
@@ -1071,8 +1099,17 @@ function pageForecast(root, params, scope) {
       ctx.fillRect(i, 0, 1, 14);
     }
     const note = legend.querySelector('#legend-note');
-    if (st.map) {
-      note.textContent = `· ${st.map.date} · mean over ${st.map.seeds} seed${st.map.seeds === 1 ? '' : 's'}, threshold ${fmtPct(st.map.threshold)} · blank cells: no complete weather window`;
+    const values = mapValues(st.map);
+    legend.querySelector('#legend-title').textContent = values.relative ? 'chance of ignition vs the usual day' : 'model score';
+    legend.querySelector('#legend-min').textContent = values.relative ? '¼×' : '0 %';
+    legend.querySelector('#legend-max').textContent = values.relative ? '8× or more' : '100 %';
+    if (st.map && values.relative) {
+      note.textContent = `· ${st.map.date} · the usual day: ${fmtDailyPct(values.usual)} chance a cell · mean over ${st.map.seeds} seed${st.map.seeds === 1 ? '' : 's'} · blank cells: no complete weather window`;
+      const x = Math.round(relPosition(1) * 199);
+      ctx.fillStyle = '#000';
+      ctx.fillRect(x - 1, 0, 2, 14);
+    } else if (st.map) {
+      note.textContent = `· ${st.map.date} · the model's score on its training samples' scale (about 40 % fires), not a daily chance · mean over ${st.map.seeds} seed${st.map.seeds === 1 ? '' : 's'}, alert threshold ${fmtPct(st.map.threshold)} · blank cells: no complete weather window`;
       if (Number.isFinite(st.map.threshold)) {
         const x = Math.round(clamp(st.map.threshold, 0, 1) * 199);
         ctx.fillStyle = '#000';
@@ -1102,8 +1139,11 @@ function pageForecast(root, params, scope) {
     for (let i = 0; i < lats.length; i++) if (Math.abs(lats[i] - lat) <= cell / 2) { r = i; break; }
     for (let i = 0; i < lons.length; i++) if (Math.abs(lons[i] - lon) <= cell / 2) { k = i; break; }
     if (r < 0 || k < 0) return null;
-    const row = st.map.probability[r];
-    return row ? row[k] : null;
+    const values = mapValues(st.map);
+    const row = values.rows ? values.rows[r] : null;
+    const v = row ? row[k] : null;
+    if (v === null || v === undefined) return null;
+    return values.relative ? `${fmtDailyPct(v)} chance of an ignition (${fmtTimes(v / values.usual)} the usual day)` : `model score ${fmtPct(v)}`;
   }
 
   canvas.addEventListener('mousemove', (ev) => {
@@ -1111,7 +1151,7 @@ function pageForecast(root, params, scope) {
     if (!ll) return;
     const p = probabilityAt(ll.lat, ll.lon);
     const parts = [fmtPlace(ll.lat, ll.lon)];
-    if (st.map) parts.push(p === null || p === undefined ? 'no forecast for this cell' : `ignition probability ${fmtPct(p)} on ${st.map.date}`);
+    if (st.map) parts.push(p === null || p === undefined ? 'no forecast for this cell' : `${p} on ${st.map.date}`);
     readout.textContent = parts.join(' · ');
   });
   canvas.addEventListener('mouseleave', () => {
@@ -1179,13 +1219,21 @@ function pageForecast(root, params, scope) {
   }
 
   function renderForecast(f) {
-    const p = f.probability;
-    const expected = !!f.ignition_expected;
+    const score = f.probability;
+    const alert = !!f.ignition_expected;
+    const daily = f.daily && Number.isFinite(f.daily.probability) ? f.daily : null;
     const interval = Array.isArray(f.interval) ? f.interval : null;
     const facts = h('dl', { class: 'facts' });
     const fact = (k, ...v) => facts.append(h('dt', null, k), h('dd', null, ...v));
-    if (interval) fact('Range over seeds', h('span', { id: 'interval' }, `${fmtPct(interval[0])} – ${fmtPct(interval[1])}`), f.interval_method ? h('span', { class: 'muted' }, ` (${f.interval_method})`) : null);
-    if (Number.isFinite(f.threshold)) fact('Threshold', `${fmtPct(f.threshold)}`, h('span', { class: 'muted' }, ' — above it, ignition is expected'));
+    if (daily) {
+      fact('The usual day', h('span', { id: 'usual' }, `${fmtDailyPct(daily.usual)} chance a cell`),
+        h('span', { class: 'muted' }, ` (${daily.base.ignition_cell_days} ignition cell-days over ${daily.base.cells} cells × ${daily.base.days} days of the training area)`));
+      if (Array.isArray(daily.interval)) fact('Range over seeds', h('span', { id: 'interval' }, `${fmtDailyPct(daily.interval[0])} – ${fmtDailyPct(daily.interval[1])}`));
+    } else if (interval) {
+      fact('Range over seeds', h('span', { id: 'interval' }, `${fmtPct(interval[0])} – ${fmtPct(interval[1])}`), f.interval_method ? h('span', { class: 'muted' }, ` (${f.interval_method})`) : null);
+    }
+    fact('Model score', h('span', { id: 'score' }, fmtPct(score)),
+      h('span', { class: 'muted' }, ` on the training samples' scale (about 40 % fires), not a daily chance; alert threshold ${Number.isFinite(f.threshold) ? fmtPct(f.threshold) : '—'}, chosen on validation data`));
     fact('Place', fmtPlace(f.lat, f.lon));
     if (Number.isFinite(f.cell_lat)) fact('GRIDMET cell', `centre ${fmtPlace(f.cell_lat, f.cell_lon)}`);
     fact('Day', f.date || st.date);
@@ -1196,28 +1244,33 @@ function pageForecast(root, params, scope) {
     if (Number.isFinite(f.validation_auroc)) skill.push(`validation ${f.validation_auroc.toFixed(3)}`);
     if (Number.isFinite(f.test_auroc)) skill.push(`test ${f.test_auroc.toFixed(3)}`);
     if (skill.length) fact('AUROC', skill.join(' · '));
-    if (f.prediction !== undefined) fact('FireCastRL answer', h('code', null, `prediction = ${typeof f.prediction === 'number' ? fmtNum(f.prediction) : fmtValue(f.prediction)}`));
+    if (f.prediction !== undefined) fact('FireCastRL answer', h('code', null, `prediction = ${typeof f.prediction === 'number' ? fmtNum(f.prediction) : fmtValue(f.prediction)}`), h('span', { class: 'muted' }, ' (the model score)'));
 
     let seeds = null;
     if (Array.isArray(f.per_seed) && f.per_seed.length) {
       seeds = h('details', null, h('summary', null, `Each training seed (${f.per_seed.length})`),
         h('div', { class: 'table-wrap' }, h('table', null,
-          h('thead', null, h('tr', null, h('th', null, 'seed'), h('th', { class: 'num' }, 'probability'), h('th', { class: 'num' }, 'threshold'), h('th', { class: 'num' }, 'val. AUROC'), h('th', { class: 'num' }, 'test AUROC'))),
+          h('thead', null, h('tr', null, h('th', null, 'seed'), h('th', { class: 'num' }, 'score'), h('th', { class: 'num' }, 'threshold'), h('th', { class: 'num' }, 'val. AUROC'), h('th', { class: 'num' }, 'test AUROC'))),
           h('tbody', null, f.per_seed.map((s) => h('tr', null,
             h('td', null, fmtValue(s.seed)), h('td', { class: 'num' }, fmtPct(s.probability)), h('td', { class: 'num' }, fmtPct(s.threshold)),
             h('td', { class: 'num' }, Number.isFinite(s.validation_auroc) ? s.validation_auroc.toFixed(3) : '—'),
             h('td', { class: 'num' }, Number.isFinite(s.test_auroc) ? s.test_auroc.toFixed(3) : '—')))))));
     }
 
+    const headline = daily
+      ? h('div', { class: 'prob-block' },
+        h('div', { id: 'probability', 'data-testid': 'probability', 'data-value': String(daily.probability), style: { color: probTextCss(relPosition(daily.relative_to_usual)) } }, fmtDailyPct(daily.probability)),
+        h('div', { class: 'prob-caption' }, 'chance of an ignition in this cell', h('br'), `on ${f.date || st.date}: `, h('b', { id: 'relative' }, `${fmtTimes(daily.relative_to_usual)} the usual day`)))
+      : h('div', { class: 'prob-block' },
+        h('div', { id: 'probability', 'data-testid': 'probability', 'data-value': String(score), style: { color: probTextCss(score) } }, fmtPct(score)),
+        h('div', { class: 'prob-caption' }, 'model score', h('br'), 'not a daily chance: this model does not record its training fires'));
     fill(forecastBody,
-      h('div', { class: 'prob-block' },
-        h('div', { id: 'probability', 'data-testid': 'probability', 'data-value': String(p), style: { color: probTextCss(p) } }, fmtPct(p)),
-        h('div', { class: 'prob-caption' }, 'chance of ignition', h('br'), `on ${f.date || st.date}`)),
-      h('div', { class: `verdict ${expected ? 'yes' : 'no'}`, id: 'verdict', 'data-testid': 'verdict' }, expected ? 'Ignition expected' : 'Ignition not expected'),
+      headline,
+      h('div', { class: `verdict ${alert ? 'yes' : 'no'}`, id: 'verdict', 'data-testid': 'verdict' }, alert ? 'Alert: score above the threshold' : 'No alert: score below the threshold'),
       facts,
       seeds);
     startBtn.disabled = false;
-    startBtn.textContent = expected ? 'Start the fire (probability high)' : 'Start the fire';
+    startBtn.textContent = alert ? 'Start the fire (alert)' : 'Start the fire';
   }
 
   // ---------- load ----------
