@@ -674,6 +674,13 @@ function relPosition(rel) {
   if (!(rel > 0)) return 0;
   return clamp(Math.log2(rel / REL_MIN) / Math.log2(REL_MAX / REL_MIN), 0, 1);
 }
+/** A text colour for the day's chance by its multiple of the usual day: quiet below 1.5×,
+ *  amber below twice it, red beyond (a usual day is not an alarm). */
+function relTextCss(rel) {
+  if (!(rel >= 1.5)) return '#3c4450';
+  if (rel < 2) return '#8a5a00';
+  return probCss(rel <= 4 ? 0.75 : 0.95);
+}
 function fmtTimes(rel) {
   if (!Number.isFinite(rel)) return '—';
   return `${rel < 10 ? rel.toFixed(1) : rel.toFixed(0)}×`;
@@ -1259,7 +1266,7 @@ function pageForecast(root, params, scope) {
 
     const headline = daily
       ? h('div', { class: 'prob-block' },
-        h('div', { id: 'probability', 'data-testid': 'probability', 'data-value': String(daily.probability), style: { color: probTextCss(relPosition(daily.relative_to_usual)) } }, fmtDailyPct(daily.probability)),
+        h('div', { id: 'probability', 'data-testid': 'probability', 'data-value': String(daily.probability), style: { color: relTextCss(daily.relative_to_usual) } }, fmtDailyPct(daily.probability)),
         h('div', { class: 'prob-caption' }, 'chance of an ignition in this cell', h('br'), `on ${f.date || st.date}: `, h('b', { id: 'relative' }, `${fmtTimes(daily.relative_to_usual)} the usual day`)))
       : h('div', { class: 'prob-block' },
         h('div', { id: 'probability', 'data-testid': 'probability', 'data-value': String(score), style: { color: probTextCss(score) } }, fmtPct(score)),
