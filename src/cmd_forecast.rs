@@ -529,8 +529,10 @@ fn predict(settings: &Settings, args: &PredictArgs) -> anyhow::Result<ExitCode> 
                 u * 100.0
             ),
             None => println!(
-                "the model score is on the training samples' scale, not a daily chance; this model does not \
-                 record its training fires, so no daily probability (retrain it to get one)"
+                "the model score is on the training samples' scale, not a daily chance; no daily probability: {}",
+                a.daily_unavailable
+                    .as_deref()
+                    .unwrap_or(firecast_forecast::daily::NOT_RECORDED)
             ),
         }
     }

@@ -58,15 +58,24 @@ pub fn ignition_cell_days<'a>(meta: impl IntoIterator<Item = &'a crate::data::Sa
         .len()
 }
 
-/// The usual daily rate of the training area read from the GRIDMET folder's land mask, or
-/// `None` when the bundle does not record its training positives (bundles written before
-/// 2026-11-28's daily probabilities) or the area holds no ignition.
-pub fn daily_base(extent: &TrainingExtent, gridmet: &Path) -> Result<Option<DailyBase>, ForecastError> {
+/// Why a forecast has no daily probability, in words a reader of the forecast understands.
+pub const NOT_RECORDED: &str = "the model does not record its training fires (saved before 2026-11-28): retrain it to get the day's probability";
+
+/// The usual daily rate of the training area read from the GRIDMET folder's land mask, or why
+/// there is none (the model does not record its training fires, its training area held no
+/// ignition, or these GRIDMET files do not cover that area): a forecast without it still gives
+/// the score. Errors only where the GRIDMET folder cannot be read.
+pub fn daily_base(
+    extent: &TrainingExtent,
+    gridmet: &Path,
+) -> Result<Result<DailyBase, String>, ForecastError> {
     let (Some(positives), Some(fired)) = (extent.positives, extent.ignition_cell_days) else {
-        return Ok(None);
+        return Ok(Err(NOT_RECORDED.into()));
     };
     if fired == 0 || extent.samples == 0 {
-        return Ok(None);
+        return Ok(Err(
+            "the model's training windows hold no fire, so there is no usual daily rate".into(),
+        ));
     }
     let day = |s: &str| {
         firecast_dataset::time::parse_date(s).ok_or_else(|| ForecastError::Data {
@@ -74,7 +83,10 @@ pub fn daily_base(extent: &TrainingExtent, gridmet: &Path) -> Result<Option<Dail
             message: format!("the model's training extent has a date `{s}` that is not YYYY-MM-DD"),
         })
     };
-    let days = (day(&extent.last_date)? - day(&extent.first_date)? + 1).max(1) as usize;
+    let days = match (day(&extent.last_date), day(&extent.first_date)) {
+        (Ok(last), Ok(first)) => (last - first + 1).max(1) as usize,
+        (Err(e), _) | (_, Err(e)) => return Ok(Err(e.to_string())),
+    };
     let mask = firecast_dataset::land::LandMask::from_gridmet_dir(gridmet)
         .map_err(|e| ForecastError::dataset(gridmet, e))?;
     let half_cell = |axis: &[f64]| {
@@ -101,15 +113,13 @@ pub fn daily_base(extent: &TrainingExtent, gridmet: &Path) -> Result<Option<Dail
         }
     }
     if cells == 0 {
-        return Err(ForecastError::Data {
-            path: gridmet.to_path_buf(),
-            message: format!(
-                "no GRIDMET cell with data in the model's training area ({}–{}° N, {}–{}° E): these files do not cover it",
-                extent.lat_min, extent.lat_max, extent.lon_min, extent.lon_max
-            ),
-        });
+        return Ok(Err(format!(
+            "these GRIDMET files have no cell with data in the model's training area ({}–{}° N, {}–{}° E), so its \
+             usual daily rate cannot be counted",
+            extent.lat_min, extent.lat_max, extent.lon_min, extent.lon_max
+        )));
     }
-    Ok(Some(DailyBase {
+    Ok(Ok(DailyBase {
         sampled_prevalence: positives as f64 / extent.samples as f64,
         usual: fired as f64 / (cells as f64 * days as f64),
         ignition_cell_days: fired,

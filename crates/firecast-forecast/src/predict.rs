@@ -36,6 +36,9 @@ pub struct Prediction {
     /// That usual daily rate.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub usual_daily: Option<f64>,
+    /// Why there is no daily probability.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub daily_unavailable: Option<String>,
     pub threshold: f64,
     pub ignition_expected: bool,
     /// The GRIDMET cell whose weather was read.
@@ -58,17 +61,21 @@ pub fn predict(
     device: tch::Device,
 ) -> Result<Vec<Prediction>, ForecastError> {
     let (mut answers, dropped) = predict_available(bundle, gridmet, queries, device)?;
-    if let Some(base) = match &bundle.info.training_extent {
+    let base = match &bundle.info.training_extent {
         Some(e) => crate::daily::daily_base(e, gridmet)?,
-        None => None,
-    } {
-        for a in answers.iter_mut().flatten() {
-            a.daily_probability = Some(crate::cell_days::prior_corrected(
-                a.probability,
-                base.sampled_prevalence,
-                base.usual,
-            ));
-            a.usual_daily = Some(base.usual);
+        None => Err(crate::daily::NOT_RECORDED.to_string()),
+    };
+    for a in answers.iter_mut().flatten() {
+        match &base {
+            Ok(base) => {
+                a.daily_probability = Some(crate::cell_days::prior_corrected(
+                    a.probability,
+                    base.sampled_prevalence,
+                    base.usual,
+                ));
+                a.usual_daily = Some(base.usual);
+            }
+            Err(why) => a.daily_unavailable = Some(why.clone()),
         }
     }
     let missing: Vec<String> = queries
@@ -171,6 +178,7 @@ pub fn predict_available(
                 probability: prob,
                 daily_probability: None,
                 usual_daily: None,
+                daily_unavailable: None,
                 threshold: bundle.info.threshold,
                 ignition_expected: prob > bundle.info.threshold,
                 cell_lat: s.cell_lat,

@@ -508,6 +508,9 @@ pub struct PointForecast {
     /// that do not record their training fires).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub daily: Option<crate::daily::DailyForecast>,
+    /// Why `daily` is absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub daily_unavailable: Option<String>,
 }
 
 /// How far outside its training windows' box a place may lie and still count as inside: one
@@ -605,6 +608,7 @@ pub fn assemble_forecast(answers: &[SeedAnswer]) -> Result<PointForecast, crate:
             .as_ref()
             .map(|e| e.contains(first.lat, first.lon, EXTENT_MARGIN_DEG)),
         daily: None,
+        daily_unavailable: None,
     })
 }
 
@@ -672,21 +676,24 @@ pub fn forecast_point(
         answers.push((prediction, bundle.info, rel));
     }
     let mut forecast = assemble_forecast(&answers)?;
-    if let Some(base) = daily_base_of(forecast.training_extent.as_ref(), gridmet)? {
-        let scores: Vec<f64> = forecast.per_seed.iter().map(|s| s.probability).collect();
-        forecast.daily = Some(crate::daily::daily_forecast(&scores, &base));
+    match daily_base_of(forecast.training_extent.as_ref(), gridmet)? {
+        Ok(base) => {
+            let scores: Vec<f64> = forecast.per_seed.iter().map(|s| s.probability).collect();
+            forecast.daily = Some(crate::daily::daily_forecast(&scores, &base));
+        }
+        Err(why) => forecast.daily_unavailable = Some(why),
     }
     Ok(forecast)
 }
 
-/// The usual daily rate of a model's training area (None when its bundle does not say).
+/// The usual daily rate of a model's training area, or why there is none.
 fn daily_base_of(
     extent: Option<&crate::bundle::TrainingExtent>,
     gridmet: &std::path::Path,
-) -> Result<Option<crate::daily::DailyBase>, crate::ForecastError> {
+) -> Result<Result<crate::daily::DailyBase, String>, crate::ForecastError> {
     match extent {
         Some(e) => crate::daily::daily_base(e, gridmet),
-        None => Ok(None),
+        None => Ok(Err(crate::daily::NOT_RECORDED.into())),
     }
 }
 
@@ -770,7 +777,7 @@ pub fn forecast_map(
     for (k, (_, rel)) in bundles.iter().enumerate() {
         let bundle = crate::bundle::load(&experiment.join(rel), device)?;
         if k == 0 {
-            base = daily_base_of(bundle.info.training_extent.as_ref(), gridmet)?;
+            base = daily_base_of(bundle.info.training_extent.as_ref(), gridmet)?.ok();
         }
         threshold += bundle.info.threshold;
         let (answers, _) = crate::predict::predict_available(&bundle, gridmet, &queries, device)?;
@@ -1240,6 +1247,7 @@ mod tests {
             probability,
             daily_probability: None,
             usual_daily: None,
+            daily_unavailable: None,
             threshold,
             ignition_expected: probability > threshold,
             cell_lat: 40.025,
@@ -1425,6 +1433,16 @@ mod tests {
             map_radius_deg: None,
         };
         let f = forecast_point(exp, &fixture_gridmet(), &params, tch::Device::Cpu).unwrap();
+        // The fixture's GRIDMET cells lie outside the models' training area: the score, and why
+        // there is no daily probability.
+        assert!(f.daily.is_none());
+        assert!(
+            f.daily_unavailable
+                .as_deref()
+                .is_some_and(|w| w.contains("no cell with data in the model's training area")),
+            "{:?}",
+            f.daily_unavailable
+        );
         assert_eq!(f.protocol, "leak_free");
         assert_eq!(f.per_seed.len(), 2);
         // 2018-06-14 (day −1) is day of year 165.

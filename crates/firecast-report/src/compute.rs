@@ -105,6 +105,8 @@ pub struct ForecastFile {
     /// The day's probability (absent in forecasts of older bundles).
     #[serde(default)]
     pub daily: Option<ForecastDaily>,
+    #[serde(default)]
+    pub daily_unavailable: Option<String>,
 }
 
 /// `forecast.predict`'s `daily`.
@@ -485,10 +487,14 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
                      {}. Its calibration over all cell-days is measured by forecast.cell_days (docs/results/table3.md).",
                     d.method
                 ),
-                None =>
-                    "The model scores on its training samples' scale (about 40 % fires), not a daily chance; \
-                         it does not record its training fires, so no daily probability is given."
-                        .to_string(),
+                None => format!(
+                    "The model scores on its training samples' scale (about 40 % fires), not a daily chance; no daily \
+                     probability is given: {}.",
+                    forecast
+                        .daily_unavailable
+                        .as_deref()
+                        .unwrap_or("the forecast does not carry one (written before 2026-11-28)")
+                ),
             }
         ),
         if spread.is_some() {
@@ -668,6 +674,7 @@ fn forecast_block(f: &ForecastFile) -> Forecast {
         daily_interval: f.daily.as_ref().map(|d| d.interval),
         usual_daily_probability: f.daily.as_ref().map(|d| d.usual),
         daily_method: f.daily.as_ref().map(|d| d.method.clone()),
+        daily_unavailable: f.daily_unavailable.clone(),
         model: f.model.clone(),
         kind: f.kind.clone(),
         protocol: f.protocol.clone(),

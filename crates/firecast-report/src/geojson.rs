@@ -137,6 +137,8 @@ pub fn build(c: &Computed) -> Result<Value, ReportError> {
         point(ilat, ilon),
         json!({"kind": "ignition", "date": r.header.date,
                "ignition_score_pct": r.forecast.probability * 100.0,
+               // The score's name before the day's chance existed, kept for readers of 1.3.
+               "ignition_probability_pct": r.forecast.probability * 100.0,
                "ignition_threshold_pct": r.forecast.threshold * 100.0,
                "daily_ignition_probability_pct": r.forecast.daily_probability.map(|p| p * 100.0),
                "usual_daily_ignition_probability_pct": r.forecast.usual_daily_probability.map(|p| p * 100.0)}),

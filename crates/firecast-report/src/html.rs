@@ -438,9 +438,10 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             f.threshold * 100.0,
         ),
         _ => format!(
-            "Model score <b>{:.0} %</b> on its training samples' scale (about 40 % fires): not a daily chance (the \
-             model does not record its training fires); against its alert threshold {:.0} %: {alert}.",
+            "Model score <b>{:.0} %</b> on its training samples' scale (about 40 % fires): not a daily chance (no \
+             daily probability: {}); against its alert threshold {:.0} %: {alert}.",
             f.probability * 100.0,
+            esc(unavailable(f)),
             f.threshold * 100.0,
         ),
     };
@@ -467,9 +468,10 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
             daily_pct(u),
             times_usual(d / u)
         ),
-        _ => "<tr><th>Chance of an ignition that day</th><td class=n>—</td><td class=muted>the model does not record \
-              its training fires (retrain it to get the day's probability)</td></tr>"
-            .to_string(),
+        _ => format!(
+            "<tr><th>Chance of an ignition that day</th><td class=n>—</td><td class=muted>{}</td></tr>",
+            esc(unavailable(f))
+        ),
     };
     write!(
         h,
@@ -1013,6 +1015,13 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
 
 /// The forecasted ignition pattern: one square per GRIDMET cell coloured by the day's
 /// probability, the cells at or above the threshold outlined, the place starred.
+/// Why a forecast has no daily probability.
+fn unavailable(f: &Forecast) -> &str {
+    f.daily_unavailable
+        .as_deref()
+        .unwrap_or("the forecast does not carry one (written before 2026-11-28)")
+}
+
 /// A small daily probability (0–1) as a percent people can read: 0.036 %, 1.2 %.
 fn daily_pct(p: f64) -> String {
     let pct = p * 100.0;

@@ -190,6 +190,9 @@ pub struct Forecast {
     /// How the daily probability was obtained.
     #[serde(default)]
     pub daily_method: Option<String>,
+    /// Why there is no daily probability (null when there is one, or the forecast does not say).
+    #[serde(default)]
+    pub daily_unavailable: Option<String>,
     /// Name of the model in the forecasting experiment.
     pub model: String,
     /// Kind of the model, e.g. "xgboost".

@@ -1270,7 +1270,7 @@ function pageForecast(root, params, scope) {
         h('div', { class: 'prob-caption' }, 'chance of an ignition in this cell', h('br'), `on ${f.date || st.date}: `, h('b', { id: 'relative' }, `${fmtTimes(daily.relative_to_usual)} the usual day`)))
       : h('div', { class: 'prob-block' },
         h('div', { id: 'probability', 'data-testid': 'probability', 'data-value': String(score), style: { color: probTextCss(score) } }, fmtPct(score)),
-        h('div', { class: 'prob-caption' }, 'model score', h('br'), 'not a daily chance: this model does not record its training fires'));
+        h('div', { class: 'prob-caption' }, 'model score, not a daily chance', h('br'), `no daily probability: ${f.daily_unavailable || 'the forecast does not carry one'}`));
     fill(forecastBody,
       headline,
       h('div', { class: `verdict ${alert ? 'yes' : 'no'}`, id: 'verdict', 'data-testid': 'verdict' }, alert ? 'Alert: score above the threshold' : 'No alert: score below the threshold'),
