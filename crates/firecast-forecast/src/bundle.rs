@@ -52,9 +52,12 @@ pub struct TrainingExtent {
     pub first_date: String,
     pub last_date: String,
     pub samples: usize,
-    /// The fires among them, and the distinct GRIDMET cell-days those lie in: with the area's
-    /// cells they give the usual daily rate a score is corrected to ([`crate::daily`]). None in
-    /// bundles written before 2026-11-28's daily probabilities.
+    /// The fires among them (their share is what the model learnt at), and the distinct GRIDMET
+    /// cell-days of the area's fires in the box and period (the training and validation
+    /// windows' fires: a temporal protocol validates on cell groups of the same period, whose
+    /// cells the area's count includes): with the area's cells they give the usual daily rate a
+    /// score is corrected to ([`crate::daily`]). None in bundles written before 2026-11-28's
+    /// daily probabilities.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub positives: Option<usize>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -65,7 +68,6 @@ impl TrainingExtent {
     /// The extent of these windows (None when there are none).
     pub fn of<'a>(meta: impl IntoIterator<Item = &'a crate::data::SampleMeta> + Clone) -> Option<Self> {
         let positives = meta.clone().into_iter().filter(|m| m.tier.is_positive()).count();
-        let fired = crate::daily::ignition_cell_days(meta.clone());
         let mut it = meta.into_iter();
         let first = it.next()?;
         let mut e = Self {
@@ -77,7 +79,7 @@ impl TrainingExtent {
             last_date: String::new(),
             samples: 1,
             positives: Some(positives),
-            ignition_cell_days: Some(fired),
+            ignition_cell_days: None,
         };
         let (mut d0, mut d1) = (first.event_day, first.event_day);
         for m in it {
@@ -92,6 +94,24 @@ impl TrainingExtent {
         e.first_date = firecast_dataset::time::format_date(d0);
         e.last_date = firecast_dataset::time::format_date(d1);
         Some(e)
+    }
+
+    /// With the area's ignition cell-days counted from `area` (the training and validation
+    /// windows): the distinct (GRIDMET cell, day) of its fires inside this box and period.
+    pub fn with_area_fires<'a>(
+        mut self,
+        area: impl IntoIterator<Item = &'a crate::data::SampleMeta>,
+    ) -> Self {
+        let (first, last) = (
+            firecast_dataset::time::parse_date(&self.first_date),
+            firecast_dataset::time::parse_date(&self.last_date),
+        );
+        self.ignition_cell_days = Some(crate::daily::ignition_cell_days(area.into_iter().filter(|m| {
+            self.contains(m.lat, m.lon, 0.0)
+                && first.is_some_and(|d| m.event_day >= d)
+                && last.is_some_and(|d| m.event_day <= d)
+        })));
+        self
     }
 
     /// Whether a place lies in the box widened by `margin_deg` on every side.

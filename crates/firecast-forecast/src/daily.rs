@@ -6,9 +6,12 @@
 //! What a responder needs is the day's probability, so a forecast also gives the score after
 //! King & Zeng's (2001) prior correction ([`crate::cell_days::prior_corrected`]) from the
 //! training samples' fire share π_s to the training area's usual daily rate π: the ignition
-//! cell-days of the training windows over every cell-day of the training area and period (the
-//! GRIDMET cells with data whose centre lies in the training windows' box, widened by half a
-//! cell, times the days from the first to the last training date). The correction keeps the
+//! cell-days of the training and validation windows in the training windows' box and period
+//! over every cell-day of that area and period (the GRIDMET cells with data whose centre lies
+//! in the box, widened by half a cell, times the days from the first to the last training
+//! date). A temporal protocol validates on cell groups of the training period, so both are the
+//! area's fires; a spatial protocol's test blocks are left out of the count but not of the
+//! cells, which makes π low by their share there. The correction keeps the
 //! ranking; its calibration over all cell-days is what `forecast.cell_days` measures
 //! (docs/results/table3.md).
 
@@ -169,6 +172,48 @@ mod tests {
             cells: 100,
             days: 100,
         }
+    }
+
+    fn sample(cell: (u32, u32), day: i32, lat: f64, fire: bool) -> crate::data::SampleMeta {
+        crate::data::SampleMeta {
+            sample_id: 0,
+            event_day: day,
+            year: 2018,
+            month: 7,
+            day_of_year: 200,
+            lat,
+            lon: -107.5,
+            cell,
+            tier: if fire {
+                firecast_dataset::Tier::Positive
+            } else {
+                firecast_dataset::Tier::Far
+            },
+            dataset_split: None,
+            true_probability: None,
+        }
+    }
+
+    #[test]
+    fn the_area_counts_each_burning_cell_day_once_inside_the_training_box_and_period() {
+        let day = |s: &str| firecast_dataset::time::parse_date(s).expect("date");
+        let d0 = day("2018-06-01");
+        let train = [
+            sample((1, 1), d0, 39.0, true),
+            sample((1, 1), d0, 39.0, true), // the same cell-day twice
+            sample((2, 1), d0 + 5, 39.5, true),
+            sample((3, 1), d0 + 9, 39.2, false),
+        ];
+        let extent = TrainingExtent::of(train.iter()).expect("extent");
+        assert_eq!((extent.samples, extent.positives), (4, Some(3)));
+        assert_eq!(extent.ignition_cell_days, None, "counted only from the area");
+        let validation = [
+            sample((4, 1), d0 + 2, 39.3, true),  // counts: inside the box and period
+            sample((5, 1), d0 + 30, 39.3, true), // after the last training date
+            sample((6, 1), d0 + 2, 41.0, true),  // north of the box
+        ];
+        let area = extent.with_area_fires(train.iter().chain(&validation));
+        assert_eq!(area.ignition_cell_days, Some(3));
     }
 
     #[test]

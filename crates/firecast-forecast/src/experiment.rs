@@ -572,7 +572,16 @@ pub fn fit_units(
                 features: btr.features.clone(),
                 training_extent: crate::bundle::TrainingExtent::of(
                     side.split.train.iter().map(|&s| &windows.meta[s]),
-                ),
+                )
+                .map(|e| {
+                    e.with_area_fires(
+                        side.split
+                            .train
+                            .iter()
+                            .chain(&side.split.val)
+                            .map(|&s| &windows.meta[s]),
+                    )
+                }),
             },
             &trained,
         )?;
