@@ -320,6 +320,15 @@ fn bench_ppo_helitack_runs_both_sides_with_equal_networks() {
     let num = |k: &str| w[k].as_f64().unwrap_or(f64::NAN);
     assert!(num("flops_per_step") > 1e5, "{w}");
     assert!(num("sgemm_gflops") > 0.0 && num("firecast_gflops") > 0.0, "{w}");
+    // The yardstick is the fastest matrix product timed, float32 or bfloat16; the compact
+    // policy has no recurrent layer to count by hand.
+    assert!(num("bf16_gflops") > 0.0, "{w}");
+    assert_eq!(
+        num("peak_gflops"),
+        num("sgemm_gflops").max(num("bf16_gflops")),
+        "{w}"
+    );
+    assert_eq!(num("recurrent_flops_per_step"), 0.0, "{w}");
     assert!(
         (num("goal_gflops") - 3.0 * num("sb3_gflops")).abs() < 1e-9 * num("goal_gflops"),
         "{w}"

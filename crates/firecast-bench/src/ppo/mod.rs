@@ -104,9 +104,12 @@ pub struct BenchPartReport {
 /// The network's arithmetic against the machine's: what the goal asks of the CPU.
 #[derive(Debug, serde::Serialize)]
 pub struct Arithmetic {
-    /// Convolution and matrix-product FLOPs per environment step of training (one forward
-    /// pass in the rollout, n_epochs forward + backward passes in the updates), torch's count.
+    /// Convolution, matrix-product and recurrent FLOPs per environment step of training (one
+    /// forward pass in the rollout, n_epochs forward + backward passes in the updates): torch's
+    /// count, plus the recurrent layers its counter does not see, counted from their shapes.
     flops_per_step: f64,
+    /// The recurrent layers' part of it.
+    recurrent_flops_per_step: f64,
     /// GFLOP/s those steps amount to at each side's training speed.
     firecast_gflops: f64,
     sb3_gflops: f64,
@@ -114,6 +117,12 @@ pub struct Arithmetic {
     goal_gflops: f64,
     /// This machine's float32 matrix-product rate at the part's torch threads.
     sgemm_gflops: f64,
+    /// Its bfloat16 matrix-product rate (NaN where the reference did not measure it).
+    bf16_gflops: f64,
+    /// The faster of the two: the yardstick.
+    peak_gflops: f64,
+    /// Which kernel that is: "float32" or "bfloat16".
+    peak_kernel: &'static str,
 }
 
 impl BenchPartReport {
@@ -145,12 +154,17 @@ impl Arithmetic {
     fn new(firecast: &phases::PhaseSpeeds, sb3: &serde_json::Value, goal: f64) -> Self {
         let flops = sb3_number(sb3, "flops_per_step");
         let sb3_train = sb3_number(sb3, "train_sps");
+        let (sgemm, bf16) = (sb3_number(sb3, "sgemm_gflops"), sb3_number(sb3, "bf16_gflops"));
         Self {
             flops_per_step: flops,
             firecast_gflops: firecast.train_sps * flops / 1e9,
             sb3_gflops: sb3_train * flops / 1e9,
             goal_gflops: goal * sb3_train * flops / 1e9,
-            sgemm_gflops: sb3_number(sb3, "sgemm_gflops"),
+            sgemm_gflops: sgemm,
+            bf16_gflops: bf16,
+            peak_gflops: if bf16 > sgemm { bf16 } else { sgemm },
+            peak_kernel: if bf16 > sgemm { "bfloat16" } else { "float32" },
+            recurrent_flops_per_step: sb3_number(sb3, "recurrent_flops_per_step"),
         }
     }
 }
@@ -261,6 +275,7 @@ fn interleaved(
         "update_sps",
         "train_sps",
         "sgemm_gflops",
+        "bf16_gflops",
     ] {
         sb3[k] = serde_json::json!(median(theirs.iter().map(|t| sb3_number(t, k)).collect()));
     }
@@ -460,17 +475,22 @@ fn print_part(out: &mut String, p: &BenchPartReport) -> std::fmt::Result {
     let w = &p.arithmetic;
     writeln!(
         out,
-        "arithmetic: {:.2} MFLOP of convolutions and matrix products per training step (torch's count); \
-         training runs at {:.1} GFLOP/s in FireCast, {:.1} in {sb3_name}; the goal needs {:.1} GFLOP/s, \
-         {:.0} % of this machine's float32 matrix product ({:.0} GFLOP/s on {} thread{})",
+        "arithmetic: {:.2} MFLOP of convolutions and matrix products per training step (torch's count, \
+         with {:.2} MFLOP of recurrent layers counted from their shapes); training runs at {:.1} GFLOP/s in \
+         FireCast, {:.1} in {sb3_name}; the goal needs {:.1} GFLOP/s, {:.0} % of this machine's fastest \
+         matrix product ({} {:.0} GFLOP/s on {} thread{}; float32 {:.0}, bfloat16 {:.0})",
         w.flops_per_step / 1e6,
+        w.recurrent_flops_per_step / 1e6,
         w.firecast_gflops,
         w.sb3_gflops,
         w.goal_gflops,
-        100.0 * w.goal_gflops / w.sgemm_gflops,
-        w.sgemm_gflops,
+        100.0 * w.goal_gflops / w.peak_gflops,
+        w.peak_kernel,
+        w.peak_gflops,
         p.threads,
         if p.threads == 1 { "" } else { "s" },
+        w.sgemm_gflops,
+        w.bf16_gflops,
     )?;
     Ok(())
 }
