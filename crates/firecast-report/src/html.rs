@@ -1045,11 +1045,15 @@ fn times_usual(r: f64) -> String {
     }
 }
 
-/// Where a ratio to the usual day lies on the colour scale: ¼× at its start, 8× at its end
-/// (a log scale: doubling is one equal step).
+/// Where a ratio to the usual day lies on the colour scale: days at or below the usual day stay
+/// pale (¼× at 0, 1× at 0.2), warmer colours only above it (2× at 0.47, 4× at 0.73, 8× at 1),
+/// so an orange cell is one above the usual day; log scale on each side.
 fn relative_position(r: f64) -> f64 {
-    if r > 0.0 {
-        ((r / 0.25).log2() / 32f64.log2()).clamp(0.0, 1.0)
+    const USUAL_AT: f64 = 0.2;
+    if r > 1.0 {
+        (USUAL_AT + (1.0 - USUAL_AT) * r.log2() / 3.0).clamp(USUAL_AT, 1.0)
+    } else if r > 0.0 {
+        (USUAL_AT * (r.log2() + 2.0) / 2.0).clamp(0.0, USUAL_AT)
     } else {
         0.0
     }

@@ -667,12 +667,14 @@ function probCss(p, alpha = 1) {
 function probTextCss(p) {
   return p < 0.35 ? '#8a5a00' : probCss(Math.max(p, 0.6));
 }
-// The day's chance relative to the usual day, on the colour scale: ¼× at its start, 8× at its
-// end, the usual day (1×) at 0.4 (a log scale: doubling is one equal step).
-const REL_MIN = 0.25, REL_MAX = 8;
+// The day's chance relative to the usual day, on the colour scale: days at or below the usual
+// day stay pale (¼× at 0, 1× at 0.2), warmer colours only above it (2× at 0.47, 4× at 0.73, 8×
+// at 1): an orange cell is one above the usual day. Log scale on each side.
+const REL_USUAL_AT = 0.2;
 function relPosition(rel) {
   if (!(rel > 0)) return 0;
-  return clamp(Math.log2(rel / REL_MIN) / Math.log2(REL_MAX / REL_MIN), 0, 1);
+  if (rel <= 1) return clamp(REL_USUAL_AT * (Math.log2(rel) + 2) / 2, 0, REL_USUAL_AT);
+  return clamp(REL_USUAL_AT + (1 - REL_USUAL_AT) * Math.log2(rel) / 3, REL_USUAL_AT, 1);
 }
 /** A text colour for the day's chance by its multiple of the usual day: quiet below 1.5×,
  *  amber below twice it, red beyond (a usual day is not an alarm). */
