@@ -45,11 +45,13 @@ pub struct CompareArgs {
 
 #[derive(Debug, Subcommand)]
 pub enum ForecastCommand {
-    /// Ignition probability of a place and date from a trained model (the paper's
-    /// predictWildfire), or of every row of a CSV of points.
+    /// The day's chance of an ignition at a place and date from a trained model (the paper's
+    /// predictWildfire), or at every row of a CSV of points: the model's score and that score
+    /// corrected to the training area's usual daily rate, with its multiple of the usual day.
     Predict(PredictArgs),
-    /// The day's ignition probability at every GRIDMET cell of a region, by every saved seed
-    /// of one model of an experiment: a map (PNG) and its numbers (JSON).
+    /// The day's chance of an ignition at every GRIDMET cell of a region, by every saved seed
+    /// of one model of an experiment: a map (PNG, in multiples of the usual day) and its
+    /// numbers (JSON: scores and daily chances).
     Map(MapArgs),
 }
 
