@@ -485,8 +485,9 @@ fn predict(settings: &Settings, args: &PredictArgs) -> anyhow::Result<ExitCode> 
     firecast_learn::set_threads(args.threads);
     let model_dir = resolve_model(settings, &args.model)?;
     let bundle = firecast_forecast::bundle::load(&model_dir, device)?;
-    let answers =
-        firecast_forecast::predict::predict(&bundle, &settings.root.join(&args.gridmet), &queries, device)?;
+    let gridmet = settings.root.join(&args.gridmet);
+    let mut answers = firecast_forecast::predict::predict(&bundle, &gridmet, &queries, device)?;
+    firecast_forecast::predict::with_daily(&mut answers, &bundle, &gridmet)?;
     if settings.json {
         output::print_json(&answers)?;
         return Ok(ExitCode::SUCCESS);

@@ -131,6 +131,17 @@ pub fn daily_base(
     }))
 }
 
+/// [`daily_base`] of a model's training extent, or [`NOT_RECORDED`] when its bundle has none.
+pub fn base_of(
+    extent: Option<&TrainingExtent>,
+    gridmet: &Path,
+) -> Result<Result<DailyBase, String>, ForecastError> {
+    match extent {
+        Some(e) => daily_base(e, gridmet),
+        None => Ok(Err(NOT_RECORDED.into())),
+    }
+}
+
 /// The seeds' scores as the day's probability.
 pub fn daily_forecast(scores: &[f64], base: &DailyBase) -> DailyForecast {
     let corrected: Vec<f64> = scores

@@ -60,24 +60,7 @@ pub fn predict(
     queries: &[Query],
     device: tch::Device,
 ) -> Result<Vec<Prediction>, ForecastError> {
-    let (mut answers, dropped) = predict_available(bundle, gridmet, queries, device)?;
-    let base = match &bundle.info.training_extent {
-        Some(e) => crate::daily::daily_base(e, gridmet)?,
-        None => Err(crate::daily::NOT_RECORDED.to_string()),
-    };
-    for a in answers.iter_mut().flatten() {
-        match &base {
-            Ok(base) => {
-                a.daily_probability = Some(crate::cell_days::prior_corrected(
-                    a.probability,
-                    base.sampled_prevalence,
-                    base.usual,
-                ));
-                a.usual_daily = Some(base.usual);
-            }
-            Err(why) => a.daily_unavailable = Some(why.clone()),
-        }
-    }
+    let (answers, dropped) = predict_available(bundle, gridmet, queries, device)?;
     let missing: Vec<String> = queries
         .iter()
         .zip(&answers)
@@ -95,6 +78,26 @@ pub fn predict(
         });
     }
     Ok(answers.into_iter().flatten().collect())
+}
+
+/// Adds the day's probability (or why there is none) to `answers` of `bundle`: the training
+/// area's usual rate is counted once from the GRIDMET folder's land mask ([`crate::daily`]).
+pub fn with_daily(answers: &mut [Prediction], bundle: &Bundle, gridmet: &Path) -> Result<(), ForecastError> {
+    let base = crate::daily::base_of(bundle.info.training_extent.as_ref(), gridmet)?;
+    for a in answers {
+        match &base {
+            Ok(base) => {
+                a.daily_probability = Some(crate::cell_days::prior_corrected(
+                    a.probability,
+                    base.sampled_prevalence,
+                    base.usual,
+                ));
+                a.usual_daily = Some(base.usual);
+            }
+            Err(why) => a.daily_unavailable = Some(why.clone()),
+        }
+    }
+    Ok(())
 }
 
 /// Scores the queries that have a complete window (a map of many cells, some masked): one

@@ -676,7 +676,7 @@ pub fn forecast_point(
         answers.push((prediction, bundle.info, rel));
     }
     let mut forecast = assemble_forecast(&answers)?;
-    match daily_base_of(forecast.training_extent.as_ref(), gridmet)? {
+    match crate::daily::base_of(forecast.training_extent.as_ref(), gridmet)? {
         Ok(base) => {
             let scores: Vec<f64> = forecast.per_seed.iter().map(|s| s.probability).collect();
             forecast.daily = Some(crate::daily::daily_forecast(&scores, &base));
@@ -684,17 +684,6 @@ pub fn forecast_point(
         Err(why) => forecast.daily_unavailable = Some(why),
     }
     Ok(forecast)
-}
-
-/// The usual daily rate of a model's training area, or why there is none.
-fn daily_base_of(
-    extent: Option<&crate::bundle::TrainingExtent>,
-    gridmet: &std::path::Path,
-) -> Result<Result<crate::daily::DailyBase, String>, crate::ForecastError> {
-    match extent {
-        Some(e) => crate::daily::daily_base(e, gridmet),
-        None => Ok(Err(crate::daily::NOT_RECORDED.into())),
-    }
 }
 
 /// An experiment's `results.json` (None when it has none) and the protocol a prediction
@@ -777,7 +766,7 @@ pub fn forecast_map(
     for (k, (_, rel)) in bundles.iter().enumerate() {
         let bundle = crate::bundle::load(&experiment.join(rel), device)?;
         if k == 0 {
-            base = daily_base_of(bundle.info.training_extent.as_ref(), gridmet)?.ok();
+            base = crate::daily::base_of(bundle.info.training_extent.as_ref(), gridmet)?.ok();
         }
         threshold += bundle.info.threshold;
         let (answers, _) = crate::predict::predict_available(&bundle, gridmet, &queries, device)?;

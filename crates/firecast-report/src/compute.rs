@@ -109,6 +109,9 @@ pub struct ForecastFile {
     pub daily_unavailable: Option<String>,
 }
 
+/// Why a forecast written before 2026-11-28 has no daily probability (it does not say).
+pub(crate) const NO_DAILY_REASON: &str = "the forecast does not carry one (written before 2026-11-28)";
+
 /// `forecast.predict`'s `daily`.
 #[derive(Debug, Clone, Deserialize)]
 pub struct ForecastDaily {
@@ -490,10 +493,7 @@ pub fn compute(settings: &ReportSettings, inputs: Inputs) -> Result<Computed, Re
                 None => format!(
                     "The model scores on its training samples' scale (about 40 % fires), not a daily chance; no daily \
                      probability is given: {}.",
-                    forecast
-                        .daily_unavailable
-                        .as_deref()
-                        .unwrap_or("the forecast does not carry one (written before 2026-11-28)")
+                    forecast.daily_unavailable.as_deref().unwrap_or(NO_DAILY_REASON)
                 ),
             }
         ),

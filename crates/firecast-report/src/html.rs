@@ -1019,7 +1019,7 @@ pub fn render(c: &Computed) -> Result<String, ReportError> {
 fn unavailable(f: &Forecast) -> &str {
     f.daily_unavailable
         .as_deref()
-        .unwrap_or("the forecast does not carry one (written before 2026-11-28)")
+        .unwrap_or(crate::compute::NO_DAILY_REASON)
 }
 
 /// A small daily probability (0–1) as a percent people can read: 0.036 %, 1.2 %.

@@ -171,29 +171,21 @@ fn ignition_pattern(
             format!("the ignition map is for {}, the report for {date}", m.date),
         ));
     }
-    if m.probability.len() != m.lats.len() || m.probability.iter().any(|row| row.len() != m.lons.len()) {
-        return Err(ReportError::input(
-            rel(root, path),
-            format!(
-                "`probability` is not {} rows of {} cells",
-                m.lats.len(),
-                m.lons.len()
-            ),
-        ));
-    }
+    // Each grid of the file is `lats` rows of `lons` cells.
+    let check = |name: &str, grid: &[Vec<Option<f64>>]| {
+        if grid.len() != m.lats.len() || grid.iter().any(|row| row.len() != m.lons.len()) {
+            return Err(ReportError::input(
+                rel(root, path),
+                format!("`{name}` is not {} rows of {} cells", m.lats.len(), m.lons.len()),
+            ));
+        }
+        Ok(())
+    };
+    check("probability", &m.probability)?;
     let values: Vec<f64> = m.probability.iter().flatten().flatten().copied().collect();
     let relative = match (&m.daily_probability, m.usual_daily) {
         (Some(daily), Some(usual)) if usual > 0.0 => {
-            if daily.len() != m.lats.len() || daily.iter().any(|row| row.len() != m.lons.len()) {
-                return Err(ReportError::input(
-                    rel(root, path),
-                    format!(
-                        "`daily_probability` is not {} rows of {} cells",
-                        m.lats.len(),
-                        m.lons.len()
-                    ),
-                ));
-            }
+            check("daily_probability", daily)?;
             Some(
                 daily
                     .iter()
