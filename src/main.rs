@@ -93,6 +93,12 @@ enum BenchCommand {
     /// compact policy (SB3 through the Python package), (c) SB3 on the FireCastRL Python
     /// environment (`--reference-env DIR`); environment only, rollout, training.
     Ppo(firecast_bench::ppo::Args),
+    /// Time to a good helitack agent: FireCast's recipe trained from nothing, a checkpoint
+    /// stamped every --every seconds of training, each judged on the held-out fires beside the
+    /// rule circle (paired 95 % interval); beside it SB3 with the paper's settings on
+    /// FireCast's environment (--control) and on the FireCastRL Python environment
+    /// (--reference-env DIR), and the ratio of the times to beat the circle.
+    Quality(firecast_bench::quality::Args),
     /// Forecasting models beside their references in the same command: the flattened
     /// baselines against scikit-learn / xgboost on the same exported split (accuracy within
     /// ±1.5 points, AUROC within ±0.015, fit times), every network's parameter count against
@@ -206,6 +212,7 @@ fn bench(settings: &Settings, command: BenchCommand) -> anyhow::Result<ExitCode>
         BenchCommand::Sim(args) => print_bench(settings, firecast_bench::sim::run(&ctx, &args)?),
         BenchCommand::Gridmet(args) => print_bench(settings, firecast_bench::gridmet::run(&ctx, &args)?),
         BenchCommand::Ppo(args) => print_bench(settings, firecast_bench::ppo::run(&ctx, &args)?),
+        BenchCommand::Quality(args) => print_bench(settings, firecast_bench::quality::run(&ctx, &args)?),
         BenchCommand::Forecast(mut args) => match &args.throughput_job {
             // The bench's own worker: one line of JSON, whatever --json says.
             Some(job) => {

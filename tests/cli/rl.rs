@@ -435,3 +435,189 @@ fn settings_say_where_each_value_came_from() {
         serde_json::json!({"value": "flag-store", "from": "flag"})
     );
 }
+
+/// A stand-in for the FireCastRL package with the contract quality_sb3.py reads (a Gymnasium
+/// env with `gridWidth`/`gridHeight`, `cell_state.fire_state`/`is_nonburnable` and the
+/// helicopter's cell in the observation) on the test's 48 × 32 grid: its "fire" is one
+/// burning cell and episodes last 10 steps. It exercises the reference row's plumbing, not
+/// FireCastRL's physics.
+const FAKE_FIRECASTRL: &str = r#"
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+class _State:
+    def __init__(self):
+        self.fire_state = np.zeros((32, 48), dtype=np.int8)
+        self.fire_state[16, 24] = 1
+        self.is_nonburnable = np.zeros((32, 48), dtype=bool)
+
+class WildfireEnv(gym.Env):
+    def __init__(self, render_mode=None):
+        self.gridWidth, self.gridHeight = 48, 32
+        self.action_space = spaces.Discrete(5)
+        self.observation_space = spaces.Dict({"helicopter_coord": spaces.Box(0, 47, (2,), np.int32)})
+        self.cell_state = _State()
+    def reset(self, seed=None, options=None):
+        super().reset(seed=seed)
+        self.t, self.xy = 0, np.array([14, 10], dtype=np.int32)
+        return {"helicopter_coord": self.xy.copy()}, {}
+    def step(self, action):
+        self.t += 1
+        dx, dy = [(0, 1), (0, -1), (-1, 0), (1, 0), (0, 0)][int(action)]
+        self.xy = np.clip(self.xy + [dx, dy], 0, [47, 31]).astype(np.int32)
+        return {"helicopter_coord": self.xy.copy()}, -1.0, self.t >= 10, False, {}
+"#;
+
+/// `bench quality` on tiny budgets: FireCast's recipe (imitation, then PPO), the control row
+/// (SB3 on HelitackVecEnv over the recipe's training fires) and the reference row (SB3 on a
+/// stand-in FireCastRL environment): every side stamps, every stamp is judged against the
+/// circle on the same held-out fires, the first stamp beating it is the one the clock names,
+/// and SB3's weights act in FireCast's engine as in SB3 (the probe).
+#[test]
+fn bench_quality_times_every_side_to_the_same_held_out_fires() {
+    let p = project();
+    p.write(
+        "recipe.yaml",
+        r#"
+name: tiny-recipe
+env: {kind: helitack, fires: fires.yaml, reward: {profile: suppression, quenched: 0, new_burnt: -1}}
+policy: {kind: compact, view: helicopter, focus: 4}
+imitation: {teacher: chaser, rounds: 3, teacher_rounds: 1, updates: 4, batch_size: 16, learning_rate: 0.001, kickstart: 1.0}
+ppo: {preset: paper, n_envs: 2, n_steps: 16, batch_size: 16, n_epochs: 1, total_timesteps: 64}
+seeds: [0]
+"#,
+    );
+    p.write(
+        "paper.yaml",
+        r#"
+name: tiny-paper
+env: {kind: helitack, fires: fires.yaml}
+policy: {kind: compact}
+ppo: {preset: paper, n_envs: 2, n_steps: 16, batch_size: 16, n_epochs: 1, total_timesteps: 64}
+"#,
+    );
+    p.write("wildfire-env/firecastrl_env/__init__.py", "");
+    p.write("wildfire-env/firecastrl_env/envs/__init__.py", "");
+    p.write(
+        "wildfire-env/firecastrl_env/envs/wildfire_env.py",
+        FAKE_FIRECASTRL,
+    );
+    let python = venv_bin("python");
+    let python = python.to_str().unwrap();
+    let r = p.json(&[
+        "bench",
+        "quality",
+        "--config",
+        "recipe.yaml",
+        "--paper-config",
+        "paper.yaml",
+        "--seeds",
+        "0,1",
+        "--budget",
+        "30",
+        "--every",
+        "0.05",
+        "--control",
+        "--reference-env",
+        "wildfire-env",
+        "--reference-budget",
+        "30",
+        "--threads",
+        "1",
+        "--resamples",
+        "200",
+        "--python",
+        python,
+    ]);
+    assert_eq!(r["fires"], 5, "{r}");
+    assert_eq!(r["grid"], serde_json::json!([48, 32]));
+    let circle = r["rule_cells_burned"].as_f64().unwrap();
+    assert!(circle > 0.0, "{r}");
+    let sides = r["sides"].as_array().unwrap();
+    let names: Vec<&str> = sides.iter().map(|s| s["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["firecast", "control", "reference"]);
+    for side in sides {
+        let seeds = side["seeds"].as_array().unwrap();
+        let want = if side["name"] == "firecast" { 2 } else { 1 };
+        assert_eq!(seeds.len(), want, "{side}");
+        for s in seeds {
+            let stamps = s["stamps"].as_array().unwrap();
+            assert!(stamps.len() >= 2, "stamps every 0.05 s: {s}");
+            let secs: Vec<f64> = stamps.iter().map(|x| x["seconds"].as_f64().unwrap()).collect();
+            assert!(secs.windows(2).all(|w| w[0] <= w[1]), "{secs:?}");
+            // Both budgets outlast the tiny recipes: the last stamp is the finished policy.
+            let last = stamps.last().unwrap();
+            assert_eq!(last["timesteps"], 64, "{s}");
+            assert_eq!(s["trained_seconds"].as_f64(), secs.last().copied());
+            // The clock names the first judged stamp whose interval lies below zero.
+            let first_beating = stamps.iter().find_map(|x| {
+                let j = x.get("judgement").filter(|j| !j.is_null())?;
+                assert_eq!(j["rule_cells_burned"].as_f64(), Some(circle));
+                (j["comparison"]["cells_burned_diff"]["high"].as_f64().unwrap() < 0.0)
+                    .then(|| x["seconds"].as_f64().unwrap())
+            });
+            assert_eq!(s["beats_circle_at"].as_f64(), first_beating, "{s}");
+            assert!(
+                stamps[0]["judgement"].is_object(),
+                "the first stamp is always judged"
+            );
+        }
+    }
+    // FireCast's recipe imitates before PPO: its first stamps are imitation rounds.
+    let ours = &sides[0]["seeds"][0]["stamps"];
+    assert!(ours[0]["imitation_timesteps"].as_u64().unwrap() > 0, "{ours}");
+    assert_eq!(ours[0]["timesteps"], 0, "{ours}");
+    assert_eq!(
+        sides[2]["detail"]
+            .as_str()
+            .map(|d| d.contains("at most 64 steps")),
+        Some(true)
+    );
+
+    // The human rendering prints the goals, whatever they say.
+    let out = p
+        .firecast()
+        .args([
+            "bench",
+            "quality",
+            "--config",
+            "recipe.yaml",
+            "--seeds",
+            "0",
+            "--budget",
+            "30",
+        ])
+        .args(["--every", "1", "--resamples", "100", "--threads", "1"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for line in [
+        "goal: beat the circle in <= 300 s a seed:",
+        "goal: >= 20x less wall-clock",
+        "not measured (pass --reference-env)",
+    ] {
+        assert!(text.contains(line), "{line}: {text}");
+    }
+
+    // A folder without the FireCastRL package is refused by name before anything trains.
+    let out = p
+        .firecast()
+        .args([
+            "bench",
+            "quality",
+            "--config",
+            "recipe.yaml",
+            "--reference-env",
+            "nowhere",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--reference-env nowhere") && err.contains("wildfire_env.py"),
+        "{err}"
+    );
+}

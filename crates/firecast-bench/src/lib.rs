@@ -15,6 +15,7 @@ pub mod gridmet;
 pub mod ppo;
 pub mod pyretechnics;
 pub mod python;
+pub mod quality;
 pub mod serve;
 pub mod sim;
 pub mod spread;

@@ -41,6 +41,12 @@ pub trait TrainSink {
     fn checkpoint(&self, _dir: &Path, _timesteps: u64) {}
     /// Metrics of one imitation round, after `imitation_timesteps` steps of it.
     fn imitation(&self, _imitation_timesteps: u64, _metrics: &[(String, f64)]) {}
+    /// Asked after every imitation round and every update: `true` ends training there (a
+    /// benchmark's wall-clock budget). [`Trainer::learn_until`] then returns short of its
+    /// budget, without a last checkpoint, and [`Trainer::imitate`] skips its remaining rounds.
+    fn should_stop(&self) -> bool {
+        false
+    }
 }
 
 /// A sink that ignores everything.
@@ -247,6 +253,9 @@ impl<C: PolicySpec> Trainer<C> {
                     self.save(&path)?;
                     sink.checkpoint(&path, self.num_timesteps);
                 }
+            }
+            if sink.should_stop() {
+                break;
             }
         }
         Ok(())
@@ -532,6 +541,9 @@ impl<C: PolicySpec> Trainer<C> {
                     ("imitation/dataset".into(), data.len() as f64),
                 ],
             );
+            if sink.should_stop() {
+                break;
+            }
         }
         self.adam.reset_moments();
         self.episodes.clear();

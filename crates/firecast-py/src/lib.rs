@@ -210,6 +210,66 @@ struct VecEnv {
 }
 
 impl VecEnv {
+    /// One pool entry per (landscape JSON, config JSON) pair.
+    fn of_fires(
+        py: Python<'_>,
+        num_envs: usize,
+        seed: u64,
+        pairs: &[(String, String)],
+        profile: Option<&str>,
+    ) -> PyResult<Self> {
+        if pairs.is_empty() {
+            return Err(BindError::invalid("fires", "needs at least one fire").into());
+        }
+        let mut cores = Vec::with_capacity(pairs.len());
+        let mut loaded: std::collections::HashMap<String, std::sync::Arc<firecast_landscape::Landscape>> =
+            std::collections::HashMap::new();
+        let mut size: Option<(usize, usize)> = None;
+        for (k, (land_text, cfg_text)) in pairs.iter().enumerate() {
+            // Errors name `landscape…`/`config…`: put them under this fire.
+            let rekey = |e: BindError| match e {
+                BindError::Invalid { key, message } => {
+                    BindError::invalid(format!("fires[{k}].{key}"), message)
+                }
+                other => other,
+            };
+            // Fires share few landscapes: generate each once.
+            let land = match loaded.get(land_text) {
+                Some(l) => std::sync::Arc::clone(l),
+                None => {
+                    let l = std::sync::Arc::new(load_landscape(py, land_text).map_err(rekey)?);
+                    loaded.insert(land_text.clone(), std::sync::Arc::clone(&l));
+                    l
+                }
+            };
+            let cfg = spec::env_config(Some(cfg_text), profile).map_err(rekey)?;
+            let grid = (land.width, land.height);
+            if let Some(first) = size
+                && first != grid
+            {
+                return Err(BindError::invalid(
+                    format!("fires[{k}].landscape"),
+                    format!(
+                        "is {}×{}, fires[0]'s is {}×{}: one VecEnv needs one grid size",
+                        grid.0, grid.1, first.0, first.1
+                    ),
+                )
+                .into());
+            }
+            size = Some(grid);
+            spec::check_grid(&land, &cfg, &format!("fires[{k}].landscape"))?;
+            cores.push(EnvCore::new(&land, &cfg).map_err(BindError::from)?);
+        }
+        let vec = py
+            .detach(|| firecast_sim::VecEnv::with_fires(cores, num_envs, seed))
+            .map_err(BindError::from)?;
+        Ok(Self {
+            vec,
+            size: size.unwrap_or((0, 0)),
+            actions: Vec::with_capacity(num_envs),
+        })
+    }
+
     fn observations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let (w, h) = self.size;
         let n = self.vec.num_envs();
@@ -234,10 +294,12 @@ impl VecEnv {
 
 #[pymethods]
 impl VecEnv {
-    /// The pool is every landscape × every ignition cell (`None`: the configuration's);
-    /// all landscapes must share one grid size.
+    /// The pool is every landscape × every ignition cell (`None`: the configuration's), or,
+    /// with `fires`, those (landscape, configuration) pairs, each its own weather and
+    /// ignition (a FireCast fire file's draws); all landscapes must share one grid size.
     #[new]
-    #[pyo3(signature = (num_envs, seed, landscapes, ignitions=None, config=None, profile=None))]
+    #[pyo3(signature = (num_envs, seed, landscapes, ignitions=None, config=None, profile=None, fires=None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         num_envs: usize,
@@ -246,9 +308,20 @@ impl VecEnv {
         ignitions: Option<Vec<(usize, usize)>>,
         config: Option<&str>,
         profile: Option<&str>,
+        fires: Option<Vec<(String, String)>>,
     ) -> PyResult<Self> {
         if num_envs == 0 {
             return Err(BindError::invalid("num_envs", "must be at least 1").into());
+        }
+        if let Some(pairs) = fires {
+            if !landscapes.is_empty() || ignitions.is_some() || config.is_some() {
+                return Err(BindError::invalid(
+                    "fires",
+                    "gives each fire its landscape and config: leave landscapes, ignitions and config out",
+                )
+                .into());
+            }
+            return Self::of_fires(py, num_envs, seed, &pairs, profile);
         }
         if landscapes.is_empty() {
             return Err(BindError::invalid("landscapes", "needs at least one landscape").into());

@@ -616,6 +616,98 @@ pub fn evaluate(
     })
 }
 
+/// The held-out fires with the rule circle flown on each once, against which one policy at a
+/// time is judged: what `firecast bench quality` asks of every checkpoint it stamps.
+pub struct HeldOut {
+    cores: Vec<EnvCore>,
+    rule: Vec<Episode>,
+    cfg: EvalConfig,
+}
+
+/// One policy on the held-out fires beside the rule circle (paired by fire, as Table IV).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Judgement {
+    /// Mean cells burned by the policy.
+    pub cells_burned: f64,
+    /// Mean cells burned by the rule circle on the same fires.
+    pub rule_cells_burned: f64,
+    /// Policy − circle (its interval below zero: the policy beats the circle) and the
+    /// relative reduction 1 − policy / circle.
+    pub comparison: PairedComparison,
+}
+
+impl Judgement {
+    /// The paired interval of policy − circle lies below zero.
+    pub fn beats_rule(&self) -> bool {
+        self.comparison.cells_burned_diff.high < 0.0
+    }
+
+    /// The point estimate of the reduction against the circle (0.69 for 69 % fewer cells).
+    pub fn fewer(&self) -> f64 {
+        self.comparison.relative_reduction.estimate
+    }
+}
+
+impl HeldOut {
+    /// Builds the evaluation fires of `fires` and flies the rule circle on each.
+    pub fn new(fires: &FiresSpec, cfg: EvalConfig) -> Result<Self, RlError> {
+        let (_, cores) = fires.evaluate.build("evaluate")?;
+        let rule = run_baseline(&cores, &|| Box::new(RuleBasedAgent::single_circle()), cfg.seed);
+        let rule = rule.into_iter().map(|r| episode(RULE, None, &r)).collect();
+        Ok(Self { cores, rule, cfg })
+    }
+
+    /// How many held-out fires.
+    pub fn fires(&self) -> usize {
+        self.cores.len()
+    }
+
+    /// The fires' grid, `[width, height]`.
+    pub fn grid(&self) -> [usize; 2] {
+        let (w, h) = self.cores.first().map_or((0, 0), EnvCore::grid_size);
+        [w, h]
+    }
+
+    /// The rule circle's mean cells burned.
+    pub fn rule_cells_burned(&self) -> f64 {
+        mean(self.rule.iter().map(|e| f64::from(e.cells_burned)))
+    }
+
+    /// Plays `policy` (greedy unless the config samples) on every held-out fire and compares
+    /// it with the circle, pair by pair.
+    pub fn judge(&self, policy: &EnsemblePolicy) -> Result<Judgement, RlError> {
+        let raw = run_ppo(&self.cores, policy, &self.cfg)?;
+        let mut episodes: Vec<Episode> = raw.iter().map(|r| episode(PPO, Some(policy.seed), r)).collect();
+        let cells_burned = mean(episodes.iter().map(|e| f64::from(e.cells_burned)));
+        episodes.extend(self.rule.iter().cloned());
+        Ok(Judgement {
+            cells_burned,
+            rule_cells_burned: self.rule_cells_burned(),
+            comparison: compare(PPO, RULE, &episodes, &self.cfg)?,
+        })
+    }
+}
+
+/// An episode of `agent` without the unsuppressed fire beside it (`cells_saved` NaN).
+fn episode(agent: &str, train_seed: Option<u64>, r: &Raw) -> Episode {
+    Episode {
+        agent: agent.into(),
+        train_seed,
+        fire: r.fire,
+        cells_burned: r.cells_burned,
+        cells_saved: f64::NAN,
+        timesteps: r.timesteps,
+        helitacks: r.helitacks,
+        water_used_gal: r.water,
+        contained: r.contained,
+    }
+}
+
+fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let (sum, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    if n == 0 { f64::NAN } else { sum / n as f64 }
+}
+
 /// The best (fewest cells burned), median and worst (most) PPO episodes, over every
 /// training seed and fire. Ties go to the lower training seed, then the lower fire; the
 /// median of an even count is the lower one.

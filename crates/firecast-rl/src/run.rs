@@ -126,7 +126,7 @@ impl TrainSink for SeedSink<'_> {
 /// Builds the training environments of `spec` for `seed`.
 pub fn train_env(
     spec: &TrainSpec,
-    fires: Option<&(FiresSpec, Vec<FireDraw>, Vec<firecast_sim::env::EnvCore>)>,
+    fires: Option<&TrainingFires>,
     n_envs: usize,
     seed: u64,
 ) -> Result<Box<dyn VecEnvironment>, RlError> {
@@ -144,6 +144,26 @@ pub fn train_env(
     })
 }
 
+/// A helitack spec's fire file (its reward applied) and its training fires; `None` for
+/// CartPole.
+pub fn training_fires(spec: &TrainSpec, fires_file: Option<&Path>) -> Result<Option<TrainingFires>, RlError> {
+    match (&spec.env, fires_file) {
+        (EnvSpec::Helitack { reward, .. }, Some(path)) => {
+            let f = FiresSpec::load(path)?.with_reward(reward.as_ref())?;
+            let (draws, cores) = f.train.build("train")?;
+            Ok(Some((f, draws, cores)))
+        }
+        (EnvSpec::Helitack { .. }, None) => Err(RlError::config(
+            "env.fires",
+            "the helitack environment needs a fire file",
+        )),
+        (EnvSpec::Cartpole, _) => Ok(None),
+    }
+}
+
+/// A fire file, its training draws and their environments.
+pub type TrainingFires = (FiresSpec, Vec<FireDraw>, Vec<firecast_sim::env::EnvCore>);
+
 /// Trains every seed. `work` holds checkpoints (`seed-<n>/step-*`): a seed with a
 /// checkpoint there resumes from it. With `stop_after`, each seed stops after that many
 /// steps (an interruption: the call returns [`RlError::Interrupted`] with checkpoints kept).
@@ -158,20 +178,7 @@ pub fn train(
 ) -> Result<TrainSummary, RlError> {
     let ppo = spec.ppo()?;
     let policy = spec.policy();
-    let fires = match (&spec.env, fires_file) {
-        (EnvSpec::Helitack { reward, .. }, Some(path)) => {
-            let f = FiresSpec::load(path)?.with_reward(reward.as_ref())?;
-            let (draws, cores) = f.train.build("train")?;
-            Some((f, draws, cores))
-        }
-        (EnvSpec::Helitack { .. }, None) => {
-            return Err(RlError::config(
-                "env.fires",
-                "the helitack environment needs a fire file",
-            ));
-        }
-        (EnvSpec::Cartpole, _) => None,
-    };
+    let fires = training_fires(spec, fires_file)?;
     std::fs::create_dir_all(out).map_err(|e| RlError::io("creating the run folder", out, e))?;
     let mut seeds = Vec::new();
     for &seed in &spec.seeds {

@@ -124,7 +124,7 @@ impl BurnIndex {
 }
 
 /// Which spread kernel drives the automaton.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub enum KernelConfig {
     /// The Concord/FireCastRL kernel (MODIS landscapes only): zone drought → moisture table.
@@ -225,7 +225,7 @@ pub fn unsheltered_waf(depth_ft: f64) -> f64 {
 }
 
 /// Helitack footprint shape (docs/spec/fire-model.md §A8).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum HelitackFootprint {
     /// FireCastRL's mirrored loop: the radius-r disc minus the cell (−r, 0) (80 cells at r = 5).
@@ -261,7 +261,7 @@ pub enum Neighbourhood {
 }
 
 /// Automaton configuration. Defaults reproduce the P2 engine with zero wind.
-#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SimConfig {
     pub kernel: KernelConfig,

@@ -62,7 +62,7 @@ impl TryFrom<u8> for Action {
 }
 
 /// When an episode terminates.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Termination {
     /// Nothing burns and no ignition is scheduled before the truncation time (the fire is
@@ -224,7 +224,7 @@ impl RewardWeights {
 }
 
 /// Environment configuration (defaults: P2 with the choices).
-#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct EnvConfig {
     pub sim: SimConfig,

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -41,7 +41,10 @@ class HelitackVecEnv(VecEnv):
     the built-in episode statistics, ``env_is_wrapped(Monitor)`` answers True.
 
     The fire pool is every landscape of ``landscapes`` (default ``[landscape]``) × every cell of
-    ``ignitions`` (default: the configured ignition). Episode ``k`` of environment ``i`` after
+    ``ignitions`` (default: the configured ignition), or ``fires``: a list of mappings
+    ``{"landscape": ..., "config": ...}``, each fire with its own landscape, weather and ignition
+    (``config.ignition``), as a FireCast fire file draws them (``firecast bench quality`` trains
+    SB3 on a recipe's training fires this way). Episode ``k`` of environment ``i`` after
     ``reset`` with base seed ``s`` uses Rust seed ``mix(s, i, k)`` and pool entry
     ``mix(s, i, k) mod len(pool)`` (firecast-sim ``VecEnv``), so the stream depends on the seed
     only. ``seed(s)`` sets the base seed of the next ``reset()``; a ``reset()`` without one draws
@@ -64,17 +67,31 @@ class HelitackVecEnv(VecEnv):
         config: Config | None = None,
         render_mode: str | None = None,
         render_scale: int = 4,
+        fires: Sequence[Mapping[str, Any]] | None = None,
     ) -> None:
         if landscape is not None and landscapes is not None:
             raise ValueError("give landscape or landscapes, not both")
+        if fires is not None and any(x is not None for x in (landscape, landscapes, ignitions, config)):
+            raise ValueError("fires gives each fire its landscape and config: leave landscape(s), ignitions and config out")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode: {render_mode!r} is not 'rgb_array' or None")
-        lands = [landscape_arg(x) for x in (landscapes if landscapes is not None else [landscape])]
+        pairs = None
+        if fires is not None:
+            lands = []
+            pairs = [(landscape_arg(f["landscape"]), config_arg(f["config"]) or "{}") for f in fires]
+        else:
+            lands = [landscape_arg(x) for x in (landscapes if landscapes is not None else [landscape])]
         cells = None if ignitions is None else [(int(x), int(y)) for x, y in ignitions]
         self._rng = np.random.default_rng(seed)
         # The Rust VecEnv starts reset with this seed; nothing is observable before reset().
         self._vec: _firecast.VecEnv | None = _firecast.VecEnv(
-            int(num_envs), 0 if seed is None else seed_arg(seed, "seed"), lands, cells, config_arg(config), profile
+            int(num_envs),
+            0 if seed is None else seed_arg(seed, "seed"),
+            lands,
+            cells,
+            config_arg(config),
+            profile,
+            pairs,
         )
         self.render_mode = render_mode
         self.render_scale = int(render_scale)

@@ -231,3 +231,39 @@ def test_vec_env_methods_attributes_and_close():
     vec.close()
     with pytest.raises(RuntimeError, match="closed"):
         vec.reset()
+
+
+def test_fires_each_with_its_own_landscape_weather_and_ignition():
+    def fire(seed, ignition, wind):
+        return {
+            "landscape": {"procedural": {"seed": seed, "width": 48, "height": 32}},
+            "config": {"max_steps": 6, "ignition": ignition, "sim": {"wind": {"speed_mph": wind, "from_direction_deg": 90}}},
+        }
+
+    a, b = fire(3, [10, 10], 4.0), fire(4, [30, 20], 1.0)
+
+    def stream(vec):
+        out = [vec.reset()["cells"].copy()]
+        for _ in range(12):
+            o, r, d, _ = vec.step(np.full(vec.num_envs, 4, dtype=np.int64))
+            out += [o["cells"].copy(), r.copy(), d.copy()]
+        return out
+
+    # One fire given as a pair plays exactly what the same landscape and config play.
+    one = HelitackVecEnv(2, seed=5, fires=[a])
+    same = HelitackVecEnv(2, seed=5, landscape=a["landscape"], config=a["config"])
+    assert all(np.array_equal(x, y) for x, y in zip(stream(one), stream(same)))
+    both = HelitackVecEnv(4, seed=0, fires=[a, b])
+    assert both.num_fires == 2
+    both.reset()
+    seen = set()
+    for _ in range(30):
+        both.step(np.zeros(4, dtype=np.int64))
+        seen.update(both.get_attr("fire_index"))
+    assert seen == {0, 1}
+    with pytest.raises(ValueError, match=r"fires\[1\]\.config\.max_steps: must be at least 1"):
+        HelitackVecEnv(2, fires=[a, {"landscape": b["landscape"], "config": {"max_steps": 0}}])
+    with pytest.raises(ValueError, match=r"fires\[1\]\.landscape: is 40×32, fires\[0\]'s is 48×32"):
+        HelitackVecEnv(2, fires=[a, fire(1, [5, 5], 1.0) | {"landscape": {"procedural": {"seed": 1, "width": 40, "height": 32}}}])
+    with pytest.raises(ValueError, match="leave landscape"):
+        HelitackVecEnv(2, fires=[a], config={"max_steps": 3})

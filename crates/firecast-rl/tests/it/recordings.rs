@@ -240,3 +240,38 @@ fn a_run_evaluated_against_itself_is_a_tie() {
     assert!(c.cells_burned_diff.low <= 0.0 && c.cells_burned_diff.high >= 0.0);
     assert!(firecast_rl::evaluate::markdown(&report).contains("| ppo:tiny |"));
 }
+
+/// `HeldOut::judge` (`bench quality`'s checkpoints) says of one policy what `rl evaluate`
+/// says of a run holding only that policy: the same mean, the same paired comparison with
+/// the rule circle.
+#[test]
+fn held_out_judges_a_policy_as_the_evaluation_does() {
+    use firecast_rl::evaluate::{HeldOut, RULE, evaluate as evaluate_policies};
+    let tmp = tempfile::tempdir().expect("a temporary folder");
+    let (run, fires) = tiny_run(tmp.path(), FIRES);
+    let (_, mut policies) = load_policies(&run, Device::Cpu).expect("loading the run");
+    policies.truncate(1);
+    let cfg = EvalConfig {
+        resamples: 500,
+        recordings: false,
+        ..EvalConfig::default()
+    };
+    let spec = FiresSpec::load(&fires).expect("the fire file");
+    let report = evaluate_policies(&spec, &policies, None, &cfg, &|_| {}).expect("the evaluation");
+    let held_out = HeldOut::new(&spec, cfg.clone()).expect("the held-out fires");
+    assert_eq!(held_out.fires(), 4);
+    let judged = held_out.judge(&policies[0]).expect("judging");
+    let row = |agent: &str| {
+        let a = report.agents.iter().find(|a| a.agent == agent).expect("a row");
+        a.cells_burned.mean.estimate
+    };
+    assert_eq!(judged.cells_burned, row(PPO));
+    assert_eq!(judged.rule_cells_burned, row(RULE));
+    let vs_rule = report
+        .comparisons
+        .iter()
+        .find(|c| c.baseline == RULE)
+        .expect("PPO against the circle");
+    assert_eq!(&judged.comparison, vs_rule);
+    assert_eq!(judged.beats_rule(), vs_rule.cells_burned_diff.high < 0.0);
+}
