@@ -266,7 +266,25 @@ pub fn run(ctx: &Context, args: &Args) -> anyhow::Result<QualityReport> {
         std::fs::write(scripts.path().join("quality_sb3.py"), QUALITY_SCRIPT)?;
         std::fs::write(scripts.path().join("bench_sb3_helitack.py"), HELITACK_SCRIPT)?;
         if args.control {
-            let env = serde_json::json!({"kind": "firecast", "kwargs": {"fires": python_fires(&fires)?}});
+            // The paper's setup on FireCast's environment: the paper spec's fire file and
+            // reward (P2), not the recipe's.
+            let paper_fires = firecast_rl::run::training_fires(
+                &paper,
+                Some(&ctx.root.join(fire_file(&paper, &paper_file)?)),
+            )?
+            .context("the paper's setup trains no helitack agent")?;
+            // The reward does not change what burns.
+            let unrewarded = |f: &TrainingFires| {
+                let mut set = f.0.evaluate.clone();
+                set.env.reward = firecast_sim::RewardWeights::default();
+                set
+            };
+            anyhow::ensure!(
+                unrewarded(&paper_fires) == unrewarded(&fires),
+                "{}: its fire file's held-out fires differ from the recipe's: the rows would not be judged alike",
+                paper_file.display()
+            );
+            let env = serde_json::json!({"kind": "firecast", "kwargs": {"fires": python_fires(&paper_fires)?}});
             report.sides.push(sb3_side(
                 "control",
                 "SB3 on firecast.HelitackVecEnv",
