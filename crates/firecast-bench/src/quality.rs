@@ -284,7 +284,8 @@ pub fn run(ctx: &Context, args: &Args) -> anyhow::Result<QualityReport> {
                 "{}: its fire file's held-out fires differ from the recipe's: the rows would not be judged alike",
                 paper_file.display()
             );
-            let env = serde_json::json!({"kind": "firecast", "kwargs": {"fires": python_fires(&paper_fires)?}});
+            let env =
+                serde_json::json!({"kind": "firecast", "kwargs": {"fires": python_fires(&paper_fires)?}});
             report.sides.push(sb3_side(
                 "control",
                 "SB3 on firecast.HelitackVecEnv",
@@ -349,8 +350,9 @@ fn recipe_detail(spec: &TrainSpec) -> anyhow::Result<String> {
 fn tempfile_dir(root: &Path) -> anyhow::Result<firecast_fs::TempPath> {
     let dest = root.join(".firecast/bench-quality");
     std::fs::create_dir_all(root.join(".firecast"))?;
-    Ok(firecast_fs::TempPath::dir(&dest)
-        .map_err(|e| anyhow::anyhow!("{}: {}", e.path.display(), e.source))?)
+    // What an interrupted run left (its process is gone).
+    firecast_fs::remove_stale(&root.join(".firecast"));
+    firecast_fs::TempPath::dir(&dest).map_err(|e| anyhow::anyhow!("{}: {}", e.path.display(), e.source))
 }
 
 /// A stamp of FireCast's own trainer and the weights it copied then.
@@ -534,9 +536,8 @@ fn judge_stamps<'a>(
         if run.target_at.is_none() && j.fewer() >= target {
             run.target_at = Some(stamp.seconds);
         }
-        if !(run.best_fewer >= j.fewer()) {
-            run.best_fewer = j.fewer();
-        }
+        // NaN until the first judged stamp.
+        run.best_fewer = run.best_fewer.max(j.fewer());
         stamp.judgement = Some(j);
         run.stamps.push(stamp);
     }
