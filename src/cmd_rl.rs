@@ -72,6 +72,11 @@ pub struct EvaluateArgs {
     /// Do not record the best, median and worst PPO episodes.
     #[arg(long)]
     pub no_recordings: bool,
+    /// Also fly the rollout search (agent `search`): before every move it plays each of the
+    /// five actions on a copy of the fire, then the chaser for the rest of STEPS steps, and
+    /// takes the action whose copy burns least.
+    #[arg(long, value_name = "STEPS", num_args = 0..=1, default_missing_value = "40")]
+    pub search: Option<u32>,
     #[arg(long, default_value = "auto")]
     pub device: String,
     /// libtorch threads (part of the result and its cache key).
@@ -233,6 +238,10 @@ fn evaluate(settings: &Settings, args: &EvaluateArgs) -> anyhow::Result<ExitCode
             deterministic: !args.stochastic,
             resamples: args.resamples,
             recordings: !args.no_recordings,
+            search: args.search.map(|horizon| firecast_sim::SearchConfig {
+                horizon,
+                ..Default::default()
+            }),
             ..Default::default()
         },
         device: args.device.clone(),

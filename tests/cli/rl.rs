@@ -198,6 +198,60 @@ fn an_interrupted_helitack_run_resumes_to_the_same_policy() {
         .map(|r| r["role"].as_str().unwrap())
         .collect();
     assert_eq!(roles, ["best", "median", "worst"], "{}", r["recordings"]);
+
+    // With the rollout search beside them: its row after the chaser, compared with the
+    // chaser and the circle, and PPO compared with it.
+    let r = p.json(&[
+        "rl",
+        "evaluate",
+        "--run",
+        "experiments/runs/heli-a",
+        "--resamples",
+        "200",
+        "--no-recordings",
+        "--search",
+        "10",
+        "--out",
+        "experiments/runs/heli-a/evaluation-search",
+    ]);
+    let agents: Vec<&str> = r["agents"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["agent"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        agents,
+        ["ppo", "rule", "rule-concentric", "chaser", "search", "none"]
+    );
+    let pairs: Vec<(&str, &str)> = r["comparisons"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| (c["agent"].as_str().unwrap(), c["baseline"].as_str().unwrap()))
+        .collect();
+    assert_eq!(
+        pairs,
+        [
+            ("ppo", "rule"),
+            ("ppo", "rule-concentric"),
+            ("ppo", "chaser"),
+            ("ppo", "search"),
+            ("ppo", "none"),
+            ("search", "chaser"),
+            ("search", "rule")
+        ]
+    );
+    let table =
+        std::fs::read_to_string(p.path("experiments/runs/heli-a/evaluation-search/table4.md")).unwrap();
+    assert!(
+        table.contains("| search vs | Δ cells burned (search − baseline)"),
+        "{table}"
+    );
+    assert!(
+        table.contains("| PPO vs | Δ cells burned (PPO − baseline)"),
+        "{table}"
+    );
 }
 
 #[test]

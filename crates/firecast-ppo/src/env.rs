@@ -82,6 +82,11 @@ pub trait VecEnvironment: Send {
     fn episode_extras(&self, _i: usize) -> Vec<(&'static str, f64)> {
         Vec::new()
     }
+    /// The environment as itself, for a teacher that plans with the application's
+    /// simulator ([`Teacher::act_in`](crate::imitation::Teacher::act_in)).
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        None
+    }
     /// Everything needed to continue the exact same stream later (checkpoints).
     fn snapshot(&self) -> serde_json::Value;
     /// Restores a [`snapshot`](Self::snapshot) taken from an environment built the same way.

@@ -7,13 +7,18 @@
 use serde::{Deserialize, Serialize};
 
 use crate::PpoError;
-use crate::env::ObsBatch;
+use crate::env::{ObsBatch, VecEnvironment};
 
 /// A rule that labels observations with actions.
 pub trait Teacher: Send {
     /// Actions for every row of `obs` (image part as the environment gives it; the vector
     /// part may be normalised).
     fn act(&mut self, obs: &ObsBatch, actions: &mut [u8]);
+    /// Actions with the environments that gave `obs` at hand, for a teacher that plans with
+    /// them (it downcasts [`VecEnvironment::as_any`]); the others read `obs` alone.
+    fn act_in(&mut self, _env: &dyn VecEnvironment, obs: &ObsBatch, actions: &mut [u8]) {
+        self.act(obs, actions);
+    }
 }
 
 /// `imitation:` in a training spec.

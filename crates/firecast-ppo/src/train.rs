@@ -331,7 +331,7 @@ impl<C: PolicySpec> Trainer<C> {
             }
             let (mut actions, values, log_probs) = self.act(&obs, false);
             if let Some((teacher, flies)) = teacher.as_mut() {
-                teacher.act(&obs, &mut labels);
+                teacher.act_in(self.env.as_ref(), &obs, &mut labels);
                 self.buffer.add_labels(&labels);
                 if *flies {
                     actions.copy_from_slice(&labels);

@@ -243,20 +243,12 @@ impl VecEnv {
                 }
             };
             let cfg = spec::env_config(Some(cfg_text), profile).map_err(rekey)?;
-            let grid = (land.width, land.height);
-            if let Some(first) = size
-                && first != grid
-            {
-                return Err(BindError::invalid(
-                    format!("fires[{k}].landscape"),
-                    format!(
-                        "is {}×{}, fires[0]'s is {}×{}: one VecEnv needs one grid size",
-                        grid.0, grid.1, first.0, first.1
-                    ),
-                )
-                .into());
-            }
-            size = Some(grid);
+            spec::check_same_grid(
+                &land,
+                &mut size,
+                &format!("fires[{k}].landscape"),
+                "fires[0].landscape",
+            )?;
             spec::check_grid(&land, &cfg, &format!("fires[{k}].landscape"))?;
             cores.push(EnvCore::new(&land, &cfg).map_err(BindError::from)?);
         }
@@ -341,20 +333,7 @@ impl VecEnv {
                 }
                 other => other,
             })?;
-            let grid = (land.width, land.height);
-            if let Some(first) = size
-                && first != grid
-            {
-                return Err(BindError::invalid(
-                    format!("landscapes[{k}]"),
-                    format!(
-                        "is {}×{}, landscapes[0] is {}×{}: one VecEnv needs one grid size",
-                        grid.0, grid.1, first.0, first.1
-                    ),
-                )
-                .into());
-            }
-            size = Some(grid);
+            spec::check_same_grid(&land, &mut size, &format!("landscapes[{k}]"), "landscapes[0]")?;
             spec::check_grid(&land, &cfg, &format!("landscapes[{k}]"))?;
             let core = EnvCore::new(&land, &cfg).map_err(BindError::from)?;
             match &ignitions {

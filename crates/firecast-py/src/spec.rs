@@ -46,6 +46,30 @@ pub fn check_grid(land: &Landscape, cfg: &EnvConfig, landscape_key: &str) -> Res
     Ok(())
 }
 
+/// One `VecEnv` steps one grid size: the first landscape's size is kept in `first` (named
+/// `first_key`), every later one (named `key`) must match it.
+pub fn check_same_grid(
+    land: &Landscape,
+    first: &mut Option<(usize, usize)>,
+    key: &str,
+    first_key: &str,
+) -> Result<(), BindError> {
+    let grid = (land.width, land.height);
+    match *first {
+        Some(f) if f != grid => Err(BindError::invalid(
+            key,
+            format!(
+                "is {} × {}, {first_key} is {} × {}: one VecEnv needs one grid size",
+                grid.0, grid.1, f.0, f.1
+            ),
+        )),
+        _ => {
+            *first = Some(grid);
+            Ok(())
+        }
+    }
+}
+
 /// The reward profiles (`RewardWeights::preset`).
 pub const PROFILES: &[&str] = &["p2", "websocket_t", "p1_improved", "suppression"];
 

@@ -147,6 +147,53 @@ def schedule(value):
     return float(value)
 
 
+def reward_normalizer(venv, norm, gamma):
+    """SB3's `VecNormalize` as FireCast's `normalize` settings describe it (rewards only; its
+    `gamma` falls back to PPO's)."""
+    return VecNormalize(
+        venv,
+        norm_obs=False,
+        norm_reward=norm["reward"],
+        clip_obs=norm["clip_obs"],
+        clip_reward=norm["clip_reward"],
+        gamma=norm["gamma"] if norm["gamma"] is not None else gamma,
+        epsilon=norm["epsilon"],
+    )
+
+
+def sb3_ppo_kwargs(ppo, policy, extractor, script):
+    """FireCast's PPO settings (without `n_envs`, `total_timesteps`, `normalize`) and compact
+    policy as SB3's `PPO(...)` keyword arguments and `policy_kwargs`; a setting SB3 is not
+    given stops the script."""
+    ppo = dict(ppo)
+    kwargs = dict(
+        n_steps=ppo.pop("n_steps"),
+        batch_size=ppo.pop("batch_size"),
+        n_epochs=ppo.pop("n_epochs"),
+        learning_rate=schedule(ppo.pop("learning_rate")),
+        clip_range=schedule(ppo.pop("clip_range")),
+        clip_range_vf=ppo.pop("clip_range_vf"),
+        gamma=ppo.pop("gamma"),
+        gae_lambda=ppo.pop("gae_lambda"),
+        ent_coef=ppo.pop("ent_coef"),
+        vf_coef=ppo.pop("vf_coef"),
+        max_grad_norm=ppo.pop("max_grad_norm"),
+        target_kl=ppo.pop("target_kl"),
+        normalize_advantage=ppo.pop("normalize_advantage"),
+    )
+    eps = ppo.pop("adam_eps")
+    if ppo:
+        sys.exit(f"{script}: PPO settings this script does not pass to SB3: {sorted(ppo)}")
+    policy_kwargs = dict(
+        features_extractor_class=extractor,
+        net_arch=dict(pi=list(policy["pi"]), vf=list(policy["vf"])),
+        activation_fn={"tanh": nn.Tanh, "relu": nn.ReLU}[policy["activation"]],
+        ortho_init=policy["ortho_init"],
+        optimizer_kwargs=dict(eps=eps),
+    )
+    return kwargs, policy_kwargs
+
+
 def main():
     cfg = json.loads(sys.argv[1])
     threads = int(cfg["threads"])
@@ -160,7 +207,6 @@ def main():
     policy = cfg["policy"]
     if policy["kind"] != "compact" or policy["batch_norm"]:
         sys.exit(f"bench_sb3_helitack.py: only the compact policy without batch norm is re-stated here, not {policy}")
-    activation = {"tanh": nn.Tanh, "relu": nn.ReLU}[policy["activation"]]
 
     def venv():
         if env["kind"] == "firecast":
@@ -176,40 +222,8 @@ def main():
         ppo = dict(cfg["ppo"])
         for k in ("n_envs", "total_timesteps", "normalize"):
             ppo.pop(k)
-        v = VecNormalize(
-            venv(),
-            norm_obs=False,
-            norm_reward=norm["reward"],
-            clip_obs=norm["clip_obs"],
-            clip_reward=norm["clip_reward"],
-            gamma=norm["gamma"] if norm["gamma"] is not None else ppo["gamma"],
-            epsilon=norm["epsilon"],
-        )
-        kwargs = dict(
-            n_steps=ppo.pop("n_steps"),
-            batch_size=ppo.pop("batch_size"),
-            n_epochs=ppo.pop("n_epochs"),
-            learning_rate=schedule(ppo.pop("learning_rate")),
-            clip_range=schedule(ppo.pop("clip_range")),
-            clip_range_vf=ppo.pop("clip_range_vf"),
-            gamma=ppo.pop("gamma"),
-            gae_lambda=ppo.pop("gae_lambda"),
-            ent_coef=ppo.pop("ent_coef"),
-            vf_coef=ppo.pop("vf_coef"),
-            max_grad_norm=ppo.pop("max_grad_norm"),
-            target_kl=ppo.pop("target_kl"),
-            normalize_advantage=ppo.pop("normalize_advantage"),
-        )
-        eps = ppo.pop("adam_eps")
-        if ppo:
-            sys.exit(f"bench_sb3_helitack.py: PPO settings this script does not pass to SB3: {sorted(ppo)}")
-        policy_kwargs = dict(
-            features_extractor_class=CompactExtractor,
-            net_arch=dict(pi=list(policy["pi"]), vf=list(policy["vf"])),
-            activation_fn=activation,
-            ortho_init=policy["ortho_init"],
-            optimizer_kwargs=dict(eps=eps),
-        )
+        v = reward_normalizer(venv(), norm, ppo["gamma"])
+        kwargs, policy_kwargs = sb3_ppo_kwargs(ppo, policy, CompactExtractor, "bench_sb3_helitack.py")
         m = PPO("MultiInputPolicy", v, policy_kwargs=policy_kwargs, seed=seed, device="cpu", verbose=0, **kwargs)
         # A logger without outputs: SB3's default makes a /tmp/SB3-<time> folder per model.
         m.set_logger(Logger(folder=None, output_formats=[]))

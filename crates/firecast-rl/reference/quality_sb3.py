@@ -72,10 +72,9 @@ def quality_main():
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.logger import Logger
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
-    from torch import nn
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-    from bench_sb3_helitack import firecastrl_env, schedule
+    from bench_sb3_helitack import firecastrl_env, reward_normalizer, sb3_ppo_kwargs
     from firecast import CompactExtractor
 
     cfg = json.loads(sys.argv[1])
@@ -103,40 +102,8 @@ def quality_main():
         fns = [firecastrl_env(env["dir"])] * n_envs
         venv = SubprocVecEnv(fns) if threads > 1 else DummyVecEnv(fns)
         vec_env = type(venv).__name__
-    venv = VecNormalize(
-        venv,
-        norm_obs=False,
-        norm_reward=norm["reward"],
-        clip_obs=norm["clip_obs"],
-        clip_reward=norm["clip_reward"],
-        gamma=norm["gamma"] if norm["gamma"] is not None else ppo["gamma"],
-        epsilon=norm["epsilon"],
-    )
-    eps = ppo.pop("adam_eps")
-    kwargs = dict(
-        n_steps=ppo.pop("n_steps"),
-        batch_size=ppo.pop("batch_size"),
-        n_epochs=ppo.pop("n_epochs"),
-        learning_rate=schedule(ppo.pop("learning_rate")),
-        clip_range=schedule(ppo.pop("clip_range")),
-        clip_range_vf=ppo.pop("clip_range_vf"),
-        gamma=ppo.pop("gamma"),
-        gae_lambda=ppo.pop("gae_lambda"),
-        ent_coef=ppo.pop("ent_coef"),
-        vf_coef=ppo.pop("vf_coef"),
-        max_grad_norm=ppo.pop("max_grad_norm"),
-        target_kl=ppo.pop("target_kl"),
-        normalize_advantage=ppo.pop("normalize_advantage"),
-    )
-    if ppo:
-        sys.exit(f"quality_sb3.py: PPO settings this script does not pass to SB3: {sorted(ppo)}")
-    policy_kwargs = dict(
-        features_extractor_class=CompactExtractor,
-        net_arch=dict(pi=list(policy["pi"]), vf=list(policy["vf"])),
-        activation_fn={"tanh": nn.Tanh, "relu": nn.ReLU}[policy["activation"]],
-        ortho_init=policy["ortho_init"],
-        optimizer_kwargs=dict(eps=eps),
-    )
+    venv = reward_normalizer(venv, norm, ppo["gamma"])
+    kwargs, policy_kwargs = sb3_ppo_kwargs(ppo, policy, CompactExtractor, "quality_sb3.py")
     model = PPO("MultiInputPolicy", venv, policy_kwargs=policy_kwargs, seed=seed, device="cpu", verbose=0, **kwargs)
     model.set_logger(Logger(folder=None, output_formats=[]))
     every, budget = float(cfg["every"]), float(cfg["seconds"])

@@ -11,7 +11,8 @@ use firecast_ppo::env::ObsBatch;
 use firecast_ppo::train::{pick_action, policy_log_probs_of};
 use firecast_sim::env::EnvCore;
 use firecast_sim::{
-    Action, EpisodeContext, FireChaser, NoSuppression, Observation, Policy as SimPolicy, RuleBasedAgent,
+    Action, EpisodeContext, FireChaser, NoSuppression, Observation, Policy as SimPolicy, RolloutSearch,
+    RuleBasedAgent, SearchConfig,
 };
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::SeedableRng;
@@ -120,6 +121,10 @@ pub struct EvalConfig {
     pub seed: u64,
     /// Replay the best, median and worst PPO episodes into Rerun recordings.
     pub recordings: bool,
+    /// Also fly the rollout search over the chaser (agent `search`, [`firecast_sim::search`]),
+    /// compared with the chaser and the PPO agent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub search: Option<SearchConfig>,
 }
 
 impl Default for EvalConfig {
@@ -130,6 +135,7 @@ impl Default for EvalConfig {
             level: 0.95,
             seed: 0,
             recordings: true,
+            search: None,
         }
     }
 }
@@ -179,7 +185,7 @@ fn run_baseline(cores: &[EnvCore], make: &(dyn Fn() -> Box<dyn SimPolicy> + Sync
                     agent: env.helicopter(),
                     on_fire: env.on_fire(),
                 };
-                let d = agent.act(&obs);
+                let d = agent.decide(&env, &obs);
                 let (_, te, tr, info) = env.step_into(d.action, d.teleport, &mut frames);
                 if te || tr {
                     return Raw {
@@ -510,6 +516,8 @@ pub const RULE: &str = "rule";
 pub const RULE_CONCENTRIC: &str = "rule-concentric";
 /// Flies like the PPO agent (no teleport): what a simple rule achieves under the same moves.
 pub const CHASER: &str = "chaser";
+/// Plans with the simulator: rollouts of the chaser from each action ([`RolloutSearch`]).
+pub const SEARCH: &str = "search";
 pub const NONE: &str = "none";
 
 /// Another training run evaluated beside the PPO agent, as agent `ppo:<name>`.
@@ -548,6 +556,13 @@ pub fn evaluate(
     );
     progress("helicopter chasing the nearest flames");
     let chaser = run_baseline(&cores, &|| Box::new(FireChaser::default()), cfg.seed);
+    let search = cfg.search.map(|sc| {
+        progress(&format!(
+            "rollout search over the chaser ({} steps ahead, 5 actions a step)",
+            sc.horizon
+        ));
+        run_baseline(&cores, &|| Box::new(RolloutSearch::over_chaser(sc)), cfg.seed)
+    });
     for p in policies {
         progress(&format!("PPO (training seed {})", p.seed));
         raw.push((PPO.into(), Some(p.seed), run_ppo(&cores, p, cfg)?));
@@ -562,6 +577,9 @@ pub fn evaluate(
     raw.push((RULE.into(), None, rule));
     raw.push((RULE_CONCENTRIC.into(), None, conc));
     raw.push((CHASER.into(), None, chaser));
+    if let Some(search) = search {
+        raw.push((SEARCH.into(), None, search));
+    }
     let unsuppressed: Vec<f64> = {
         let mut v = vec![0.0; cores.len()];
         for r in &none {
@@ -589,7 +607,7 @@ pub fn evaluate(
     let mut agents = Vec::new();
     let mut names = vec![PPO];
     names.extend(other.as_deref());
-    names.extend([RULE, RULE_CONCENTRIC, CHASER, NONE]);
+    names.extend([RULE, RULE_CONCENTRIC, CHASER, SEARCH, NONE]);
     for name in names {
         let eps: Vec<&Episode> = episodes.iter().filter(|e| e.agent == name).collect();
         if !eps.is_empty() {
@@ -601,8 +619,15 @@ pub fn evaluate(
         if let Some(name) = &other {
             comparisons.push(compare_runs(PPO, name, &episodes, cfg)?);
         }
-        for base in [RULE, RULE_CONCENTRIC, CHASER, NONE] {
-            comparisons.push(compare(PPO, base, &episodes, cfg)?);
+        for base in [RULE, RULE_CONCENTRIC, CHASER, SEARCH, NONE] {
+            if base != SEARCH || cfg.search.is_some() {
+                comparisons.push(compare(PPO, base, &episodes, cfg)?);
+            }
+        }
+    }
+    if cfg.search.is_some() {
+        for base in [CHASER, RULE] {
+            comparisons.push(compare(SEARCH, base, &episodes, cfg)?);
         }
     }
     Ok(EvalReport {
@@ -862,9 +887,14 @@ pub fn markdown(report: &EvalReport) -> String {
             f(&a.contained_rate, 2),
         ));
     }
-    if !report.comparisons.is_empty() {
-        s.push_str("\n| PPO vs | Δ cells burned (PPO − baseline) | reduction | P(PPO burns less) |\n|---|---|---|---|\n");
-        for c in &report.comparisons {
+    let mut compared: Vec<&str> = report.comparisons.iter().map(|c| c.agent.as_str()).collect();
+    compared.dedup();
+    for agent in compared {
+        let name = if agent == PPO { "PPO" } else { agent };
+        s.push_str(&format!(
+            "\n| {name} vs | Δ cells burned ({name} − baseline) | reduction | P({name} burns less) |\n|---|---|---|---|\n"
+        ));
+        for c in report.comparisons.iter().filter(|c| c.agent == agent) {
             s.push_str(&format!(
                 "| {} | {} | {} | {} |\n",
                 c.baseline,

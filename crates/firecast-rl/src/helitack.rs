@@ -396,6 +396,9 @@ impl VecEnvironment for HelitackVec {
             ("contained", if self.vec.terminated()[i] { 1.0 } else { 0.0 }),
         ]
     }
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
     fn snapshot(&self) -> serde_json::Value {
         let snap = Snapshot {
             seed: self.seed,

@@ -1,21 +1,28 @@
 //! The helitack's teachers for imitation before PPO (`firecast_ppo::imitation`: behaviour
 //! cloning on the teacher's own flights, then DAgger rounds in which the policy flies and the
-//! teacher labels what it sees): the fire chaser, reading the helitack observation.
+//! teacher labels what it sees): the fire chaser, reading the helitack observation, and the
+//! rollout search over it, which plans with the training fires themselves.
 
-use firecast_ppo::env::{ObsBatch, ObsSpace};
+use firecast_ppo::env::{ObsBatch, ObsSpace, VecEnvironment};
 use firecast_ppo::imitation::Teacher;
 use firecast_sim::agents::{FireChaser, Policy as _};
 use firecast_sim::env::{FRAME_STACK, Observation};
+use firecast_sim::{RolloutSearch, SearchConfig};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::RlError;
+use crate::helitack::HelitackVec;
 
 /// Which teacher.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TeacherKind {
     /// The fire chaser: fly to the nearest flames, drop when they are within 4 cells.
     Chaser,
+    /// The rollout search over the chaser (`teacher: {search: {horizon: 40}}`): before each
+    /// label it plays every action on a copy of the training fire and the chaser after it.
+    Search(SearchConfig),
 }
 
 /// `imitation:` in a training spec, naming one of this crate's teachers.
@@ -66,9 +73,65 @@ impl Teacher for ChaserTeacher {
     }
 }
 
+/// The rollout search labelling each environment of a [`HelitackVec`] from its own fire
+/// (one search per environment, in parallel).
+pub struct SearchTeacher {
+    cfg: SearchConfig,
+    searches: Vec<RolloutSearch>,
+    /// Labels when the environments are not FireCast's helitack fires (no simulator to
+    /// search): the chaser's.
+    chaser: ChaserTeacher,
+}
+
+impl SearchTeacher {
+    pub fn new(space: ObsSpace, cfg: SearchConfig) -> Result<Self, RlError> {
+        Ok(Self {
+            cfg,
+            searches: Vec::new(),
+            chaser: ChaserTeacher::new(space)?,
+        })
+    }
+}
+
+impl Teacher for SearchTeacher {
+    fn act(&mut self, obs: &ObsBatch, actions: &mut [u8]) {
+        self.chaser.act(obs, actions);
+    }
+
+    fn act_in(&mut self, env: &dyn VecEnvironment, obs: &ObsBatch, actions: &mut [u8]) {
+        let Some(vec) = env.as_any().and_then(|a| a.downcast_ref::<HelitackVec>()) else {
+            return self.act(obs, actions);
+        };
+        let inner = vec.inner();
+        let n = inner.num_envs().min(obs.n);
+        while self.searches.len() < n {
+            let k = self.searches.len() as u64;
+            self.searches.push(RolloutSearch::over_chaser(self.cfg.stream(k)));
+        }
+        let (l, frames, envs) = (inner.obs_len(), inner.frames(), inner.envs());
+        self.searches[..n]
+            .par_iter_mut()
+            .zip(actions[..n].par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (search, a))| {
+                let core = &envs[i];
+                let (width, height) = core.grid_size();
+                let view = Observation {
+                    frames: &frames[i * l..(i + 1) * l],
+                    width,
+                    height,
+                    agent: core.helicopter(),
+                    on_fire: core.on_fire(),
+                };
+                *a = search.decide(core, &view).action as u8;
+            });
+    }
+}
+
 /// The teacher a spec names, for an environment with observations `space`.
 pub fn teacher(kind: TeacherKind, space: ObsSpace) -> Result<Box<dyn Teacher>, RlError> {
     match kind {
         TeacherKind::Chaser => Ok(Box::new(ChaserTeacher::new(space)?)),
+        TeacherKind::Search(cfg) => Ok(Box::new(SearchTeacher::new(space, cfg)?)),
     }
 }

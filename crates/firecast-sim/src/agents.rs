@@ -4,7 +4,7 @@
 use firecast_landscape::Landscape;
 
 use crate::automaton::{FireState, SimError};
-use crate::env::{Action, EnvConfig, Observation, StepInfo, WildfireEnv};
+use crate::env::{Action, EnvConfig, EnvCore, Observation, StepInfo, WildfireEnv};
 
 /// What a policy returns: an action, optionally after teleporting the helicopter (only the
 /// paper's rule-based agent does that, docs/spec/learning.md §4).
@@ -37,6 +37,11 @@ pub trait Policy {
     /// Called at the start of each episode.
     fn reset(&mut self, _ctx: &EpisodeContext) {}
     fn act(&mut self, obs: &Observation<'_>) -> Decision;
+    /// Acts with the simulator at hand, for agents that plan with it ([`crate::search`]);
+    /// every other agent acts on the observation alone.
+    fn decide(&mut self, _env: &EnvCore, obs: &Observation<'_>) -> Decision {
+        self.act(obs)
+    }
 }
 
 /// No suppression: never drops (moves north, action 0, which only moves the helicopter).
@@ -293,7 +298,7 @@ pub fn run_episode(
     policy.reset(&context(env));
     on_step(env, &info);
     loop {
-        let decision = policy.act(&env.observation());
+        let decision = policy.decide(env.core(), &env.observation());
         let (_, _, terminated, truncated, info) = env.step_with_teleport(decision.action, decision.teleport);
         on_step(env, &info);
         if terminated || truncated {

@@ -868,6 +868,12 @@ impl Automaton {
         self.rng = Uniform::new(self.cfg.random, seed);
     }
 
+    /// Replaces the random draws still to come (survivors, latch days) with those of `seed`:
+    /// a copy of a fire that must not know the original's future.
+    pub fn reseed(&mut self, seed: u64) {
+        self.rng = Uniform::new(self.cfg.random, seed);
+    }
+
     fn check(&self, x: i64, y: i64) -> Result<usize, SimError> {
         if x < 0 || y < 0 || x as usize >= self.width || y as usize >= self.height {
             return Err(SimError::OutOfBounds {

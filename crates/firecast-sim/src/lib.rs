@@ -13,6 +13,7 @@
 //! - [`moisture`]: the day's dead and live fuel moisture from daily weather (NFDRS methods).
 //! - [`drops`]: helitack drops in physical units (coverage levels by fuel model).
 //! - [`agents`]: rule-based and no-suppression baselines, the episode runner, frames.
+//! - [`search`]: decision-time search, a helicopter that plans with the simulator.
 
 pub mod agents;
 pub mod automaton;
@@ -27,6 +28,7 @@ pub mod moisture;
 pub mod random;
 pub mod reference;
 pub mod rothermel;
+pub mod search;
 pub mod spread_csv;
 
 pub use agents::{
@@ -48,4 +50,5 @@ pub use rothermel::{
     FuelBedIntermediates, FuelMoisture, RothermelError, SpreadInputs, SurfaceFireBehavior, SurfaceFireHead,
     SurfaceFuelBed, WindLimit,
 };
+pub use search::{RolloutSearch, SearchConfig};
 pub use spread_csv::{SpreadCsvError, spread_rate_csv};

@@ -186,7 +186,7 @@ def test_fire_pool_of_landscapes_and_ignitions():
         vec.step(np.zeros(6, dtype=np.int64))
         fires.update(vec.get_attr("fire_index"))
     assert len(fires) >= 4
-    with pytest.raises(ValueError, match=r"landscapes\[1\]: is 40×32, landscapes\[0\] is 48×32"):
+    with pytest.raises(ValueError, match=r"landscapes\[1\]: is 40 × 32, landscapes\[0\] is 48 × 32"):
         HelitackVecEnv(2, landscapes=[lands[0], {"procedural": {"seed": 1, "width": 40, "height": 32}}])
     with pytest.raises(ValueError, match=r"landscapes\[1\]\.procedural\.sede: unknown field `sede`"):
         HelitackVecEnv(2, landscapes=[lands[0], {"procedural": {"sede": 1}}])
@@ -263,7 +263,7 @@ def test_fires_each_with_its_own_landscape_weather_and_ignition():
     assert seen == {0, 1}
     with pytest.raises(ValueError, match=r"fires\[1\]\.config\.max_steps: must be at least 1"):
         HelitackVecEnv(2, fires=[a, {"landscape": b["landscape"], "config": {"max_steps": 0}}])
-    with pytest.raises(ValueError, match=r"fires\[1\]\.landscape: is 40×32, fires\[0\]'s is 48×32"):
+    with pytest.raises(ValueError, match=r"fires\[1\]\.landscape: is 40 × 32, fires\[0\]\.landscape is 48 × 32"):
         HelitackVecEnv(2, fires=[a, fire(1, [5, 5], 1.0) | {"landscape": {"procedural": {"seed": 1, "width": 40, "height": 32}}}])
     with pytest.raises(ValueError, match="leave landscape"):
         HelitackVecEnv(2, fires=[a], config={"max_steps": 3})

@@ -78,6 +78,56 @@ fn the_teacher_reads_the_observation_as_the_chaser_reads_the_environment() {
     );
 }
 
+/// The search teacher labels every environment with what a rollout search decides on that
+/// environment's own fire, and it overrules the chaser where another move burns less.
+#[test]
+fn the_search_teacher_plans_on_each_environments_own_fire() {
+    use firecast_rl::imitation::SearchTeacher;
+    use firecast_sim::{RolloutSearch, SearchConfig};
+    let n = 4;
+    let cfg = SearchConfig {
+        horizon: 12,
+        ..SearchConfig::default()
+    };
+    let mut vec = small_env(n, 7, 60);
+    vec.reset(7);
+    let mut teacher = SearchTeacher::new(vec.space(), cfg).expect("teacher");
+    // The same searches, one per environment, fed the same states in lockstep.
+    let mut searches: Vec<RolloutSearch> = (0..n as u64)
+        .map(|k| RolloutSearch::over_chaser(cfg.stream(k)))
+        .collect();
+    let mut obs = ObsBatch::new(vec.space(), n);
+    let mut labels = vec![0u8; n];
+    let mut overruled = 0;
+    for step in 0..60usize {
+        vec.observe(&mut obs);
+        let inner = vec.inner();
+        let mut expected = Vec::new();
+        for (i, search) in searches.iter_mut().enumerate() {
+            let core = &inner.envs()[i];
+            let (w, h) = core.grid_size();
+            let seen = Observation {
+                frames: &inner.frames()[i * inner.obs_len()..][..FRAME_STACK * w * h],
+                width: w,
+                height: h,
+                agent: core.helicopter(),
+                on_fire: core.on_fire(),
+            };
+            let planned = search.decide(core, &seen).action as u8;
+            overruled += usize::from(planned != FireChaser::default().act(&seen).action as u8);
+            expected.push(planned);
+        }
+        teacher.act_in(&vec, &obs, &mut labels);
+        assert_eq!(labels, expected, "step {step}");
+        vec.step(&labels).expect("step");
+    }
+    assert!(
+        overruled > 0,
+        "the search never overruled the chaser in {} labels",
+        60 * n
+    );
+}
+
 /// Greedy agreement of a trainer's policy with the chaser on observations of fires flown by
 /// the chaser from another seed.
 fn agreement(trainer: &Trainer<PolicyConfig>, seed: u64) -> f64 {

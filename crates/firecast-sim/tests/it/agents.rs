@@ -166,3 +166,59 @@ fn throughput_single_thread() {
     assert!(burning_steps * 10 > steps * 9);
     assert!(rate > 2_000.0);
 }
+
+/// The rollout algorithm's law (Bertsekas): on a fire without random draws, a search whose
+/// copies play to the end of the episode burns no more than its base policy, episode by
+/// episode — the base policy's own action is always among those it weighs.
+#[test]
+fn rollout_search_to_the_end_never_burns_more_than_the_chaser() {
+    use firecast_sim::{RolloutSearch, SearchConfig};
+    let land = crate::scenes::landscape(
+        64,
+        48,
+        firecast_landscape::LandCoverScheme::ModisIgbp,
+        |_, _| 6,
+        crate::scenes::rough,
+    );
+    // The helicopter starts in a corner, so the fire has grown when it arrives.
+    let mut cfg = EnvConfig {
+        max_steps: 150,
+        helicopter_start: Some([0, 0]),
+        ..EnvConfig::default()
+    };
+    cfg.sim.fire_survival_probability = 0.0;
+    cfg.sim.latch_daily_probability.clear();
+    let search_cfg = SearchConfig {
+        horizon: cfg.max_steps,
+        burning_weight: 1.0,
+        min_gain: 0.0,
+        seed: 3,
+    };
+    let chaser = run_episodes(&land, &cfg, &mut FireChaser::default(), 4, 1).unwrap();
+    let mut search = RolloutSearch::over_chaser(search_cfg);
+    let searched = run_episodes(&land, &cfg, &mut search, 4, 1).unwrap();
+    let mut better = 0;
+    for (s, c) in searched.episodes.iter().zip(&chaser.episodes) {
+        println!(
+            "seed {}: search {} cells, chaser {}",
+            s.seed, s.cells_burned, c.cells_burned
+        );
+        assert!(
+            s.cells_burned <= c.cells_burned,
+            "seed {}: {} > {}",
+            s.seed,
+            s.cells_burned,
+            c.cells_burned
+        );
+        better += usize::from(s.cells_burned < c.cells_burned);
+    }
+    assert!(
+        better > 0,
+        "the search found nothing better than the chaser on any fire"
+    );
+    // Without the simulator it is its base policy.
+    let mut blind = RolloutSearch::over_chaser(search_cfg);
+    let mut env = WildfireEnv::new(&land, &cfg).unwrap();
+    let (obs, _) = env.reset(1);
+    assert_eq!(blind.act(&obs), FireChaser::default().act(&obs));
+}
