@@ -209,6 +209,13 @@ fn rollout_search_to_the_end_never_burns_more_than_the_chaser() {
         better > 0,
         "the search found nothing better than the chaser on any fire"
     );
+    // A gain nothing can reach: every move is the chaser's.
+    let mut stubborn = RolloutSearch::over_chaser(SearchConfig {
+        min_gain: f64::INFINITY,
+        ..search_cfg
+    });
+    let kept = run_episodes(&land, &cfg, &mut stubborn, 3, 1).unwrap();
+    assert_eq!(kept.episodes, chaser.episodes);
     // Without the simulator it is its base policy.
     let mut blind = RolloutSearch::over_chaser(search_cfg);
     let mut env = WildfireEnv::new(&land, &cfg).unwrap();
