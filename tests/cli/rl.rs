@@ -163,13 +163,19 @@ fn an_interrupted_helitack_run_resumes_to_the_same_policy() {
         "--resamples",
         "200",
     ]);
-    let agents: Vec<&str> = r["agents"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|a| a["agent"].as_str().unwrap())
-        .collect();
-    assert_eq!(agents, ["ppo", "rule", "rule-concentric", "chaser", "none"]);
+    // The agents of an evaluation report, in its order.
+    fn agent_names(r: &serde_json::Value) -> Vec<&str> {
+        r["agents"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|a| a["agent"].as_str().unwrap())
+            .collect()
+    }
+    assert_eq!(
+        agent_names(&r),
+        ["ppo", "rule", "rule-concentric", "chaser", "none"]
+    );
     assert_eq!(r["episodes"].as_array().unwrap().len(), 5 * 5);
     assert_eq!(r["fires"].as_array().unwrap().len(), 5);
     let none = &r["agents"][4];
@@ -214,14 +220,8 @@ fn an_interrupted_helitack_run_resumes_to_the_same_policy() {
         "--out",
         "experiments/runs/heli-a/evaluation-search",
     ]);
-    let agents: Vec<&str> = r["agents"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|a| a["agent"].as_str().unwrap())
-        .collect();
     assert_eq!(
-        agents,
+        agent_names(&r),
         ["ppo", "rule", "rule-concentric", "chaser", "search", "none"]
     );
     let pairs: Vec<(&str, &str)> = r["comparisons"]

@@ -574,12 +574,16 @@ pub fn evaluate(
             raw.push((name.clone(), Some(p.seed), run_ppo(&cores, p, cfg)?));
         }
     }
+    // The baselines that ran, in the order the tables list them (`none` last).
+    let mut baselines = vec![RULE, RULE_CONCENTRIC, CHASER];
     raw.push((RULE.into(), None, rule));
     raw.push((RULE_CONCENTRIC.into(), None, conc));
     raw.push((CHASER.into(), None, chaser));
     if let Some(search) = search {
+        baselines.push(SEARCH);
         raw.push((SEARCH.into(), None, search));
     }
+    baselines.push(NONE);
     let unsuppressed: Vec<f64> = {
         let mut v = vec![0.0; cores.len()];
         for r in &none {
@@ -607,7 +611,7 @@ pub fn evaluate(
     let mut agents = Vec::new();
     let mut names = vec![PPO];
     names.extend(other.as_deref());
-    names.extend([RULE, RULE_CONCENTRIC, CHASER, SEARCH, NONE]);
+    names.extend(&baselines);
     for name in names {
         let eps: Vec<&Episode> = episodes.iter().filter(|e| e.agent == name).collect();
         if !eps.is_empty() {
@@ -619,13 +623,11 @@ pub fn evaluate(
         if let Some(name) = &other {
             comparisons.push(compare_runs(PPO, name, &episodes, cfg)?);
         }
-        for base in [RULE, RULE_CONCENTRIC, CHASER, SEARCH, NONE] {
-            if base != SEARCH || cfg.search.is_some() {
-                comparisons.push(compare(PPO, base, &episodes, cfg)?);
-            }
+        for &base in &baselines {
+            comparisons.push(compare(PPO, base, &episodes, cfg)?);
         }
     }
-    if cfg.search.is_some() {
+    if baselines.contains(&SEARCH) {
         for base in [CHASER, RULE] {
             comparisons.push(compare(SEARCH, base, &episodes, cfg)?);
         }

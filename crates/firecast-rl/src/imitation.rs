@@ -74,33 +74,37 @@ impl Teacher for ChaserTeacher {
 }
 
 /// The rollout search labelling each environment of a [`HelitackVec`] from its own fire
-/// (one search per environment, in parallel).
+/// (one search per environment, in parallel). It needs the fires, not only what they look
+/// like: the spec admits teachers only with `env.kind: helitack`, whose trainer labels
+/// through [`Teacher::act_in`] on a [`HelitackVec`]; anything else is a programming error
+/// and panics rather than labelling silently with another teacher.
 pub struct SearchTeacher {
     cfg: SearchConfig,
     searches: Vec<RolloutSearch>,
-    /// Labels when the environments are not FireCast's helitack fires (no simulator to
-    /// search): the chaser's.
-    chaser: ChaserTeacher,
 }
 
 impl SearchTeacher {
     pub fn new(space: ObsSpace, cfg: SearchConfig) -> Result<Self, RlError> {
+        // The same observation check as the chaser's.
+        ChaserTeacher::new(space)?;
         Ok(Self {
             cfg,
             searches: Vec::new(),
-            chaser: ChaserTeacher::new(space)?,
         })
     }
 }
 
+const SEARCH_NEEDS_FIRES: &str =
+    "the search teacher plans on the fires themselves: label through `act_in` on a `HelitackVec`";
+
 impl Teacher for SearchTeacher {
-    fn act(&mut self, obs: &ObsBatch, actions: &mut [u8]) {
-        self.chaser.act(obs, actions);
+    fn act(&mut self, _obs: &ObsBatch, _actions: &mut [u8]) {
+        panic!("{SEARCH_NEEDS_FIRES}");
     }
 
     fn act_in(&mut self, env: &dyn VecEnvironment, obs: &ObsBatch, actions: &mut [u8]) {
         let Some(vec) = env.as_any().and_then(|a| a.downcast_ref::<HelitackVec>()) else {
-            return self.act(obs, actions);
+            panic!("{SEARCH_NEEDS_FIRES}");
         };
         let inner = vec.inner();
         let n = inner.num_envs().min(obs.n);

@@ -73,6 +73,16 @@ pub struct PolicyConfig {
     /// [`SEQUENCE`](firecast_ppo::policy::SEQUENCE) steps from the states the rollout stored).
     #[serde(skip_serializing_if = "Memory::is_frames")]
     pub memory: Memory,
+    /// `compact` only: the offset and distance from the helicopter to the nearest burning
+    /// cell of the whole map (the newest frame; nearest by squared distance, then lowest
+    /// cell index), what the chaser steers by, so a student can copy its teacher exactly
+    /// and learn only where to differ. A pooled image places flames to a few cells at best.
+    #[serde(skip_serializing_if = "is_false")]
+    pub nearest_flames: bool,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 /// What the compact policy remembers the fire's past with.
@@ -124,6 +134,7 @@ impl Default for PolicyConfig {
             window: None,
             context: 0,
             memory: Memory::Frames,
+            nearest_flames: false,
         }
     }
 }
@@ -297,6 +308,8 @@ enum Extractor {
         vector_net: nn::Linear,
         /// `focus > 0`: the window's one-hot fire states → [`FOCUS_FEATURES`].
         focus_net: Option<nn::Linear>,
+        /// `nearest_flames`: [`nearest_flames`]'s four numbers → [`POINTER_FEATURES`].
+        pointer_net: Option<nn::Linear>,
         fuse: nn::Linear,
         /// `memory: lstm`: the LSTM after `fuse` (the image is then the newest frame and the
         /// helicopter channel).
@@ -319,6 +332,12 @@ const COMPACT_FEATURES: i64 = 256;
 
 /// Features of the compact extractor's focus window.
 const FOCUS_FEATURES: i64 = 64;
+
+/// Features of the compact extractor's pointer to the nearest flames.
+const POINTER_FEATURES: i64 = 64;
+
+/// Cells per unit of the pointer's offsets and distance.
+const POINTER_SCALE: f32 = 16.0;
 
 /// An actor-critic network.
 #[derive(Debug)]
@@ -369,6 +388,12 @@ impl Policy {
             return Err(RlError::config(
                 "policy.context",
                 "the coarse view is drawn on the window's grid: it needs `window`",
+            ));
+        }
+        if config.nearest_flames && config.kind != PolicyKind::Compact {
+            return Err(RlError::config(
+                "policy.nearest_flames",
+                "the pointer to the nearest flames is an input of the `compact` extractor",
             ));
         }
         if config.memory == Memory::Lstm && config.kind != PolicyKind::Compact {
@@ -441,9 +466,17 @@ impl Policy {
                     let focus_net = (config.focus > 0)
                         .then(|| linear(&fx / "focus_net", 3 * side * side, FOCUS_FEATURES, g(sqrt2)));
                     let focused = if focus_net.is_some() { FOCUS_FEATURES } else { 0 };
+                    let pointer_net = config
+                        .nearest_flames
+                        .then(|| linear(&fx / "pointer_net", 4, POINTER_FEATURES, g(sqrt2)));
+                    let pointed = if pointer_net.is_some() {
+                        POINTER_FEATURES
+                    } else {
+                        0
+                    };
                     let fuse = linear(
                         &fx / "fuse",
-                        16 * pooled[0] * pooled[1] + 64 + focused,
+                        16 * pooled[0] * pooled[1] + 64 + focused + pointed,
                         COMPACT_FEATURES,
                         g(sqrt2),
                     );
@@ -466,6 +499,7 @@ impl Policy {
                             pooled,
                             vector_net,
                             focus_net,
+                            pointer_net,
                             fuse,
                             lstm,
                         },
@@ -538,6 +572,7 @@ impl Policy {
                 pooled,
                 vector_net,
                 focus_net,
+                pointer_net,
                 fuse,
                 lstm,
             } => {
@@ -589,6 +624,9 @@ impl Policy {
                 if let Some(net) = focus_net {
                     let window = focus_window(&img, i64::from(self.config.focus));
                     parts.push(net.forward(&window.flatten(1, -1)).relu());
+                }
+                if let Some(net) = pointer_net {
+                    parts.push(net.forward(&nearest_flames(&raw)).relu());
                 }
                 fuse.forward(&Tensor::cat(&parts, 1)).relu()
             }
@@ -857,6 +895,44 @@ fn coarse_view(codes: &Tensor, cells: &[i64], [rows, cols]: [i64; 2], k: i64) ->
         .to_device(codes.device())
 }
 
+/// For each image of cell codes `[N, C, H, W]` (newest frame channel C − 2, helicopter
+/// channel C − 1), the nearest burning cell (codes 4–6) to the helicopter as the chaser picks
+/// it (`firecast_sim::FireChaser`: least squared distance, then lowest cell index):
+/// `[dx, dy, distance] / POINTER_SCALE` and 1, or four zeros when nothing burns: `[N, 4]`.
+/// Counted on the host, as [`coarse_view`].
+fn nearest_flames(codes: &Tensor) -> Tensor {
+    let size = codes.size();
+    let (n, c, h, w) = (size[0], size[1], size[2], size[3]);
+    let cells = helicopter_cells(codes);
+    let newest = codes.select(1, c - 2).to_device(Device::Cpu).contiguous();
+    let frames = Vec::<u8>::try_from(newest.flatten(0, -1)).expect("cell codes are u8");
+    let block = (h * w) as usize;
+    let mut out = vec![0f32; n as usize * 4];
+    for (i, &cell) in cells.iter().enumerate().take(n as usize) {
+        let (hx, hy) = (cell % w, cell / w);
+        let mut best: Option<(i64, i64, i64)> = None;
+        for (j, &code) in frames[i * block..(i + 1) * block].iter().enumerate() {
+            if !(4..=6).contains(&code) {
+                continue;
+            }
+            let (dx, dy) = (j as i64 % w - hx, j as i64 / w - hy);
+            let d2 = dx * dx + dy * dy;
+            if best.is_none_or(|(b, ..)| d2 < b) {
+                best = Some((d2, dx, dy));
+            }
+        }
+        if let Some((d2, dx, dy)) = best {
+            out[i * 4..(i + 1) * 4].copy_from_slice(&[
+                dx as f32 / POINTER_SCALE,
+                dy as f32 / POINTER_SCALE,
+                (d2 as f32).sqrt() / POINTER_SCALE,
+                1.0,
+            ]);
+        }
+    }
+    Tensor::from_slice(&out).view([n, 4]).to_device(codes.device())
+}
+
 /// The `(2r + 1)²` cells around the centre of helicopter-centred images `[N, C, H, W]` (codes
 /// / 9; the newest frame is channel C − 2), as one-hot fire states `[N, 3, 2r + 1, 2r + 1]`:
 /// unburnt (codes 1–3), burning (4–6), burnt (7–9); non-burnable cells (0) are all zero.
@@ -891,6 +967,61 @@ fn image_float(obs: &ObsTensors) -> Tensor {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pointer points where the chaser flies: on random frames, the chaser's decision
+    /// read off the four numbers (drop within reach 4, else close the larger offset, x on a
+    /// tie; north when nothing burns) is the chaser's own.
+    #[test]
+    fn nearest_flames_points_where_the_chaser_flies() {
+        use firecast_sim::env::{FRAME_STACK, Observation};
+        use firecast_sim::{Action, FireChaser, Policy as _};
+        use rand::{Rng, SeedableRng};
+        let (h, w) = (23_usize, 31_usize);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut drops = 0;
+        for case in 0..300 {
+            let burning = [0.0, 0.002, 0.01, 0.05][case % 4];
+            let frames: Vec<u8> = (0..FRAME_STACK * h * w)
+                .map(|_| {
+                    if rng.random_bool(burning) {
+                        rng.random_range(4..=6)
+                    } else {
+                        [0, 1, 2, 3, 7, 8, 9][rng.random_range(0..7)]
+                    }
+                })
+                .collect();
+            let agent = [rng.random_range(0..w as i32), rng.random_range(0..h as i32)];
+            let seen = Observation {
+                frames: &frames,
+                width: w,
+                height: h,
+                agent,
+                on_fire: false,
+            };
+            let chaser = FireChaser::default().act(&seen).action;
+            let mut image = vec![0u8; (FRAME_STACK + 1) * h * w];
+            image[..FRAME_STACK * h * w].copy_from_slice(&frames);
+            image[FRAME_STACK * h * w + agent[1] as usize * w + agent[0] as usize] = 9;
+            let codes = Tensor::from_slice(&image).view([1, (FRAME_STACK + 1) as i64, h as i64, w as i64]);
+            let p = Vec::<f32>::try_from(nearest_flames(&codes).flatten(0, -1)).expect("f32");
+            let (dx, dy) = ((p[0] * POINTER_SCALE).round(), (p[1] * POINTER_SCALE).round());
+            let read = if p[3] == 0.0 {
+                Action::North
+            } else if dx * dx + dy * dy <= 16.0 {
+                drops += 1;
+                Action::Drop
+            } else if dx.abs() >= dy.abs() {
+                if dx > 0.0 { Action::East } else { Action::West }
+            } else if dy > 0.0 {
+                Action::North
+            } else {
+                Action::South
+            };
+            assert_eq!(read, chaser, "case {case}: pointer {p:?}");
+            assert!((p[2] * p[2] - (p[0] * p[0] + p[1] * p[1])).abs() < 1e-4);
+        }
+        assert!(drops > 5, "only {drops} drops among 300 cases");
+    }
 
     /// The focus window is the centre's (2r + 1)² cells of the newest frame, each cell's
     /// fire state one-hot; older frames and non-burnable cells do not show.

@@ -187,6 +187,37 @@ fn imitation_makes_the_policy_fly_like_its_teacher_on_unseen_fires() {
     assert!(t.episodes.is_empty());
 }
 
+/// With the pointer to the nearest flames, the student sees what its teacher steers by, so
+/// the same short imitation copies the chaser more closely on unseen fires than without it.
+#[test]
+fn a_student_that_sees_the_nearest_flames_copies_the_chaser_closer() {
+    firecast_learn::set_threads(1);
+    let imitated = |policy: PolicyConfig| {
+        let mut t = Trainer::new(small_ppo(), &policy, env(4, 1), 1, Device::Cpu).expect("trainer");
+        let cfg = ImitationConfig {
+            teacher: TeacherKind::Chaser,
+            rounds: 6,
+            teacher_rounds: 2,
+            updates: 80,
+            batch_size: 32,
+            learning_rate: 1e-3,
+            kickstart: 0.0,
+        };
+        let mut teacher = ChaserTeacher::new(t.policy.space).expect("teacher");
+        t.imitate(&cfg, &mut teacher, &NoSink).expect("imitation");
+        agreement(&t, 99)
+    };
+    let blind = imitated(compact());
+    let pointed = imitated(PolicyConfig {
+        nearest_flames: true,
+        ..compact()
+    });
+    eprintln!(
+        "agreement with the chaser on unseen fires: {blind:.3} without the pointer, {pointed:.3} with it"
+    );
+    assert!(pointed > 0.95 && pointed > blind, "{blind:.3} → {pointed:.3}");
+}
+
 const FIRES: &str = r#"
 profile: suppression
 train:
