@@ -162,11 +162,8 @@ fn small_ppo() -> PpoConfig {
     }
 }
 
-#[test]
-fn imitation_makes_the_policy_fly_like_its_teacher_on_unseen_fires() {
-    firecast_learn::set_threads(1);
-    let mut t = Trainer::new(small_ppo(), &compact(), env(4, 1), 1, Device::Cpu).expect("trainer");
-    let before = agreement(&t, 99);
+/// Six rounds of imitating the chaser (two of behaviour cloning), 128 steps each.
+fn imitate_the_chaser_briefly(t: &mut Trainer<PolicyConfig>) {
     let cfg = ImitationConfig {
         teacher: TeacherKind::Chaser,
         rounds: 6,
@@ -178,6 +175,14 @@ fn imitation_makes_the_policy_fly_like_its_teacher_on_unseen_fires() {
     };
     let mut teacher = ChaserTeacher::new(t.policy.space).expect("teacher");
     t.imitate(&cfg, &mut teacher, &NoSink).expect("imitation");
+}
+
+#[test]
+fn imitation_makes_the_policy_fly_like_its_teacher_on_unseen_fires() {
+    firecast_learn::set_threads(1);
+    let mut t = Trainer::new(small_ppo(), &compact(), env(4, 1), 1, Device::Cpu).expect("trainer");
+    let before = agreement(&t, 99);
+    imitate_the_chaser_briefly(&mut t);
     let after = agreement(&t, 99);
     eprintln!("agreement with the chaser on unseen fires: {before:.3} before, {after:.3} after");
     assert!(after > 0.8 && after > before + 0.15, "{before:.3} → {after:.3}");
@@ -194,17 +199,7 @@ fn a_student_that_sees_the_nearest_flames_copies_the_chaser_closer() {
     firecast_learn::set_threads(1);
     let imitated = |policy: PolicyConfig| {
         let mut t = Trainer::new(small_ppo(), &policy, env(4, 1), 1, Device::Cpu).expect("trainer");
-        let cfg = ImitationConfig {
-            teacher: TeacherKind::Chaser,
-            rounds: 6,
-            teacher_rounds: 2,
-            updates: 80,
-            batch_size: 32,
-            learning_rate: 1e-3,
-            kickstart: 0.0,
-        };
-        let mut teacher = ChaserTeacher::new(t.policy.space).expect("teacher");
-        t.imitate(&cfg, &mut teacher, &NoSink).expect("imitation");
+        imitate_the_chaser_briefly(&mut t);
         agreement(&t, 99)
     };
     let blind = imitated(compact());
